@@ -1,0 +1,43 @@
+# tracemesh — the four entry points of DEVELOPERS.md. Everything else is CMake.
+BUILD_DIR        ?= build
+SANITIZE_DIR     ?= build-asan
+JOBS             ?= $(shell nproc)
+LISTEN           ?= 127.0.0.1:8080
+CACHE_DIR        ?= $(CURDIR)/cache
+CMAKE_FLAGS      ?=
+
+.PHONY: deps build test test-sanitize run bench fuzz clean
+
+deps:
+	@bash scripts/install-deps.sh
+
+build: deps
+	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+	cmake --build $(BUILD_DIR) -j $(JOBS)
+
+test: build
+	cd $(BUILD_DIR) && ctest --output-on-failure -j $(JOBS) --timeout 900
+
+# The AddressSanitizer + UndefinedBehaviorSanitizer configuration (CI runs it after `make test`).
+test-sanitize: deps
+	cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=CI -DTRACEMESH_SANITIZE="address;undefined" -DTRACEMESH_BUILD_BENCH=OFF $(CMAKE_FLAGS)
+	cmake --build $(SANITIZE_DIR) -j $(JOBS)
+	cd $(SANITIZE_DIR) && TRACEMESH_SANITIZED=1 ctest --output-on-failure -j $(JOBS) --timeout 1800
+
+run: build
+	@if [ -x $(BUILD_DIR)/bin/tracemeshd ]; then \
+	  mkdir -p $(CACHE_DIR) && exec $(BUILD_DIR)/bin/tracemeshd --listen $(LISTEN) --cache-dir $(CACHE_DIR); \
+	else \
+	  $(BUILD_DIR)/bin/tracemesh tests/data/example.pqr -o example.off --report -; \
+	fi
+
+bench: build
+	bash bench/run_ladder.sh
+
+# Real fuzzing with clang-14 libFuzzer (not part of the suite; the seed corpora replay in `make test`).
+fuzz: deps
+	CXX=clang++-14 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=CI -DTRACEMESH_BUILD_FUZZERS=ON -DTRACEMESH_SANITIZE="address;undefined" -DTRACEMESH_BUILD_BENCH=OFF
+	cmake --build build-fuzz -j $(JOBS)
+
+clean:
+	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) build-fuzz

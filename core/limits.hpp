@@ -1,0 +1,38 @@
+#pragma once
+/// @file limits.hpp
+/// Every limit of the mesher, named in one place with its safe default. The CLI and the server log them and let
+/// users configure them; core functions take them as arguments and return errc::limit_exceeded when crossed.
+
+#include <cstddef>
+#include <cstdint>
+
+namespace tracemesh {
+
+struct mesh_limits {
+  /// Atoms accepted from one input (the 1,082,160-atom dengue capsid fits with room to spare).
+  std::size_t max_atoms = 2'000'000;
+  /// |x|, |y|, |z| of any atom centre, Å. Larger values are almost surely unit or format errors.
+  double max_abs_coordinate = 1e6;
+  /// Atom radius, Å. Real force fields stay under 3 Å; larger values are format errors.
+  double max_radius = 10.0;
+  /// Bytes of one PQR line; a longer line is an error, not a quadratic scan.
+  std::size_t max_line_bytes = 4096;
+  /// Sampled lattice points: bounds memory and time whatever the density and extent.
+  std::uint64_t max_lattice_points = 2'000'000'000ULL;
+  /// Lattice index range per axis (the lattice key packs 20 bits per axis).
+  std::int64_t max_lattice_extent = (1 << 20) - 2;
+  /// Triangles in one output mesh.
+  std::size_t max_triangles = 60'000'000;
+};
+
+/// Documented ranges of the per-job parameters.
+struct parameter_ranges {
+  static constexpr double min_density = 0.05;  ///< vertices per Å²
+  static constexpr double max_density = 20.0;
+  static constexpr double min_d = -20.0;       ///< decay rate d (< 0)
+  static constexpr double max_d = -0.05;
+  static constexpr double min_t0 = 1e-3;       ///< isovalue t0 (> 0)
+  static constexpr double max_t0 = 100.0;
+};
+
+}  // namespace tracemesh

@@ -1,0 +1,54 @@
+#pragma once
+/// @file mesher.hpp
+/// The one entry point of the engine: atoms + parameters → a certified surface mesh and its report.
+/// Used identically by the `tracemesh` command and the `tracemeshd` service.
+
+#include <string>
+#include <vector>
+
+#include "core/limits.hpp"
+#include "core/mesh.hpp"
+#include "core/mesh_analysis.hpp"
+#include "core/molecule.hpp"
+#include "core/progress.hpp"
+#include "core/status.hpp"
+
+namespace tracemesh {
+
+/// Per-job parameters (ranges in parameter_ranges).
+struct mesh_params {
+  double density = 1.0;  ///< requested vertices per Å² (sets the sampling step h̃ ≈ 1/√density)
+  double d = -1.0;       ///< kernel decay rate, < 0
+  double t0 = 1.0;       ///< isovalue, > 0
+  unsigned threads = 0;  ///< worker threads; 0 = all cores. Never changes the output.
+};
+
+/// errc::invalid_argument naming the parameter when one is NaN or outside its range.
+status validate(const mesh_params& params);
+
+struct stage_timing {
+  mesh_stage stage;
+  double seconds;
+};
+
+struct mesh_output {
+  surface_mesh mesh;
+  mesh_report report;
+  std::vector<stage_timing> timings;
+  std::size_t atoms_meshed = 0;        ///< atoms with radius > 0
+  std::size_t zero_radius_atoms = 0;   ///< atoms skipped because their radius is 0
+  double max_surface_distance = 0;     ///< max over vertices of |φ(v) − t0| / |∇φ(v)|, Å
+  double field_cutoff_error = 0;       ///< bound on |φ_cutoff − φ| relative to t0 (see gaussian_field.hpp)
+  bool certified = false;              ///< report.topologically_certified() and max_surface_distance ≤ 1e-3 Å
+};
+
+/// Meshes the Gaussian surface {φ = t0} of `mol`. Deterministic: the same input gives the same mesh whatever
+/// params.threads is. Errors: invalid_argument (params), nothing_to_mesh (no atom with radius > 0),
+/// limit_exceeded (extent or size over `limits`), cancelled (token), internal_error (certificate failed).
+result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
+                                  progress_token& progress);
+
+/// Version of the engine's output; part of every cache key. Bump when the mesh for a given input changes.
+inline constexpr const char* engine_version = "tracemesh-engine-1";
+
+}  // namespace tracemesh

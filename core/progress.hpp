@@ -1,0 +1,45 @@
+#pragma once
+/// @file progress.hpp
+/// A progress/cancel token passed through long work (modelled on OpenVDB's interrupter).
+/// The pipeline calls report() at coarse granularity and stops with errc::cancelled once cancelled() is true.
+/// Thread-safe: workers may report and poll concurrently.
+
+#include <atomic>
+#include <functional>
+#include <mutex>
+#include <string_view>
+
+namespace tracemesh {
+
+/// Pipeline stages, in order, as reported to progress listeners.
+enum class mesh_stage { reading, culling, sampling, roots, triangulating, refining, certifying, encoding, done };
+const char* stage_name(mesh_stage stage) noexcept;
+
+class progress_token {
+ public:
+  /// Called with the stage and the fraction of that stage done (0..1); may be called from any thread.
+  using listener = std::function<void(mesh_stage, double)>;
+
+  progress_token() = default;
+  explicit progress_token(listener on_progress) : on_progress_(std::move(on_progress)) {}
+
+  /// Ask the work to stop; idempotent, callable from any thread.
+  void cancel() noexcept { cancelled_.store(true, std::memory_order_relaxed); }
+  bool cancelled() const noexcept { return cancelled_.load(std::memory_order_relaxed); }
+
+  /// Report progress; returns false when the work should stop.
+  bool report(mesh_stage stage, double fraction) {
+    if (on_progress_) {
+      std::lock_guard lock(mutex_);
+      on_progress_(stage, fraction);
+    }
+    return !cancelled();
+  }
+
+ private:
+  listener on_progress_;
+  std::mutex mutex_;
+  std::atomic<bool> cancelled_{false};
+};
+
+}  // namespace tracemesh
