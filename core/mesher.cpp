@@ -1,0 +1,270 @@
+#include "core/mesher.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "core/band_culling.hpp"
+#include "core/edge_root.hpp"
+#include "core/gaussian_field.hpp"
+#include "core/lattice.hpp"
+#include "core/lattice_sampler.hpp"
+#include "core/marching_tetrahedra.hpp"
+
+namespace tracemesh {
+namespace {
+
+/// Vertices lie on the surface to this distance (Å) or the mesh is not certified.
+constexpr double surface_distance_tolerance = 1e-3;
+
+/// Edge length of an equilateral mesh with `density` vertices per Å² (a closed mesh has about twice as many
+/// triangles as vertices, each of area √3/4·L²).
+double target_edge_length(double density) { return std::sqrt(2.0 / (std::sqrt(3.0) * density)); }
+
+/// Lattice spacing relative to the target edge length (see README "Method": sampling step).
+constexpr double lattice_spacing_factor = 1.0;
+
+class stage_clock {
+ public:
+  explicit stage_clock(std::vector<stage_timing>& timings) : timings_(timings) {}
+  void finish(mesh_stage stage) {
+    const auto now = std::chrono::steady_clock::now();
+    timings_.push_back({stage, std::chrono::duration<double>(now - start_).count()});
+    start_ = now;
+  }
+
+ private:
+  std::vector<stage_timing>& timings_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
+};
+
+status cancelled_status() { return {errc::cancelled, "meshing was cancelled"}; }
+
+std::string format_number(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+/// The lattice covering every atom's cutoff sphere, or limit_exceeded when it needs more than 2²⁰ points per axis.
+result<lattice> make_lattice(const gaussian_field& field, double spacing, const mesh_limits& limits) {
+  const box3& bounds = field.atom_bounds();
+  const double margin = field.max_cutoff() + 2 * spacing * lattice::block_cells;
+  const auto index_floor = [&](double v) {
+    const auto cells = static_cast<std::int64_t>(std::floor(v / (spacing * lattice::block_cells)));
+    return cells * lattice::block_cells;
+  };
+  lattice_index origin{index_floor(bounds.lo.x - margin), index_floor(bounds.lo.y - margin),
+                       index_floor(bounds.lo.z - margin)};
+  for (int axis = 0; axis < 3; ++axis) {
+    const double extent = bounds.hi[axis] - bounds.lo[axis] + 2 * margin;
+    if (extent / spacing > static_cast<double>(limits.max_lattice_extent)) {
+      return status{errc::limit_exceeded, "molecule extent " + format_number(extent) + " Å needs more than " +
+                                              std::to_string(limits.max_lattice_extent) +
+                                              " lattice points per axis at this density"};
+    }
+  }
+  return lattice(spacing, origin);
+}
+
+/// Samples every block and collects its polygons (in block order: deterministic).
+result<std::vector<block_polygons>> sample_blocks(const gaussian_field& field, const lattice& lat,
+                                                  const std::vector<lattice_index>& blocks, progress_token& progress) {
+  std::vector<block_polygons> polygons(blocks.size());
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+    if (progress.cancelled()) return;
+    std::vector<std::uint32_t> atoms;
+    std::vector<double> values;
+    for (std::size_t n = r.begin(); n != r.end(); ++n) {
+      field.atoms_near_box(lat.block_box(blocks[n]), atoms);
+      sample_block(field, lat, blocks[n], atoms, values);
+      triangulate_block(lat, blocks[n], values, field.t0(), polygons[n]);
+    }
+    const std::size_t finished = done += r.size();
+    progress.report(mesh_stage::sampling, static_cast<double>(finished) / blocks.size());
+  });
+  if (progress.cancelled()) return cancelled_status();
+  return polygons;
+}
+
+std::vector<std::uint64_t> unique_edge_keys(const std::vector<block_polygons>& polygons) {
+  std::vector<std::uint64_t> keys;
+  for (const auto& p : polygons) {
+    for (const auto& t : p.triangles) keys.insert(keys.end(), t.begin(), t.end());
+    for (const auto& q : p.quads) keys.insert(keys.end(), q.begin(), q.end());
+  }
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  return keys;
+}
+
+/// One vertex per cut edge, at the root of φ = t0 on it.
+status solve_roots(const gaussian_field& field, const lattice& lat, const std::vector<std::uint64_t>& keys,
+                   std::vector<vec3>& positions, progress_token& progress) {
+  positions.resize(keys.size());
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
+    if (progress.cancelled()) return;
+    for (std::size_t n = r.begin(); n != r.end(); ++n) {
+      const auto ends = lat.edge_ends(keys[n]);
+      const vec3 a = lat.point(ends[0]), b = lat.point(ends[1]);
+      // The inside end is the one where φ ≥ t0; decide with the exact field so the bracket is true.
+      const bool a_inside = field.value(a) >= field.value(b);
+      positions[n] = solve_edge_root(field, a, b, a_inside);
+    }
+    progress.report(mesh_stage::roots, static_cast<double>(done += r.size()) / keys.size());
+  });
+  return progress.cancelled() ? cancelled_status() : status::success();
+}
+
+std::uint32_t vertex_of(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
+  return static_cast<std::uint32_t>(std::lower_bound(keys.begin(), keys.end(), key) - keys.begin());
+}
+
+/// Triangles from the block polygons; quadrilaterals split along their shorter diagonal.
+void assemble_triangles(const std::vector<block_polygons>& polygons, const std::vector<std::uint64_t>& keys,
+                        const std::vector<vec3>& positions, surface_mesh& mesh) {
+  std::vector<std::size_t> offsets(polygons.size() + 1, 0);
+  for (std::size_t n = 0; n < polygons.size(); ++n) {
+    offsets[n + 1] = offsets[n] + polygons[n].triangles.size() + 2 * polygons[n].quads.size();
+  }
+  mesh.triangles.resize(offsets.back());
+  tbb::parallel_for(std::size_t{0}, polygons.size(), [&](std::size_t n) {
+    std::size_t out = offsets[n];
+    for (const auto& t : polygons[n].triangles) {
+      mesh.triangles[out++] = {vertex_of(keys, t[0]), vertex_of(keys, t[1]), vertex_of(keys, t[2])};
+    }
+    for (const auto& q : polygons[n].quads) {
+      std::array<std::uint32_t, 4> v{};
+      for (int c = 0; c < 4; ++c) v[c] = vertex_of(keys, q[c]);
+      if (squared_norm(positions[v[0]] - positions[v[2]]) <= squared_norm(positions[v[1]] - positions[v[3]])) {
+        mesh.triangles[out++] = {v[0], v[1], v[2]};
+        mesh.triangles[out++] = {v[0], v[2], v[3]};
+      } else {
+        mesh.triangles[out++] = {v[0], v[1], v[3]};
+        mesh.triangles[out++] = {v[1], v[2], v[3]};
+      }
+    }
+  });
+}
+
+/// Outward unit normals (−∇φ/|∇φ|) and the dominant atom of every vertex.
+void fill_vertex_attributes(const gaussian_field& field, surface_mesh& mesh) {
+  mesh.normals.resize(mesh.positions.size());
+  mesh.atom_index.resize(mesh.positions.size());
+  tbb::parallel_for(std::size_t{0}, mesh.positions.size(), [&](std::size_t v) {
+    vec3 gradient;
+    field.value_and_gradient(mesh.positions[v], gradient);
+    mesh.normals[v] = normalized(-gradient);
+    mesh.atom_index[v] = field.dominant_atom(mesh.positions[v]);
+  });
+}
+
+double max_surface_distance(const gaussian_field& field, const surface_mesh& mesh) {
+  std::vector<double> distances(mesh.positions.size());
+  tbb::parallel_for(std::size_t{0}, mesh.positions.size(),
+                    [&](std::size_t v) { distances[v] = field.surface_distance(mesh.positions[v]); });
+  return distances.empty() ? 0.0 : *std::max_element(distances.begin(), distances.end());
+}
+
+std::string certificate_failure(const mesh_output& out) {
+  const mesh_report& r = out.report;
+  std::ostringstream why;
+  why << "mesh failed its certificate (boundary edges " << r.boundary_edges << ", non-manifold edges "
+      << r.non_manifold_edges << ", non-manifold vertices " << r.non_manifold_vertices << ", misoriented edges "
+      << r.inconsistently_oriented_edges << ", degenerate triangles " << r.degenerate_triangles
+      << ", self-intersections " << r.self_intersections << ", inward components " << r.inward_oriented_components
+      << ", max surface distance " << out.max_surface_distance << " Å)";
+  return why.str();
+}
+
+result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
+                                 progress_token& progress) {
+  mesh_output out;
+  stage_clock clock(out.timings);
+  out.zero_radius_atoms = static_cast<std::size_t>(
+      std::count_if(mol.atoms.begin(), mol.atoms.end(), [](const atom& a) { return a.radius == 0; }));
+  out.atoms_meshed = mol.atoms.size() - out.zero_radius_atoms;
+  if (out.atoms_meshed == 0) return status{errc::nothing_to_mesh, "no atoms with radius > 0"};
+
+  const gaussian_field field(mol, params.d, params.t0);
+  out.field_cutoff_error = field.cutoff_error_bound() / params.t0;
+  const double edge = target_edge_length(params.density);
+  auto lat = make_lattice(field, edge * lattice_spacing_factor, limits);
+  if (!lat) return lat.error();
+
+  auto blocks = cull_blocks(field, *lat, progress);
+  if (!blocks) return blocks.error();
+  const std::uint64_t points = static_cast<std::uint64_t>(blocks->size()) * block_points * block_points * block_points;
+  if (points > limits.max_lattice_points) {
+    return status{errc::limit_exceeded, "surface needs " + std::to_string(points) + " lattice points (limit " +
+                                            std::to_string(limits.max_lattice_points) + ")"};
+  }
+  clock.finish(mesh_stage::culling);
+
+  auto polygons = sample_blocks(field, *lat, *blocks, progress);
+  if (!polygons) return polygons.error();
+  clock.finish(mesh_stage::sampling);
+
+  const std::vector<std::uint64_t> keys = unique_edge_keys(*polygons);
+  if (keys.empty()) return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
+  if (status s = solve_roots(field, *lat, keys, out.mesh.positions, progress); !s) return s;
+  clock.finish(mesh_stage::roots);
+
+  assemble_triangles(*polygons, keys, out.mesh.positions, out.mesh);
+  polygons->clear();
+  if (out.mesh.triangles.size() > limits.max_triangles) {
+    return status{errc::limit_exceeded, "mesh has " + std::to_string(out.mesh.triangles.size()) +
+                                            " triangles (limit " + std::to_string(limits.max_triangles) + ")"};
+  }
+  clock.finish(mesh_stage::triangulating);
+
+  fill_vertex_attributes(field, out.mesh);
+  clock.finish(mesh_stage::refining);
+  if (!progress.report(mesh_stage::certifying, 0)) return cancelled_status();
+
+  out.report = analyze_mesh(out.mesh);
+  out.max_surface_distance = max_surface_distance(field, out.mesh);
+  out.certified = out.report.topologically_certified() && out.max_surface_distance <= surface_distance_tolerance;
+  clock.finish(mesh_stage::certifying);
+  if (!out.certified) return status{errc::internal_error, certificate_failure(out)};
+  progress.report(mesh_stage::done, 1);
+  return out;
+}
+
+}  // namespace
+
+status validate(const mesh_params& params) {
+  using r = parameter_ranges;
+  const auto check = [](const char* name, double value, double lo, double hi) -> status {
+    if (!std::isfinite(value) || value < lo || value > hi) {
+      return {errc::invalid_argument, std::string(name) + " must be a number in [" + format_number(lo) + ", " +
+                                          format_number(hi) + "], got " + format_number(value)};
+    }
+    return {};
+  };
+  if (status s = check("density", params.density, r::min_density, r::max_density); !s) return s;
+  if (status s = check("d", params.d, r::min_d, r::max_d); !s) return s;
+  return check("t0", params.t0, r::min_t0, r::max_t0);
+}
+
+result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
+                                  progress_token& progress) {
+  if (status s = validate(params); !s) return s;
+  if (mol.atoms.size() > limits.max_atoms) {
+    return status{errc::limit_exceeded, std::to_string(mol.atoms.size()) + " atoms exceed the limit of " +
+                                            std::to_string(limits.max_atoms)};
+  }
+  const int threads = params.threads == 0 ? tbb::task_arena::automatic : static_cast<int>(params.threads);
+  tbb::task_arena arena(threads);
+  result<mesh_output> out = status{errc::internal_error, "not run"};
+  arena.execute([&] { out = run_pipeline(mol, params, limits, progress); });
+  return out;
+}
+
+}  // namespace tracemesh
