@@ -1,18 +1,31 @@
 #pragma once
 /// @file edge_root.hpp
 /// Surface points on lattice edges (paper §3 finds them on x-parallel lines; here every cut edge of the
-/// tetrahedral lattice gets one): the root of φ = t0 between an inside and an outside end point.
+/// tetrahedral lattice gets one): the root of φ = t0 between an inside and an outside end point, by Newton's method
+/// on the exact (cut-off) field along the edge, safeguarded by bisection.
+
+#include <cstdint>
+#include <span>
+#include <vector>
 
 #include "core/gaussian_field.hpp"
+#include "core/lattice.hpp"
 
 namespace tracemesh {
 
 /// Fraction kept between a root and an edge's end points, so no two vertices of a tetrahedron coincide.
 inline constexpr double edge_root_margin = 1e-4;
 
-/// The point of segment a→b where φ = t0, given that exactly one of a, b is inside (φ ≥ t0): Newton steps on the exact
-/// field along the segment, safeguarded by bisection so the bracket always shrinks; converges to ≤ 1e-12 of the
-/// segment. The result is kept within [margin, 1 − margin] of the segment.
-vec3 solve_edge_root(const gaussian_field& field, const vec3& a, const vec3& b, bool a_inside);
+struct edge_vertex {
+  std::uint64_t key;  ///< lattice edge key
+  vec3 position;      ///< the root of φ = t0 on that edge
+};
+
+/// Roots on the cut edges owned by the block's cubes: each cube owns the seven edges leaving its lowest corner, so
+/// every cut edge is solved exactly once. `atoms` and `values` as for sample_block / triangulate_block.
+/// Appends to `out` in cube order.
+void solve_block_roots(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                       std::span<const std::uint32_t> atoms, std::span<const double> values,
+                       std::vector<edge_vertex>& out);
 
 }  // namespace tracemesh

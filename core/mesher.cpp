@@ -71,55 +71,49 @@ result<lattice> make_lattice(const gaussian_field& field, double spacing, const 
   return lattice(spacing, origin);
 }
 
-/// Samples every block and collects its polygons (in block order: deterministic).
-result<std::vector<block_polygons>> sample_blocks(const gaussian_field& field, const lattice& lat,
-                                                  const std::vector<lattice_index>& blocks, progress_token& progress) {
-  std::vector<block_polygons> polygons(blocks.size());
+/// What one block contributes: its polygons and the roots on the cut edges it owns.
+struct block_output {
+  block_polygons polygons;
+  std::vector<edge_vertex> roots;
+};
+
+/// Samples every block, meshes it and solves its roots (in block order: deterministic).
+result<std::vector<block_output>> process_blocks(const gaussian_field& field, const lattice& lat,
+                                                 const std::vector<lattice_index>& blocks, progress_token& progress) {
+  std::vector<block_output> outputs(blocks.size());
   std::atomic<std::size_t> done{0};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
     if (progress.cancelled()) return;
     std::vector<std::uint32_t> atoms;
     std::vector<double> values;
     for (std::size_t n = r.begin(); n != r.end(); ++n) {
       field.atoms_near_box(lat.block_box(blocks[n]), atoms);
       sample_block(field, lat, blocks[n], atoms, values);
-      triangulate_block(lat, blocks[n], values, field.t0(), polygons[n]);
+      triangulate_block(lat, blocks[n], values, field.t0(), outputs[n].polygons);
+      solve_block_roots(field, lat, blocks[n], atoms, values, outputs[n].roots);
     }
     const std::size_t finished = done += r.size();
     progress.report(mesh_stage::sampling, static_cast<double>(finished) / blocks.size());
   });
   if (progress.cancelled()) return cancelled_status();
-  return polygons;
+  return outputs;
 }
 
-std::vector<std::uint64_t> unique_edge_keys(const std::vector<block_polygons>& polygons) {
-  std::vector<std::uint64_t> keys;
-  for (const auto& p : polygons) {
-    for (const auto& t : p.triangles) keys.insert(keys.end(), t.begin(), t.end());
-    for (const auto& q : p.quads) keys.insert(keys.end(), q.begin(), q.end());
+/// All roots sorted by edge key: vertex n is the root on edge keys[n].
+void collect_vertices(std::vector<block_output>& outputs, std::vector<std::uint64_t>& keys,
+                      std::vector<vec3>& positions) {
+  std::vector<edge_vertex> roots;
+  for (auto& out : outputs) {
+    roots.insert(roots.end(), out.roots.begin(), out.roots.end());
+    std::vector<edge_vertex>().swap(out.roots);
   }
-  std::sort(keys.begin(), keys.end());
-  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-  return keys;
-}
-
-/// One vertex per cut edge, at the root of φ = t0 on it.
-status solve_roots(const gaussian_field& field, const lattice& lat, const std::vector<std::uint64_t>& keys,
-                   std::vector<vec3>& positions, progress_token& progress) {
-  positions.resize(keys.size());
-  std::atomic<std::size_t> done{0};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 4096), [&](const tbb::blocked_range<std::size_t>& r) {
-    if (progress.cancelled()) return;
-    for (std::size_t n = r.begin(); n != r.end(); ++n) {
-      const auto ends = lat.edge_ends(keys[n]);
-      const vec3 a = lat.point(ends[0]), b = lat.point(ends[1]);
-      // The inside end is the one where φ ≥ t0; decide with the exact field so the bracket is true.
-      const bool a_inside = field.value(a) >= field.value(b);
-      positions[n] = solve_edge_root(field, a, b, a_inside);
-    }
-    progress.report(mesh_stage::roots, static_cast<double>(done += r.size()) / keys.size());
-  });
-  return progress.cancelled() ? cancelled_status() : status::success();
+  std::sort(roots.begin(), roots.end(), [](const edge_vertex& a, const edge_vertex& b) { return a.key < b.key; });
+  keys.resize(roots.size());
+  positions.resize(roots.size());
+  for (std::size_t n = 0; n < roots.size(); ++n) {
+    keys[n] = roots[n].key;
+    positions[n] = roots[n].position;
+  }
 }
 
 std::uint32_t vertex_of(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
@@ -127,19 +121,20 @@ std::uint32_t vertex_of(const std::vector<std::uint64_t>& keys, std::uint64_t ke
 }
 
 /// Triangles from the block polygons; quadrilaterals split along their shorter diagonal.
-void assemble_triangles(const std::vector<block_polygons>& polygons, const std::vector<std::uint64_t>& keys,
+void assemble_triangles(const std::vector<block_output>& outputs, const std::vector<std::uint64_t>& keys,
                         const std::vector<vec3>& positions, surface_mesh& mesh) {
-  std::vector<std::size_t> offsets(polygons.size() + 1, 0);
-  for (std::size_t n = 0; n < polygons.size(); ++n) {
-    offsets[n + 1] = offsets[n] + polygons[n].triangles.size() + 2 * polygons[n].quads.size();
+  std::vector<std::size_t> offsets(outputs.size() + 1, 0);
+  for (std::size_t n = 0; n < outputs.size(); ++n) {
+    offsets[n + 1] = offsets[n] + outputs[n].polygons.triangles.size() + 2 * outputs[n].polygons.quads.size();
   }
   mesh.triangles.resize(offsets.back());
-  tbb::parallel_for(std::size_t{0}, polygons.size(), [&](std::size_t n) {
+  tbb::parallel_for(std::size_t{0}, outputs.size(), [&](std::size_t n) {
+    const block_polygons& polygons = outputs[n].polygons;
     std::size_t out = offsets[n];
-    for (const auto& t : polygons[n].triangles) {
+    for (const auto& t : polygons.triangles) {
       mesh.triangles[out++] = {vertex_of(keys, t[0]), vertex_of(keys, t[1]), vertex_of(keys, t[2])};
     }
-    for (const auto& q : polygons[n].quads) {
+    for (const auto& q : polygons.quads) {
       std::array<std::uint32_t, 4> v{};
       for (int c = 0; c < 4; ++c) v[c] = vertex_of(keys, q[c]);
       if (squared_norm(positions[v[0]] - positions[v[2]]) <= squared_norm(positions[v[1]] - positions[v[3]])) {
@@ -207,17 +202,17 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   }
   clock.finish(mesh_stage::culling);
 
-  auto polygons = sample_blocks(field, *lat, *blocks, progress);
-  if (!polygons) return polygons.error();
+  auto outputs = process_blocks(field, *lat, *blocks, progress);
+  if (!outputs) return outputs.error();
   clock.finish(mesh_stage::sampling);
 
-  const std::vector<std::uint64_t> keys = unique_edge_keys(*polygons);
+  std::vector<std::uint64_t> keys;
+  collect_vertices(*outputs, keys, out.mesh.positions);
   if (keys.empty()) return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
-  if (status s = solve_roots(field, *lat, keys, out.mesh.positions, progress); !s) return s;
   clock.finish(mesh_stage::roots);
 
-  assemble_triangles(*polygons, keys, out.mesh.positions, out.mesh);
-  polygons->clear();
+  assemble_triangles(*outputs, keys, out.mesh.positions, out.mesh);
+  outputs->clear();
   if (out.mesh.triangles.size() > limits.max_triangles) {
     return status{errc::limit_exceeded, "mesh has " + std::to_string(out.mesh.triangles.size()) +
                                             " triangles (limit " + std::to_string(limits.max_triangles) + ")"};
