@@ -1,0 +1,96 @@
+#include "proto/report_json.hpp"
+
+#include <cmath>
+
+namespace tracemesh::proto {
+namespace {
+
+/// nlohmann::json turns NaN and infinities into null when dumping; doing it here keeps in-memory documents equal
+/// to their parsed dumps.
+nlohmann::json number(double value) { return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(); }
+
+}  // namespace
+
+nlohmann::json parameters_to_json(const mesh_params& params) {
+  return {{"density", number(params.density)}, {"d", number(params.d)}, {"t0", number(params.t0)}};
+}
+
+nlohmann::json component_to_json(const component_report& component) {
+  return {
+      {"vertices", component.vertices},
+      {"triangles", component.triangles},
+      {"area", number(component.area)},
+      {"volume", number(component.volume)},
+      {"genus", component.genus},
+      {"euler_characteristic", component.euler_characteristic},
+      {"cavity", component.cavity},
+  };
+}
+
+nlohmann::json certificate_to_json(const mesh_output& output) {
+  const mesh_report& report = output.report;
+  return {
+      {"certified", output.certified},
+      {"boundary_edges", report.boundary_edges},
+      {"non_manifold_edges", report.non_manifold_edges},
+      {"non_manifold_vertices", report.non_manifold_vertices},
+      {"inconsistently_oriented_edges", report.inconsistently_oriented_edges},
+      {"degenerate_triangles", report.degenerate_triangles},
+      {"unreferenced_vertices", report.unreferenced_vertices},
+      {"self_intersections", report.self_intersections},
+      {"inward_oriented_components", report.inward_oriented_components},
+      {"max_surface_distance", number(output.max_surface_distance)},
+      {"field_cutoff_error", number(output.field_cutoff_error)},
+  };
+}
+
+nlohmann::json quality_to_json(const quality_report& quality) {
+  return {
+      {"edge_ratio_mean", number(quality.edge_ratio_mean)},
+      {"edge_ratio_min", number(quality.edge_ratio_min)},
+      {"edge_ratio_histogram", quality.edge_ratio_histogram},
+      {"fraction_below_0_2", number(quality.fraction_below_0_2)},
+      {"min_angle_deg", number(quality.min_angle_deg)},
+      {"shortest_edge", number(quality.shortest_edge)},
+      {"median_edge", number(quality.median_edge)},
+      {"longest_edge", number(quality.longest_edge)},
+  };
+}
+
+nlohmann::json timings_to_json(const std::vector<stage_timing>& timings) {
+  nlohmann::json json = nlohmann::json::object();
+  double total = 0;
+  for (const stage_timing& timing : timings) {
+    const char* name = stage_name(timing.stage);
+    json[name] = json.value(name, 0.0) + timing.seconds;
+    total += timing.seconds;
+  }
+  json["total"] = total;
+  return json;
+}
+
+nlohmann::json report_to_json(const mesh_output& output, const mesh_params& params) {
+  const mesh_report& report = output.report;
+  nlohmann::json components = nlohmann::json::array();
+  for (const component_report& component : report.components) components.push_back(component_to_json(component));
+  return {
+      {"engine_version", engine_version},
+      {"parameters", parameters_to_json(params)},
+      {"atoms_meshed", output.atoms_meshed},
+      {"zero_radius_atoms", output.zero_radius_atoms},
+      {"vertices", report.vertices},
+      {"triangles", report.triangles},
+      {"area", number(report.area)},
+      {"volume", number(report.volume)},
+      {"components", std::move(components)},
+      {"cavities", report.cavities},
+      {"genus", report.genus},
+      {"euler_characteristic", report.euler_characteristic},
+      {"certificate", certificate_to_json(output)},
+      {"quality", quality_to_json(report.quality)},
+      {"achieved_density", number(report.achieved_density)},
+      {"timings", timings_to_json(output.timings)},
+  };
+}
+
+}  // namespace tracemesh::proto

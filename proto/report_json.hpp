@@ -1,0 +1,27 @@
+#pragma once
+/// @file report_json.hpp
+/// The per-job report as JSON: what the service returns in GET /jobs/{id} and the CLI writes with --report.
+/// Schema: the MeshReport component of proto/openapi.json. Field names are snake_case; lengths in Å, areas Å²,
+/// volumes Å³, angles degrees, timings seconds. Non-finite numbers are written as null.
+
+#include <nlohmann/json.hpp>
+
+#include "core/mesher.hpp"
+
+namespace tracemesh::proto {
+
+/// Report of one meshing run: engine_version, parameters {density, d, t0}, atoms_meshed, zero_radius_atoms,
+/// vertices, triangles, area, volume, components [...], cavities, genus, euler_characteristic, certificate {...},
+/// quality {...}, achieved_density and timings {<stage name>: seconds, ..., total}.
+/// Everything but `timings` is a function of the input and parameters only (params.threads is not reported).
+nlohmann::json report_to_json(const mesh_output& output, const mesh_params& params);
+
+/// The parts of report_to_json, for callers that assemble their own documents.
+nlohmann::json parameters_to_json(const mesh_params& params);
+nlohmann::json component_to_json(const component_report& component);
+nlohmann::json certificate_to_json(const mesh_output& output);
+nlohmann::json quality_to_json(const quality_report& quality);
+/// {<stage name>: seconds summed over entries of that stage, ..., "total": sum of all}.
+nlohmann::json timings_to_json(const std::vector<stage_timing>& timings);
+
+}  // namespace tracemesh::proto
