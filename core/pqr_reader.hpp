@@ -1,8 +1,30 @@
 #pragma once
 /// @file pqr_reader.hpp
 /// Reads PQR files (whitespace-separated; the last five fields of ATOM/HETATM records are x y z charge radius).
+///
+/// The format accepted, precisely:
+/// - Text is UTF-8 (ASCII in practice). One UTF-8 byte order mark at the very start is skipped. Lines end with
+///   LF, CRLF or a bare CR. Any other control byte (NUL, 0x01–0x08, 0x0B, 0x0C, 0x0E–0x1F, 0x7F), a byte
+///   sequence that is not UTF-8, or a UTF-16 byte order mark is an error: the input is binary, not PQR.
+/// - A line is an atom record when it starts (column 1, case-sensitive) with "ATOM" or "HETATM" followed by a
+///   space, a tab, a digit (PDB style "HETATM1234", "ATOM100000") or the end of the line. Every other line
+///   (REMARK, TER, END, MODEL, ENDMDL, CRYST1, blank, " ATOM" with a leading space, "ATOMS"...) is skipped.
+/// - The last five numbers of an atom record are x, y, z (Å), charge (e) and radius (Å); fields before them
+///   (serial, names, chain id, residue number) are not interpreted, so records with or without a chain id read
+///   the same. Fields are separated by spaces or tabs.
+/// - Fused fields (PDB fixed-column output where coordinates touch, "-12.345-67.890"): within a field, a '-'
+///   that directly follows a digit starts a new number, so that field reads as -12.345 and -67.890. No other
+///   split is made: "1.234-5.678" splits, "1.0e-5" does not, and fused fields that the rule cannot separate
+///   ("12.345678.901", "-0.4161.824") are errors, never misread.
+/// - Numbers are decimal, as std::from_chars reads them (locale-independent), plus an optional leading '+'.
+///   NaN, infinities, hexadecimal ("0x1p3"), decimal commas ("1,5"), trailing characters ("1.5abc") and values
+///   out of double range ("1e400", "1e-400") are errors.
+/// - A radius of exactly 0 is accepted (AMBER hydroxyl hydrogens) and counted in molecule::zero_radius_atoms;
+///   a negative radius, including -0.0, is an error.
 
+#include <cstddef>
 #include <filesystem>
+#include <string>
 #include <string_view>
 
 #include "core/limits.hpp"
@@ -11,17 +33,34 @@
 
 namespace tracemesh {
 
-/// Parses PQR text. Errors (errc::invalid_input, message names the 1-based line): too few fields, unparsable or
-/// non-finite numbers, |coordinate| > limits.max_abs_coordinate, negative or > limits.max_radius radius, NUL or
-/// binary bytes, a line over limits.max_line_bytes. errc::limit_exceeded past limits.max_atoms (found while
-/// streaming). errc::nothing_to_mesh when no ATOM/HETATM record has radius > 0. Locale-independent.
+/// Bytes of PQR text allowed per atom of limits.max_atoms when reading a file (plain or decompressed): a PQR
+/// atom line is under 100 bytes, so this leaves room for remarks while bounding memory.
+inline constexpr std::size_t pqr_max_bytes_per_atom = 200;
+
+/// Largest PQR text read_pqr_file accepts: limits.max_atoms × pqr_max_bytes_per_atom (saturating).
+std::size_t max_pqr_text_bytes(const mesh_limits& limits) noexcept;
+
+/// Parses PQR text (format above) into atoms in file order.
+/// Errors, each a one-line message starting "line N: " (N 1-based) that quotes at most 40 bytes of the input,
+/// with non-printable bytes escaped as \xNN:
+/// - errc::invalid_input: too few fields, an unparsable or non-finite number, |coordinate| >
+///   limits.max_abs_coordinate, a negative or > limits.max_radius radius, NUL/control/non-UTF-8 bytes, a
+///   UTF-16 byte order mark, a line longer than limits.max_line_bytes (line terminator excluded).
+/// - errc::limit_exceeded: an atom record beyond limits.max_atoms; parsing stops at that line.
+/// - errc::nothing_to_mesh ("no atoms with radius > 0 ..."): no atom record, or every radius is 0.
+/// Linear time in text.size(); a line is never scanned past limits.max_line_bytes + 1 bytes.
 result<molecule> parse_pqr(std::string_view text, const mesh_limits& limits = {});
 
-/// Decompresses `bytes` when they start with the gzip magic, else returns them unchanged; errc::invalid_input on
-/// a corrupt stream, errc::limit_exceeded when the output would exceed max_bytes.
+/// Decompresses `bytes` when they start with the gzip magic (1f 8b), else returns them unchanged.
+/// Concatenated gzip members are decompressed one after the other (as gzip -d does).
+/// Errors: errc::invalid_input on a corrupt or truncated stream, or bytes after the last member that are not
+/// another member; errc::limit_exceeded as soon as the output would exceed max_bytes (memory stays bounded).
 result<std::string> maybe_gunzip(std::string_view bytes, std::size_t max_bytes);
 
-/// Reads a .pqr or .pqr.gz file (gzip detected from the content). errc::io_error when it cannot be read.
+/// Reads a .pqr or .pqr.gz file (gzip detected from the content, not the name) and parses it with parse_pqr.
+/// Errors: errc::io_error naming the path when the file cannot be opened or read; errc::limit_exceeded when the
+/// file or its decompressed text is larger than max_pqr_text_bytes(limits); otherwise as maybe_gunzip and
+/// parse_pqr (parse messages are not prefixed with the path).
 result<molecule> read_pqr_file(const std::filesystem::path& path, const mesh_limits& limits = {});
 
 }  // namespace tracemesh
