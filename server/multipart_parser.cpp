@@ -301,6 +301,7 @@ void multipart_parser::start_part() {
   seen_disposition_ = false;
   seen_content_type_ = false;
   header_line_.clear();
+  pending_header_.clear();
   state_ = state::header_line;
 }
 
@@ -329,14 +330,18 @@ void multipart_parser::consume_header_byte(char c) {
   }
 }
 
+// A header line is parsed only once the next line has started, so that a folded continuation (obs-fold) is
+// reported as such instead of as whatever the truncated first line lacks.
 void multipart_parser::end_of_header_line() {
   state_ = state::header_line;
-  if (header_line_.empty()) {
-    end_of_headers();
+  if (!header_line_.empty() && is_space_or_tab(header_line_.front())) {
+    fail(errc::invalid_input, "folded multipart part header lines are not supported");
     return;
   }
-  parse_header(header_line_);
+  if (!pending_header_.empty()) parse_header(pending_header_);
+  pending_header_.swap(header_line_);
   header_line_.clear();
+  if (pending_header_.empty() && error_.ok()) end_of_headers();
 }
 
 void multipart_parser::end_of_headers() {
@@ -349,10 +354,6 @@ void multipart_parser::end_of_headers() {
 }
 
 void multipart_parser::parse_header(std::string_view line) {
-  if (is_space_or_tab(line.front())) {
-    fail(errc::invalid_input, "folded multipart part header lines are not supported");
-    return;
-  }
   const auto colon = line.find(':');
   if (colon == std::string_view::npos) {
     fail(errc::invalid_input, "multipart part header line without a colon");

@@ -123,7 +123,8 @@ class multipart_parser {
   bool current_is_file_ = false;
   bool seen_disposition_ = false;
   bool seen_content_type_ = false;
-  std::string header_line_;
+  std::string header_line_;     // the header line being read
+  std::string pending_header_;  // the previous complete line, parsed when the next one starts
   std::size_t header_bytes_ = 0;
 };
 
