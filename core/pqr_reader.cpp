@@ -148,18 +148,19 @@ class pqr_parser {
   status read_number(std::size_t index, std::string_view text, double& value) const {
     const detail::parsed_number parsed = detail::parse_number(text);
     value = parsed.value;
-    const std::string subject = std::string(record_number_names[index]) + " '" + quote_bytes(text) + "'";
-    switch (parsed.error) {
-      case detail::number_error::none:
-        return status::success();
-      case detail::number_error::not_a_number:
-        return line_error(line_number_, subject + " is not a decimal number (records end with x y z charge radius)");
-      case detail::number_error::out_of_range:
-        return line_error(line_number_, subject + " is out of the range of a double");
-      case detail::number_error::not_finite:
-        return line_error(line_number_, subject + " is not finite");
+    if (parsed.error == detail::number_error::none) return status::success();
+    return line_error(line_number_, std::string(record_number_names[index]) + " '" + quote_bytes(text) + "' " +
+                                        describe(parsed.error));
+  }
+
+  static const char* describe(detail::number_error error) {
+    switch (error) {
+      case detail::number_error::none: return "is a number";
+      case detail::number_error::not_a_number: return "is not a decimal number (records end with x y z charge radius)";
+      case detail::number_error::out_of_range: return "is out of the range of a double";
+      case detail::number_error::not_finite: return "is not finite";
     }
-    return line_error(line_number_, subject + " is not a number");
+    return "is not a number";
   }
 
   status check_ranges(const detail::record_numbers_text& texts,

@@ -17,6 +17,10 @@ namespace {
 constexpr std::size_t initial_output_bytes = 64 * 1024;
 /// Typical PQR compression ratio, used to size the first output buffer (fewer regrowths).
 constexpr std::size_t expected_compression_ratio = 4;
+/// The first output buffer never exceeds this multiple of the input, whatever the gzip trailer claims.
+constexpr std::size_t max_trusted_compression_ratio = 16;
+/// Smallest gzip member: 10-byte header, empty deflate block, 8-byte trailer.
+constexpr std::size_t min_gzip_member_bytes = 18;
 /// zlib counts bytes in uInt: feed and drain at most this much per call.
 constexpr std::size_t max_zlib_chunk = std::numeric_limits<uInt>::max();
 
@@ -75,6 +79,21 @@ class bounded_output {
   std::string bytes_;
 };
 
+/// First output buffer size: the last member's ISIZE trailer (its size mod 2^32; exact for a usual single-member
+/// file, so no regrowth), else a typical ratio. Capped so that a forged trailer cannot make a tiny input reserve
+/// a large buffer.
+std::size_t output_size_hint(std::string_view compressed, std::size_t max_bytes) {
+  const std::size_t trusted = compressed.size() > max_bytes / max_trusted_compression_ratio
+                                  ? max_bytes
+                                  : compressed.size() * max_trusted_compression_ratio;
+  if (compressed.size() < min_gzip_member_bytes) return std::min(trusted, initial_output_bytes);
+  const auto* trailer = reinterpret_cast<const unsigned char*>(compressed.data() + compressed.size() - 4);
+  const std::size_t isize = std::size_t{trailer[0]} | std::size_t{trailer[1]} << 8 | std::size_t{trailer[2]} << 16 |
+                            std::size_t{trailer[3]} << 24;
+  const std::size_t typical = compressed.size() * expected_compression_ratio;
+  return std::min(trusted, std::max(isize + 1, typical));  // + 1: room to read the trailer without regrowing
+}
+
 }  // namespace
 
 bool has_gzip_magic(std::string_view bytes) noexcept {
@@ -86,9 +105,7 @@ result<std::string> gunzip(std::string_view compressed, std::size_t max_bytes) {
   gzip_inflater inflater;
   if (!inflater.ready()) return status{errc::internal_error, "gzip: zlib could not initialise"};
   z_stream& stream = inflater.stream();
-  const std::size_t size_hint =
-      compressed.size() > max_bytes / expected_compression_ratio ? max_bytes : compressed.size() * expected_compression_ratio;
-  bounded_output output(max_bytes, size_hint);
+  bounded_output output(max_bytes, output_size_hint(compressed, max_bytes));
   const auto* const input = reinterpret_cast<const Bytef*>(compressed.data());
   std::size_t handed_to_zlib = 0;  // input bytes given to zlib so far (some may still be in avail_in)
 

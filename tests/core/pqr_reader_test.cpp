@@ -483,6 +483,9 @@ TEST(PqrReaderGzip, RejectsCorruptTruncatedOrTrailingData) {
   std::string flipped_crc = compressed;
   flipped_crc[compressed.size() - 6] ^= 0x55;
   broken.push_back(flipped_crc);
+  std::string forged_size = compressed;  // ISIZE claims ~4 GB: only a buffer-size hint, and then a length error
+  forged_size.back() = '\xff';
+  broken.push_back(forged_size);
   std::string bad_method = compressed;
   bad_method[2] = 7;  // compression method must be 8 (deflate)
   broken.push_back(bad_method);
