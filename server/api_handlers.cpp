@@ -1,0 +1,614 @@
+#include "server/api_handlers.hpp"
+
+#include <chrono>
+#include <map>
+#include <optional>
+#include <utility>
+
+#include <boost/asio/post.hpp>
+#include <boost/beast/core/string.hpp>
+#include <nlohmann/json.hpp>
+
+#include "core/pqr_reader.hpp"
+#include "proto/api_types.hpp"
+#include "proto/openapi.hpp"
+#include "server/content_hash.hpp"
+#include "server/job_id.hpp"
+#include "server/logging.hpp"
+
+namespace tracemesh::server {
+
+namespace {
+
+using clock = std::chrono::steady_clock;
+
+// ---- routing ------------------------------------------------------------------------------------------------
+
+enum class route_id { healthz, readyz, metrics, openapi, mesh, jobs, job, job_mesh, unknown };
+
+struct route_match {
+  route_id id = route_id::unknown;
+  std::string job_id;  // raw path segment for job routes (validated by the handler)
+};
+
+struct route_info {
+  const char* name;     // metrics label
+  const char* allowed;  // Allow header
+};
+
+route_info info(route_id id) {
+  switch (id) {
+    case route_id::healthz: return {"/healthz", "GET, HEAD, OPTIONS"};
+    case route_id::readyz: return {"/readyz", "GET, HEAD, OPTIONS"};
+    case route_id::metrics: return {"/metrics", "GET, HEAD, OPTIONS"};
+    case route_id::openapi: return {"/openapi.json", "GET, HEAD, OPTIONS"};
+    case route_id::mesh: return {"/mesh", "POST, OPTIONS"};
+    case route_id::jobs: return {"/jobs", "POST, OPTIONS"};
+    case route_id::job: return {"/jobs/{id}", "GET, HEAD, DELETE, OPTIONS"};
+    case route_id::job_mesh: return {"/jobs/{id}/mesh", "GET, HEAD, OPTIONS"};
+    case route_id::unknown: break;
+  }
+  return {"(unknown)", ""};
+}
+
+bool method_allowed(route_id id, http::verb method) {
+  if (method == http::verb::options) return true;
+  switch (id) {
+    case route_id::healthz:
+    case route_id::readyz:
+    case route_id::metrics:
+    case route_id::openapi:
+    case route_id::job_mesh: return method == http::verb::get || method == http::verb::head;
+    case route_id::mesh:
+    case route_id::jobs: return method == http::verb::post;
+    case route_id::job:
+      return method == http::verb::get || method == http::verb::head || method == http::verb::delete_;
+    case route_id::unknown: break;
+  }
+  return false;
+}
+
+route_match match_route(std::string_view path) {
+  if (path == "/healthz") return {route_id::healthz, {}};
+  if (path == "/readyz") return {route_id::readyz, {}};
+  if (path == "/metrics") return {route_id::metrics, {}};
+  if (path == "/openapi.json") return {route_id::openapi, {}};
+  if (path == "/mesh") return {route_id::mesh, {}};
+  if (path == "/jobs") return {route_id::jobs, {}};
+  constexpr std::string_view jobs_prefix = "/jobs/";
+  if (path.substr(0, jobs_prefix.size()) != jobs_prefix) return {};
+  std::string_view rest = path.substr(jobs_prefix.size());
+  constexpr std::string_view mesh_suffix = "/mesh";
+  if (rest.size() > mesh_suffix.size() && rest.substr(rest.size() - mesh_suffix.size()) == mesh_suffix) {
+    rest.remove_suffix(mesh_suffix.size());
+    if (rest.find('/') != std::string_view::npos) return {};
+    return {route_id::job_mesh, std::string(rest)};
+  }
+  if (rest.empty() || rest.find('/') != std::string_view::npos) return {};
+  return {route_id::job, std::string(rest)};
+}
+
+struct target_parts {
+  std::string_view path;
+  std::string_view query;
+};
+
+/// Origin-form targets only ("/path?query"); "*", absolute-form and empty targets are refused.
+std::optional<target_parts> split_target(std::string_view target) {
+  if (target.empty() || target.front() != '/') return std::nullopt;
+  const auto question = target.find('?');
+  if (question == std::string_view::npos) return target_parts{target, {}};
+  return target_parts{target.substr(0, question), target.substr(question + 1)};
+}
+
+int hex_value(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+std::optional<std::string> percent_decode(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '+') {
+      out += ' ';
+    } else if (text[i] == '%') {
+      if (i + 2 >= text.size()) return std::nullopt;
+      const int high = hex_value(text[i + 1]);
+      const int low = hex_value(text[i + 2]);
+      if (high < 0 || low < 0) return std::nullopt;
+      out += static_cast<char>(high * 16 + low);
+      i += 2;
+    } else {
+      out += text[i];
+    }
+  }
+  return out;
+}
+
+using parameter_map = std::map<std::string, std::string, std::less<>>;
+
+/// "a=1&b=2" → {a: 1, b: 2}. A repeated name or a bad escape is an error naming it.
+result<parameter_map> parse_query(std::string_view query) {
+  parameter_map out;
+  while (!query.empty()) {
+    const auto amp = query.find('&');
+    const std::string_view pair = query.substr(0, amp);
+    query = amp == std::string_view::npos ? std::string_view{} : query.substr(amp + 1);
+    if (pair.empty()) continue;
+    const auto equals = pair.find('=');
+    auto name = percent_decode(pair.substr(0, equals));
+    auto value = percent_decode(equals == std::string_view::npos ? std::string_view{} : pair.substr(equals + 1));
+    if (!name || !value) return status(errc::invalid_argument, "malformed percent-escape in the query string");
+    if (!out.emplace(std::move(*name), std::move(*value)).second) {
+      return status(errc::invalid_argument, "query parameter given twice");
+    }
+  }
+  return out;
+}
+
+/// Every name in `params` must be one of `known`; the error names the first stranger.
+status only_known(const parameter_map& params, std::initializer_list<std::string_view> known, const char* where) {
+  for (const auto& [name, value] : params) {
+    bool found = false;
+    for (std::string_view k : known) found = found || name == k;
+    if (!found) {
+      const std::string shown = name.size() <= 32 ? name : name.substr(0, 32) + "...";
+      return status(errc::invalid_argument, std::string("unknown ") + where + " '" + shown + "'");
+    }
+  }
+  return status::success();
+}
+
+// ---- replies ------------------------------------------------------------------------------------------------
+
+reply with_retry_after(reply r, unsigned seconds) {
+  r.headers.emplace_back("Retry-After", std::to_string(seconds));
+  return r;
+}
+
+reply status_error_reply(const status& error, std::string route) {
+  return error_reply(static_cast<unsigned>(proto::http_status(error.code())), errc_name(error.code()),
+                     error.message(), std::move(route));
+}
+
+std::string etag_for(const std::string& id, proto::mesh_format format) {
+  // The job id is the content hash of everything that determines the mesh (engine version included) and the
+  // encoders are deterministic, so id + format names the bytes exactly.
+  return "\"" + id + "-" + std::string(proto::format_name(format)) + "\"";
+}
+
+reply mesh_reply(const std::string& id, proto::mesh_format format, std::shared_ptr<const std::string> bytes,
+                 bool cache_hit, std::string route) {
+  reply r;
+  r.route = std::move(route);
+  r.content_type = std::string(proto::content_type(format));
+  r.body = std::move(bytes);
+  r.headers.emplace_back("ETag", etag_for(id, format));
+  r.headers.emplace_back("X-Cache", cache_hit ? "hit" : "miss");
+  r.headers.emplace_back("X-Job-Id", id);
+  // A generated name: the upload's filename is never echoed.
+  r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + id.substr(0, 12) +
+                                                    std::string(proto::file_extension(format)) + "\"");
+  r.headers.emplace_back("Cache-Control", "public, max-age=31536000, immutable");
+  return r;
+}
+
+reply not_modified(const std::string& id, proto::mesh_format format, std::string route) {
+  reply r;
+  r.status = 304;
+  r.route = std::move(route);
+  r.headers.emplace_back("ETag", etag_for(id, format));
+  r.headers.emplace_back("X-Job-Id", id);
+  return r;
+}
+
+bool etag_matches(const request_head& head, const std::string& etag) {
+  const std::string_view wanted = to_std(head[http::field::if_none_match]);
+  if (wanted.empty()) return false;
+  if (wanted == "*") return true;
+  // A list of entity tags: "a", W/"b", ...
+  return wanted.find(etag) != std::string_view::npos;
+}
+
+nlohmann::json job_links(const std::string& id) {
+  return {{"self", "/jobs/" + id}, {"mesh", "/jobs/" + id + "/mesh"}};
+}
+
+/// The Job document of openapi.json; the report (JSON text) is spliced in without re-parsing it.
+std::string job_document(const job_snapshot& job) {
+  nlohmann::json doc = nlohmann::json::object();
+  doc["id"] = job.id;
+  doc["status"] = std::string(proto::job_state_name(job.state));
+  doc["progress"] = job.progress;
+  doc["stage"] = job.state == job_state::queued ? nlohmann::json(nullptr) : nlohmann::json(stage_name(job.stage));
+  doc["queue_position"] = job.state == job_state::queued ? nlohmann::json(job.queue_position) : nullptr;
+  doc["seconds"] = job.seconds;
+  doc["error"] = job.error_code.empty()
+                     ? nlohmann::json(nullptr)
+                     : nlohmann::json{{"code", job.error_code}, {"message", job.error.message()}};
+  doc["links"] = job_links(job.id);
+  std::string text = doc.dump();
+  text.pop_back();  // the closing brace
+  text += ",\"report\":";
+  text += job.report ? *job.report : std::string("null");
+  text += '}';
+  return text;
+}
+
+job_snapshot done_from_cache(const std::string& id, std::shared_ptr<const std::string> report) {
+  job_snapshot job;
+  job.id = id;
+  job.state = job_state::done;
+  job.progress = 1.0;
+  job.stage = mesh_stage::done;
+  job.report = std::move(report);
+  return job;
+}
+
+/// A final job that did not produce a mesh, as the error reply of a synchronous request.
+reply job_failure_reply(const job_snapshot& job, std::string route) {
+  unsigned code = static_cast<unsigned>(proto::http_status(job.error.code()));
+  if (job.error_code == "cancelled") code = 409;
+  return error_reply(code, job.error_code.empty() ? "internal_error" : job.error_code, job.error.message(),
+                     std::move(route));
+}
+
+const std::string* find_param(const parameter_map& params, std::string_view name) {
+  const auto it = params.find(name);
+  return it == params.end() ? nullptr : &it->second;
+}
+
+struct upload_slot {
+  explicit upload_slot(std::shared_ptr<std::atomic<std::size_t>> counter) : counter_(std::move(counter)) {}
+  ~upload_slot() { counter_->fetch_sub(1); }
+  upload_slot(const upload_slot&) = delete;
+  upload_slot& operator=(const upload_slot&) = delete;
+  std::shared_ptr<std::atomic<std::size_t>> counter_;
+};
+
+}  // namespace
+
+// ---- the upload pipeline ------------------------------------------------------------------------------------
+
+struct api_handlers::upload_request {
+  route_id route;
+  proto::mesh_request request;
+  std::string pqr;
+  std::shared_ptr<void> slot;  // released when the upload has been parsed and queued
+  reply_sink done;
+  clock::time_point received;
+};
+
+api_handlers::api_handlers(api_dependencies deps)
+    : deps_(deps), uploads_in_flight_(std::make_shared<std::atomic<std::size_t>>(0)) {}
+
+std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
+  const auto target = split_target(to_std(head.target()));
+  if (!target) return error_reply(400, "bad_request", "the request target must be an absolute path", "(bad target)");
+  const route_match match = match_route(target->path);
+  if (match.id == route_id::unknown) return error_reply(404, "not_found", "no such resource", "(unknown)");
+  const route_info route = info(match.id);
+  if (!method_allowed(match.id, head.method())) {
+    reply r = error_reply(405, "method_not_allowed", "allowed methods: " + std::string(route.allowed), route.name);
+    r.headers.emplace_back("Allow", route.allowed);
+    return r;
+  }
+  if (head.method() == http::verb::options) {
+    reply r;
+    r.status = 204;
+    r.route = route.name;
+    r.headers.emplace_back("Allow", route.allowed);
+    deps_.cors.add_preflight_headers(to_std(head[http::field::origin]), route.allowed, r.headers);
+    return r;
+  }
+
+  const server_limits& limits = deps_.config.limits;
+  const bool upload = match.id == route_id::mesh || match.id == route_id::jobs;
+  const auto declared_length = head[http::field::content_length];
+  std::uint64_t length = 0;
+  const bool has_length = !declared_length.empty();
+  if (has_length) length = std::strtoull(std::string(declared_length).c_str(), nullptr, 10);  // Beast validated it
+
+  if (!upload) {
+    if (has_length && length > limits.max_small_body_bytes) {
+      return error_reply(413, "limit_exceeded", "this route takes no request body", route.name);
+    }
+    body_plan small;
+    small.route = route.name;
+    small.max_bytes = limits.max_small_body_bytes;
+    return small;
+  }
+
+  if (deps_.state.draining.load()) {
+    return with_retry_after(error_reply(503, "unavailable", "the server is shutting down", route.name),
+                            limits.retry_after_seconds);
+  }
+  // 413 from Content-Length before reading a byte (and before any 100 Continue).
+  if (has_length && length > limits.max_upload_bytes) {
+    return error_reply(413, "limit_exceeded",
+                       "the upload of " + std::to_string(length) + " bytes exceeds the limit of " +
+                           std::to_string(limits.max_upload_bytes) + " bytes",
+                       route.name);
+  }
+  const std::string_view content_type = to_std(head[http::field::content_type]);
+  if (!is_multipart_form_data(content_type)) {
+    return error_reply(415, "unsupported_media_type",
+                       "the upload must be multipart/form-data with the PQR file in the field 'pqr'", route.name);
+  }
+  result<std::string> boundary = multipart_boundary(content_type);
+  if (!boundary.ok()) return error_reply(400, "invalid_input", boundary.error().message(), route.name);
+
+  if (uploads_in_flight_->fetch_add(1) >= limits.max_concurrent_uploads) {
+    uploads_in_flight_->fetch_sub(1);
+    return with_retry_after(error_reply(429, "queue_full", "too many uploads in progress", route.name),
+                            limits.retry_after_seconds);
+  }
+  body_plan plan;
+  plan.route = route.name;
+  plan.upload = true;
+  plan.max_bytes = limits.max_upload_bytes;
+  plan.boundary = std::move(*boundary);
+  plan.part_limits.max_parts = limits.max_form_parts;
+  plan.part_limits.max_field_bytes = limits.max_form_field_bytes;
+  plan.part_limits.max_file_bytes = limits.max_upload_bytes;
+  plan.upload_slot = std::make_shared<upload_slot>(uploads_in_flight_);
+  return plan;
+}
+
+void api_handlers::handle(const request_head& head, const body_plan&, std::string, reply_sink done) {
+  const auto target = split_target(to_std(head.target()));
+  const route_match match = match_route(target->path);
+  const char* route = info(match.id).name;
+  result<parameter_map> query = parse_query(target->query);
+  if (!query.ok()) return done(error_reply(400, "invalid_argument", query.error().message(), route));
+
+  switch (match.id) {
+    case route_id::healthz: return done(json_reply(200, R"({"status":"ok"})", route));
+    case route_id::readyz: return done(readiness_reply());
+    case route_id::metrics: return done(metrics_reply());
+    case route_id::openapi: {
+      reply r = json_reply(200, std::string(proto::openapi_document()), route);
+      return done(std::move(r));
+    }
+    case route_id::job:
+    case route_id::job_mesh: break;
+    default: return done(error_reply(404, "not_found", "no such resource", route));
+  }
+
+  if (!is_valid_job_id(match.job_id)) {
+    return done(error_reply(400, "invalid_argument", "a job id is 64 lower-case hex digits", route));
+  }
+  if (match.id == route_id::job) {
+    if (const status known = only_known(*query, {}, "query parameter"); !known.ok()) {
+      return done(error_reply(400, "invalid_argument", known.message(), route));
+    }
+    if (head.method() == http::verb::delete_) return cancel_job(match.job_id, std::move(done));
+    return job_status(match.job_id, std::move(done));
+  }
+  if (const status known = only_known(*query, {"format"}, "query parameter"); !known.ok()) {
+    return done(error_reply(400, "invalid_argument", known.message(), route));
+  }
+  proto::mesh_format format = proto::mesh_format::off;
+  if (const std::string* name = find_param(*query, "format")) {
+    result<proto::mesh_format> parsed = proto::parse_mesh_format(*name);
+    if (!parsed.ok()) return done(error_reply(400, "invalid_argument", parsed.error().message(), route));
+    format = *parsed;
+  }
+  job_mesh(head, match.job_id, format, std::move(done));
+}
+
+void api_handlers::handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
+                                 reply_sink done) {
+  const auto target = split_target(to_std(head.target()));
+  const route_match match = match_route(target->path);
+  const std::string route = plan.route;
+  result<parameter_map> query = parse_query(target->query);
+  if (!query.ok()) return done(error_reply(400, "invalid_argument", query.error().message(), route));
+  if (const status known = only_known(*query, {"density", "d", "t0", "format"}, "query parameter"); !known.ok()) {
+    return done(error_reply(400, "invalid_argument", known.message(), route));
+  }
+
+  // Form fields win over query parameters (openapi.json); the file travels in "pqr".
+  parameter_map form;
+  multipart_part* pqr = nullptr;
+  for (multipart_part& part : parts) {
+    if (part.name == "pqr") {
+      if (pqr) return done(error_reply(400, "invalid_input", "the field 'pqr' is given twice", route));
+      pqr = &part;
+      continue;
+    }
+    if (part.filename) {
+      return done(error_reply(400, "invalid_input", "only the field 'pqr' may carry a file", route));
+    }
+    if (!form.emplace(part.name, part.body).second) {
+      return done(error_reply(400, "invalid_argument", "a form field is given twice", route));
+    }
+  }
+  if (const status known = only_known(form, {"density", "d", "t0", "format"}, "form field"); !known.ok()) {
+    return done(error_reply(400, "invalid_argument", known.message(), route));
+  }
+  if (!pqr) return done(error_reply(400, "invalid_input", "missing the file field 'pqr'", route));
+
+  const proto::field_lookup lookup = [&](std::string_view name) -> std::optional<std::string> {
+    if (const std::string* value = find_param(form, name)) return *value;
+    if (const std::string* value = find_param(*query, name)) return *value;
+    return std::nullopt;
+  };
+  result<proto::mesh_request> request = proto::parse_mesh_request(lookup);
+  if (!request.ok()) return done(status_error_reply(request.error(), route));
+
+  auto upload = std::make_shared<upload_request>();
+  upload->route = match.id;
+  upload->request = *request;
+  upload->pqr = std::move(pqr->body);
+  upload->slot = std::move(plan.upload_slot);
+  upload->done = std::move(done);
+  upload->received = clock::now();
+  boost::asio::post(deps_.prep, [this, upload] { prepare_upload(upload); });
+}
+
+void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
+  const char* route = info(upload->route).name;
+  const std::size_t upload_bytes = upload->pqr.size();
+  result<molecule> mol = [&]() -> result<molecule> {
+    result<std::string> text = maybe_gunzip(upload->pqr, deps_.config.limits.max_pqr_bytes);
+    std::string().swap(upload->pqr);
+    if (!text.ok()) return text.error();
+    return parse_pqr(*text, deps_.config.limits.mesh);
+  }();
+  if (!mol.ok()) {
+    log_event(deps_.log, spdlog::level::info, "upload_rejected",
+              {{"route", route}, {"bytes", upload_bytes}, {"error", errc_name(mol.error().code())}});
+    return upload->done(status_error_reply(mol.error(), route));
+  }
+  const std::string id = compute_job_id(*mol, upload->request.params);
+  const std::size_t atoms = mol->atoms.size();
+
+  if (upload->route == route_id::mesh) {
+    const std::string key = id + "." + std::string(proto::file_extension(upload->request.format)).substr(1);
+    if (auto cached = deps_.cache.get(key)) {
+      deps_.stats.count_cache_response();
+      return upload->done(mesh_reply(id, upload->request.format, std::move(cached), true, route));
+    }
+  } else if (auto report = deps_.cache.get(report_key(id))) {
+    deps_.stats.count_cache_response();
+    nlohmann::json accepted = {{"id", id}, {"status", "done"}, {"links", job_links(id)}};
+    reply r = json_reply(200, accepted.dump(), route);
+    r.headers.emplace_back("Location", "/jobs/" + id);
+    return upload->done(std::move(r));
+  }
+
+  auto input = std::make_shared<job_input>();
+  input->mol = std::move(*mol);
+  input->params = upload->request.params;
+  job_listener listener;
+  if (upload->route == route_id::mesh) {
+    listener = [done = upload->done, id, format = upload->request.format](const job_snapshot& final_state,
+                                                                          const job_output* output) {
+      if (!output) return done(job_failure_reply(final_state, "/mesh"));
+      auto bytes = format == proto::mesh_format::off ? output->off : output->draco;
+      done(mesh_reply(id, format, std::move(bytes), output->from_cache, "/mesh"));
+    };
+  }
+  const submit_result submitted = deps_.jobs.submit(id, std::move(input), std::move(listener));
+  const unsigned retry = deps_.config.limits.retry_after_seconds;
+  log_event(deps_.log, spdlog::level::info, "job_submitted",
+            {{"job", id},
+             {"route", route},
+             {"bytes", upload_bytes},
+             {"atoms", atoms},
+             {"parameters", proto::canonical_parameters(upload->request.params)},
+             {"outcome", submitted.outcome == submit_outcome::accepted    ? "accepted"
+                         : submitted.outcome == submit_outcome::coalesced ? "coalesced"
+                         : submitted.outcome == submit_outcome::queue_full ? "queue_full"
+                                                                            : "shutting_down"},
+             {"prep_ms", std::chrono::duration<double, std::milli>(clock::now() - upload->received).count()}});
+  switch (submitted.outcome) {
+    case submit_outcome::queue_full:
+      return upload->done(with_retry_after(
+          error_reply(429, "queue_full", "the job queue is full; retry later", route), retry));
+    case submit_outcome::shutting_down:
+      return upload->done(
+          with_retry_after(error_reply(503, "unavailable", "the server is shutting down", route), retry));
+    case submit_outcome::accepted:
+    case submit_outcome::coalesced: break;
+  }
+  if (upload->route == route_id::mesh) return;  // the listener answers
+  nlohmann::json accepted = {{"id", id},
+                             {"status", std::string(proto::job_state_name(submitted.snapshot.state))},
+                             {"links", job_links(id)}};
+  reply r = json_reply(202, accepted.dump(), route);
+  r.headers.emplace_back("Location", "/jobs/" + id);
+  upload->done(std::move(r));
+}
+
+// ---- job routes ---------------------------------------------------------------------------------------------
+
+void api_handlers::job_status(const std::string& id, reply_sink done) {
+  if (auto job = deps_.jobs.find(id)) return done(json_reply(200, job_document(*job), "/jobs/{id}"));
+  boost::asio::post(deps_.prep, [this, id, done = std::move(done)] {
+    if (auto report = deps_.cache.get(report_key(id))) {
+      return done(json_reply(200, job_document(done_from_cache(id, std::move(report))), "/jobs/{id}"));
+    }
+    done(error_reply(404, "not_found", "no such job", "/jobs/{id}"));
+  });
+}
+
+void api_handlers::cancel_job(const std::string& id, reply_sink done) {
+  const cancel_outcome outcome = deps_.jobs.cancel(id);
+  if (outcome != cancel_outcome::not_found) {
+    if (auto job = deps_.jobs.find(id)) {
+      log_event(deps_.log, spdlog::level::info, "job_cancel",
+                {{"job", id}, {"status", std::string(proto::job_state_name(job->state))}});
+      return done(json_reply(200, job_document(*job), "/jobs/{id}"));
+    }
+  }
+  job_status(id, std::move(done));  // a done job known only to the cache is left as it is
+}
+
+void api_handlers::job_mesh(const request_head& head, const std::string& id, proto::mesh_format format,
+                            reply_sink done) {
+  const std::string route = "/jobs/{id}/mesh";
+  const std::string key = id + "." + std::string(proto::file_extension(format)).substr(1);
+  const bool if_none_match = etag_matches(head, etag_for(id, format));
+  // The hot path: a memory hit is answered from the I/O thread, no hop.
+  if (auto bytes = deps_.cache.get_from_memory(key)) {
+    deps_.stats.count_cache_response();
+    return done(if_none_match ? not_modified(id, format, route)
+                              : mesh_reply(id, format, std::move(bytes), true, route));
+  }
+  if (auto job = deps_.jobs.find(id); job && job->state != job_state::done) {
+    const std::string message =
+        job->state == job_state::queued || job->state == job_state::running
+            ? "the job is " + std::string(proto::job_state_name(job->state)) + "; poll /jobs/" + id
+            : "the job " + std::string(proto::job_state_name(job->state)) + ": " + job->error.message();
+    return done(error_reply(409, "conflict", message, route));
+  }
+  boost::asio::post(deps_.prep, [this, id, key, format, if_none_match, route, done = std::move(done)] {
+    if (auto bytes = deps_.cache.get(key)) {
+      deps_.stats.count_cache_response();
+      return done(if_none_match ? not_modified(id, format, route)
+                                : mesh_reply(id, format, std::move(bytes), true, route));
+    }
+    done(error_reply(404, "not_found", "no mesh for this job", route));
+  });
+}
+
+// ---- health and metrics -------------------------------------------------------------------------------------
+
+reply api_handlers::readiness_reply() const {
+  if (deps_.state.draining.load()) {
+    return error_reply(503, "unavailable", "the server is shutting down", "/readyz");
+  }
+  if (deps_.jobs.queue_depth() >= deps_.config.limits.max_queue) {
+    return with_retry_after(error_reply(503, "unavailable", "the job queue is full", "/readyz"),
+                            deps_.config.limits.retry_after_seconds);
+  }
+  return json_reply(200, R"({"status":"ready"})", "/readyz");
+}
+
+reply api_handlers::metrics_reply() const {
+  metrics_gauges gauges;
+  gauges.queue_depth = deps_.jobs.queue_depth();
+  gauges.running_jobs = deps_.jobs.running_jobs();
+  gauges.open_connections = deps_.state.open_connections.load();
+  const cache_stats cache = deps_.cache.stats();
+  gauges.cache_hits = cache.hits;
+  gauges.cache_misses = cache.misses;
+  gauges.cache_memory_bytes = cache.memory_bytes;
+  gauges.cache_disk_bytes = cache.disk_bytes;
+  gauges.cache_entries = cache.entries;
+  gauges.cache_corrupt_entries = cache.corrupt_entries;
+  gauges.cache_evictions = cache.evictions;
+  gauges.cache_write_failures = cache.write_failures;
+  reply r;
+  r.route = "/metrics";
+  r.content_type = "text/plain; version=0.0.4; charset=utf-8";
+  r.body = std::make_shared<const std::string>(deps_.stats.render(gauges));
+  return r;
+}
+
+}  // namespace tracemesh::server

@@ -1,0 +1,69 @@
+#pragma once
+/// @file api_handlers.hpp
+/// The routes of tracemeshd (proto/openapi.json) on top of the HTTP transport:
+///   POST /mesh                 upload → mesh bytes (waits for the job without holding an I/O thread)
+///   POST /jobs                 upload → 202 {id, status, links} (200 when the result is already cached)
+///   GET|HEAD|DELETE /jobs/{id} job status JSON / cancel
+///   GET|HEAD /jobs/{id}/mesh   ?format=off|draco, ETag / If-None-Match → 304
+///   GET|HEAD /healthz /readyz /metrics /openapi.json; OPTIONS on every route (CORS preflight)
+/// Threads: plan() and the cheap handlers run on I/O threads; PQR decompression and parsing, job-id hashing and
+/// every disk cache read run on the prep pool; meshing runs on the job queue's workers.
+
+#include <atomic>
+#include <cstddef>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <boost/asio/thread_pool.hpp>
+#include <spdlog/logger.h>
+
+#include "proto/mesh_format.hpp"
+#include "server/http_server.hpp"
+#include "server/job_queue.hpp"
+#include "server/metrics.hpp"
+#include "server/result_cache.hpp"
+#include "server/server_limits.hpp"
+
+namespace tracemesh::server {
+
+/// What the handlers use; owned by the service, all outliving the handlers' last call.
+struct api_dependencies {
+  const server_config& config;
+  job_queue& jobs;
+  result_cache& cache;
+  metrics& stats;
+  spdlog::logger& log;
+  http_server_state& state;
+  const cors_policy& cors;
+  boost::asio::thread_pool& prep;  ///< parsing, hashing, disk cache reads
+};
+
+class api_handlers final : public request_handler {
+ public:
+  explicit api_handlers(api_dependencies deps);
+
+  std::variant<reply, body_plan> plan(const request_head& head) override;
+  void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) override;
+  void handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
+                     reply_sink done) override;
+
+  /// Uploads being received or prepared now (bounded by max_concurrent_uploads).
+  std::size_t uploads_in_flight() const { return uploads_in_flight_->load(); }
+
+ private:
+  struct upload_request;
+
+  reply metrics_reply() const;
+  reply readiness_reply() const;
+  void job_status(const std::string& id, reply_sink done);
+  void cancel_job(const std::string& id, reply_sink done);
+  void job_mesh(const request_head& head, const std::string& id, proto::mesh_format format, reply_sink done);
+  void prepare_upload(std::shared_ptr<upload_request> upload);  // on the prep pool
+  void submit_job(std::shared_ptr<upload_request> upload, const std::string& id, std::size_t atoms);
+
+  api_dependencies deps_;
+  std::shared_ptr<std::atomic<std::size_t>> uploads_in_flight_;
+};
+
+}  // namespace tracemesh::server

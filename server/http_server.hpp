@@ -1,0 +1,131 @@
+#pragma once
+/// @file http_server.hpp
+/// The HTTP transport of tracemeshd, after the Beast 1.74 advanced-server example: a listener accepting on a
+/// strand, one session per connection on its own strand over a beast::tcp_stream, a fresh parser per request.
+///
+/// A session reads one request at a time and answers it before reading the next (pipelined requests wait in the
+/// socket, so responses keep request order and at most one request per connection is in flight). Per request:
+/// 1. the header block is read under max_header_bytes (431) and header_timeout (keep-alive idle + slow headers);
+/// 2. request_handler::plan() decides from the header alone: an immediate reply (errors, 413 from
+///    Content-Length, 415...) or how to read the body; only then is "100 Continue" sent to an Expect: 100-continue;
+/// 3. an upload body is streamed chunk by chunk into the multipart parser (never buffered whole; chunked bodies
+///    are counted against the limit while streaming → 413) under the whole-request deadline request_timeout;
+/// 4. the handler answers through a reply_sink, possibly much later from another thread: the reply is posted
+///    back to the session's strand, so no I/O thread ever waits for a job;
+/// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection.
+/// Connections over max_connections get 503 and are closed. CORS headers are added to every response.
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/strand.hpp>
+#include <boost/beast/core/string.hpp>
+#include <boost/beast/http/message.hpp>
+#include <spdlog/logger.h>
+
+#include "core/status.hpp"
+#include "server/cors.hpp"
+#include "server/metrics.hpp"
+#include "server/multipart_parser.hpp"
+#include "server/server_limits.hpp"
+
+namespace tracemesh::server {
+
+namespace net = boost::asio;
+namespace http = boost::beast::http;
+
+using request_head = http::request_header<>;
+
+/// Beast 1.74 hands out boost::string_view; the rest of the code uses std::string_view.
+inline std::string_view to_std(boost::beast::string_view text) { return {text.data(), text.size()}; }
+
+/// A response as the application produces it; the session adds framing, keep-alive, Server and CORS headers.
+struct reply {
+  unsigned status = 200;
+  std::string route;  ///< route template for metrics and logs ("/jobs/{id}"), never the raw target
+  std::string content_type = "application/json";
+  std::shared_ptr<const std::string> body;  ///< shared with caches: sent without a copy
+  header_list headers;
+  bool close = false;  ///< close the connection after this response
+};
+
+/// The JSON error reply {"error": {"code", "message"}} (proto::error_body) with `status`.
+reply error_reply(unsigned status, std::string_view code, std::string_view message, std::string route);
+/// A JSON reply of `status` with the given body text.
+reply json_reply(unsigned status, std::string body, std::string route);
+
+/// Delivers the reply to a request; callable from any thread, exactly once.
+using reply_sink = std::function<void(reply)>;
+
+/// How to read a request's body, decided from its header.
+struct body_plan {
+  std::string route;
+  bool upload = false;            ///< multipart/form-data streamed into a multipart_parser
+  std::uint64_t max_bytes = 0;    ///< body limit (Content-Length was already checked against it)
+  std::string boundary;           ///< upload only
+  multipart_limits part_limits;   ///< upload only
+  std::shared_ptr<void> upload_slot;  ///< upload only: released when the last owner drops it
+};
+
+/// The application: routes and handlers (api_handlers.hpp). plan() runs on an I/O thread and must be cheap.
+class request_handler {
+ public:
+  virtual ~request_handler() = default;
+  virtual std::variant<reply, body_plan> plan(const request_head& head) = 0;
+  /// A non-upload request whose (small) body has been read.
+  virtual void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) = 0;
+  /// An upload whose multipart body has been parsed completely.
+  virtual void handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
+                             reply_sink done) = 0;
+};
+
+/// Counters shared by the listener, the sessions and the service.
+struct http_server_state {
+  std::atomic<std::size_t> open_connections{0};
+  std::atomic<std::size_t> busy_requests{0};  ///< header read, response not yet written
+  std::atomic<bool> draining{false};          ///< SIGTERM received: answer with Connection: close
+};
+
+/// Everything a session needs, owned by the service and outliving every session.
+struct http_context {
+  const server_limits& limits;
+  request_handler& handler;
+  http_server_state& state;
+  metrics& stats;
+  spdlog::logger& log;
+  cors_policy cors;
+};
+
+class http_listener : public std::enable_shared_from_this<http_listener> {
+ public:
+  http_listener(net::io_context& io, http_context& context);
+
+  /// Binds and listens on host:port (port 0 = ephemeral). errc::io_error naming the address on failure.
+  status open(const std::string& host, unsigned short port);
+  /// The bound port (after open()).
+  unsigned short port() const { return port_; }
+  /// Starts accepting (asynchronously, on the listener's strand).
+  void run();
+  /// Stops accepting: closes the acceptor on its strand. Open connections are not touched.
+  void stop();
+
+ private:
+  void do_accept();
+  void on_accept(boost::system::error_code ec, net::ip::tcp::socket socket);
+
+  net::io_context& io_;
+  http_context& context_;
+  net::strand<net::io_context::executor_type> strand_;
+  net::ip::tcp::acceptor acceptor_;
+  unsigned short port_ = 0;
+};
+
+}  // namespace tracemesh::server

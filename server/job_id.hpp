@@ -1,0 +1,28 @@
+#pragma once
+/// @file job_id.hpp
+/// Job identity: the SHA-256 of a canonical serialization of what determines the mesh, so that the same atoms
+/// and parameters give the same id however the upload was formatted (spacing, remarks, gzip, CRLF).
+///
+/// Serialization (all numbers little-endian):
+///   "tracemesh-job-v1\0" engine_version "\0"
+///   u64 atom count, then per atom in file order: f64 x, y, z, radius, charge
+///   f64 density, d, t0
+/// params.threads is excluded (it never changes the output); so is the output format: one job produces the mesh,
+/// and its encodings are cached as "<id>.off", "<id>.drc" and the report as "<id>.report".
+
+#include <string>
+
+#include "core/mesher.hpp"
+#include "core/molecule.hpp"
+
+namespace tracemesh::server {
+
+/// 64 lower-case hex characters (is_valid_job_id holds). Linear in the atom count; hashes in 64 KiB blocks.
+std::string compute_job_id(const molecule& mol, const mesh_params& params);
+
+/// Cache keys of a job's artifacts.
+std::string off_key(const std::string& job_id);
+std::string draco_key(const std::string& job_id);
+std::string report_key(const std::string& job_id);
+
+}  // namespace tracemesh::server

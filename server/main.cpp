@@ -1,0 +1,141 @@
+// tracemeshd — the tracemesh meshing service. See server/service.hpp and `tracemeshd --help`.
+#include <csignal>
+#include <cstdio>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+
+#include "server/logging.hpp"
+#include "server/service.hpp"
+
+namespace {
+
+using tracemesh::server::server_config;
+
+std::chrono::milliseconds to_millis(double seconds) {
+  return std::chrono::milliseconds(static_cast<long long>(seconds * 1000.0));
+}
+
+struct command_line {
+  server_config config;
+  std::string log_level = "info";
+};
+
+/// Fills `line` from argv; returns an exit code when the program should stop (help, errors).
+std::optional<int> parse_command_line(int argc, char** argv, command_line& line) {
+  server_config& config = line.config;
+  tracemesh::server::server_limits& limits = config.limits;
+  const tracemesh::server::server_limits defaults;
+  CLI::App app{"tracemeshd: meshes molecular Gaussian surfaces over HTTP (POST /mesh, /jobs; see /openapi.json)"};
+
+  std::string listen = config.listen_host + ":" + std::to_string(config.listen_port);
+  std::string cache_dir;
+  std::size_t max_atoms = limits.mesh.max_atoms;
+  std::uint64_t max_upload_bytes = 0;
+  double job_timeout = 600, header_timeout = 30, request_timeout = 300, write_timeout = 60, shutdown_grace = 20;
+  std::vector<std::string> cors_origins;
+
+  app.add_option("--listen", listen, "Address and port to listen on (host:port; port 0 = any free port)")
+      ->capture_default_str();
+  app.add_option("--workers", config.workers, "Jobs meshed at the same time (worker threads)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 256u));
+  app.add_option("--mesher-threads", config.mesher_threads, "Threads inside one mesher run (0 = all cores)")
+      ->capture_default_str();
+  app.add_option("--io-threads", config.io_threads, "HTTP I/O threads")->capture_default_str()->check(
+      CLI::Range(1u, 64u));
+  app.add_option("--prep-threads", config.prep_threads, "Threads parsing uploads and reading the disk cache")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 64u));
+  app.add_option("--cache-dir", cache_dir, "Result cache directory (empty: memory only)");
+  app.add_option("--cache-max-bytes", limits.cache_disk_bytes, "Disk bytes of the result cache")->capture_default_str();
+  app.add_option("--cache-memory-bytes", limits.cache_memory_bytes, "Memory bytes of the result cache")
+      ->capture_default_str();
+  app.add_option("--max-atoms", max_atoms, "Atoms accepted in one upload")->capture_default_str();
+  app.add_option("--max-upload-bytes", max_upload_bytes,
+                 "Request body bytes of an upload (default: 128 bytes per allowed atom + 64 KiB)");
+  app.add_option("--max-queue", limits.max_queue, "Jobs waiting for a worker before uploads get 429")
+      ->capture_default_str();
+  app.add_option("--max-connections", limits.max_connections, "Open connections; more get 503")
+      ->capture_default_str();
+  app.add_option("--max-concurrent-uploads", limits.max_concurrent_uploads,
+                 "Uploads received or parsed at the same time; more get 429")
+      ->capture_default_str();
+  app.add_option("--job-timeout", job_timeout, "Seconds a job may run before it fails with \"timeout\"")
+      ->capture_default_str();
+  app.add_option("--header-timeout", header_timeout,
+                 "Seconds to receive a request header (also the keep-alive idle timeout)")
+      ->capture_default_str();
+  app.add_option("--request-timeout", request_timeout, "Seconds to receive a whole request (header and body)")
+      ->capture_default_str();
+  app.add_option("--write-timeout", write_timeout, "Seconds to write one response")->capture_default_str();
+  app.add_option("--shutdown-grace", shutdown_grace,
+                 "Seconds jobs may still run after SIGTERM before they are cancelled")
+      ->capture_default_str();
+  app.add_option("--cors-origin", cors_origins, "Allowed CORS origin; repeat for several; \"*\" = any (default)");
+  app.add_option("--log-level", line.log_level, "trace, debug, info, warn, error, critical or off")
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    return app.exit(error);
+  }
+
+  if (!tracemesh::server::parse_listen_address(listen, config)) {
+    std::fprintf(stderr, "tracemeshd: --listen expects host:port, got '%s'\n", listen.c_str());
+    return 2;
+  }
+  const double timeouts[] = {job_timeout, header_timeout, request_timeout, write_timeout};
+  for (double seconds : timeouts) {
+    if (!(seconds > 0) || seconds > 1e7) {
+      std::fprintf(stderr, "tracemeshd: timeouts must be positive numbers of seconds\n");
+      return 2;
+    }
+  }
+  if (!(shutdown_grace >= 0) || shutdown_grace > 1e7 || max_atoms == 0) {
+    std::fprintf(stderr, "tracemeshd: --shutdown-grace must be >= 0 and --max-atoms > 0\n");
+    return 2;
+  }
+  config.cache_dir = cache_dir;
+  if (!cors_origins.empty()) config.cors_origins = cors_origins;
+  limits.mesh.max_atoms = max_atoms;
+  limits.max_upload_bytes =
+      max_upload_bytes > 0 ? max_upload_bytes : tracemesh::server::upload_limit_for_atoms(max_atoms);
+  limits.max_pqr_bytes = tracemesh::max_pqr_text_bytes(limits.mesh);
+  limits.job_timeout = to_millis(job_timeout);
+  limits.header_timeout = to_millis(header_timeout);
+  limits.request_timeout = to_millis(request_timeout);
+  limits.write_timeout = to_millis(write_timeout);
+  limits.shutdown_grace = to_millis(shutdown_grace);
+  return std::nullopt;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  command_line line;
+  if (auto exit_code = parse_command_line(argc, argv, line)) return *exit_code;
+
+  auto log = tracemesh::server::make_json_logger("tracemeshd");
+  log->set_level(spdlog::level::from_str(line.log_level));
+
+  // Signals are caught before any thread starts, so every thread inherits the same disposition.
+  boost::asio::io_context signal_io;
+  boost::asio::signal_set signals(signal_io, SIGINT, SIGTERM);
+  int received = 0;
+  signals.async_wait([&](const boost::system::error_code&, int signal_number) { received = signal_number; });
+
+  tracemesh::server::service service(line.config, log);
+  const tracemesh::status started = service.start();
+  if (!started.ok()) {
+    tracemesh::server::log_event(*log, spdlog::level::critical, "start_failed",
+                                 {{"error", started.message()}, {"code", tracemesh::errc_name(started.code())}});
+    return 1;
+  }
+  signal_io.run();  // blocks until SIGINT or SIGTERM
+  tracemesh::server::log_event(*log, spdlog::level::info, "signal", {{"signal", received}});
+  service.shutdown();
+  return 0;
+}

@@ -1,0 +1,62 @@
+#include "server/server_limits.hpp"
+
+#include <charconv>
+
+namespace tracemesh::server {
+
+bool parse_listen_address(const std::string& text, server_config& config) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string::npos || colon == 0 || colon + 1 == text.size()) return false;
+  std::string host = text.substr(0, colon);
+  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  unsigned port = 0;
+  const char* first = text.data() + colon + 1;
+  const char* last = text.data() + text.size();
+  const auto [end, error] = std::from_chars(first, last, port);
+  if (error != std::errc{} || end != last || port > 65535) return false;
+  config.listen_host = host;
+  config.listen_port = static_cast<unsigned short>(port);
+  return true;
+}
+
+namespace {
+
+double seconds(std::chrono::milliseconds duration) { return static_cast<double>(duration.count()) / 1000.0; }
+
+}  // namespace
+
+nlohmann::json config_to_json(const server_config& config) {
+  const server_limits& limits = config.limits;
+  return {
+      {"listen", config.listen_host + ":" + std::to_string(config.listen_port)},
+      {"workers", config.workers},
+      {"mesher_threads", config.mesher_threads},
+      {"io_threads", config.io_threads},
+      {"prep_threads", config.prep_threads},
+      {"cache_dir", config.cache_dir.string()},
+      {"cors_origins", config.cors_origins},
+      {"max_atoms", limits.mesh.max_atoms},
+      {"max_triangles", limits.mesh.max_triangles},
+      {"max_lattice_points", limits.mesh.max_lattice_points},
+      {"max_upload_bytes", limits.max_upload_bytes},
+      {"max_pqr_bytes", limits.max_pqr_bytes},
+      {"max_small_body_bytes", limits.max_small_body_bytes},
+      {"max_header_bytes", limits.max_header_bytes},
+      {"max_connections", limits.max_connections},
+      {"max_concurrent_uploads", limits.max_concurrent_uploads},
+      {"max_form_parts", limits.max_form_parts},
+      {"max_form_field_bytes", limits.max_form_field_bytes},
+      {"max_queue", limits.max_queue},
+      {"max_job_records", limits.max_job_records},
+      {"job_timeout_s", seconds(limits.job_timeout)},
+      {"header_timeout_s", seconds(limits.header_timeout)},
+      {"request_timeout_s", seconds(limits.request_timeout)},
+      {"write_timeout_s", seconds(limits.write_timeout)},
+      {"shutdown_grace_s", seconds(limits.shutdown_grace)},
+      {"retry_after_s", limits.retry_after_seconds},
+      {"cache_memory_bytes", limits.cache_memory_bytes},
+      {"cache_disk_bytes", limits.cache_disk_bytes},
+  };
+}
+
+}  // namespace tracemesh::server

@@ -1,0 +1,91 @@
+#pragma once
+/// @file server_limits.hpp
+/// Every limit of tracemeshd, named in one place with its safe default, and the rest of its configuration.
+/// main() fills these from the command line and logs them at start-up as one JSON line (limits_to_json).
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/limits.hpp"
+#include "core/pqr_reader.hpp"
+
+namespace tracemesh::server {
+
+/// A PQR ATOM line is ~70–90 bytes; 128 bytes per atom leaves room for long names, serials and CRLF. The default
+/// upload limit follows from the atom limit through this factor (2 M atoms → 256 MiB), so a 90 MB PQR of a million
+/// atoms is accepted out of the box. Multipart framing adds well under one line per part.
+inline constexpr std::uint64_t upload_bytes_per_atom = 128;
+
+/// Upload limit implied by an atom limit (used unless --max-upload-bytes is given).
+inline std::uint64_t upload_limit_for_atoms(std::size_t max_atoms) {
+  return static_cast<std::uint64_t>(max_atoms) * upload_bytes_per_atom + 64 * 1024;
+}
+
+struct server_limits {
+  /// Mesher limits (atoms, extent, lattice, triangles); max_atoms is --max-atoms.
+  mesh_limits mesh;
+  /// Request body bytes of POST /mesh and POST /jobs (--max-upload-bytes). Checked from Content-Length before any
+  /// body byte is read (413, no 100 Continue), and while streaming for chunked bodies.
+  std::uint64_t max_upload_bytes = upload_limit_for_atoms(mesh_limits{}.max_atoms);
+  /// Decompressed PQR bytes of a gzipped upload (a gzip bomb stops here with 413); follows the atom limit as
+  /// read_pqr_file does (core/pqr_reader.hpp: max_pqr_text_bytes).
+  std::uint64_t max_pqr_bytes = max_pqr_text_bytes(mesh_limits{});
+  /// Request body bytes of every other route (they take no body).
+  std::uint64_t max_small_body_bytes = 64 * 1024;
+  /// Request line + header fields; over it → 431 and the connection is closed.
+  std::uint32_t max_header_bytes = 8 * 1024;
+  /// Open connections; one over it is answered 503 and closed at once.
+  std::size_t max_connections = 256;
+  /// Uploads being received or parsed at the same time (bounds upload memory); over it → 429 + Retry-After.
+  std::size_t max_concurrent_uploads = 16;
+  /// Non-file multipart fields (parameters) and parts per upload.
+  std::size_t max_form_parts = 16;
+  std::size_t max_form_field_bytes = 4096;
+  /// Jobs waiting for a worker (--max-queue); over it → 429 + Retry-After.
+  std::size_t max_queue = 64;
+  /// Finished jobs whose status (done/failed/cancelled) is remembered for GET /jobs/{id}; done jobs stay visible
+  /// through the cache after that.
+  std::size_t max_job_records = 4096;
+  /// Wall time of one job (--job-timeout); past it the job fails with "timeout" and is not cached.
+  std::chrono::milliseconds job_timeout{std::chrono::minutes(10)};
+  /// Time to receive a request's header block, counted from the connection's start or the previous response
+  /// (keep-alive idle time and slow-header clients both end here).
+  std::chrono::milliseconds header_timeout{std::chrono::seconds(30)};
+  /// Whole-request deadline, header to last body byte (a slow body cannot hold a connection forever).
+  std::chrono::milliseconds request_timeout{std::chrono::minutes(5)};
+  /// Deadline of each response write (a client that never reads is dropped).
+  std::chrono::milliseconds write_timeout{std::chrono::seconds(60)};
+  /// SIGTERM grace period: running and queued jobs may finish within it; what is left is cancelled.
+  std::chrono::milliseconds shutdown_grace{std::chrono::seconds(20)};
+  /// Retry-After (seconds) sent with 429 and 503.
+  unsigned retry_after_seconds = 5;
+  /// Result cache: memory LRU bytes and disk bytes (--cache-max-bytes).
+  std::size_t cache_memory_bytes = 256u << 20;
+  std::uint64_t cache_disk_bytes = 4ull << 30;
+};
+
+struct server_config {
+  std::string listen_host = "127.0.0.1";
+  unsigned short listen_port = 8080;  ///< 0 = an ephemeral port (tests)
+  unsigned workers = 2;               ///< jobs run at the same time (one per worker thread)
+  unsigned mesher_threads = 0;        ///< threads inside one mesher run; 0 = all cores
+  unsigned io_threads = 1;            ///< HTTP I/O threads (never mesh, never touch disk)
+  unsigned prep_threads = 1;          ///< PQR parsing, hashing and disk cache reads
+  std::filesystem::path cache_dir;    ///< empty → memory-only cache
+  std::vector<std::string> cors_origins{"*"};  ///< allowed Origins; "*" = any
+  server_limits limits;
+};
+
+/// "host:port" → host and port into `config`; false when malformed (port not 0..65535, empty host).
+bool parse_listen_address(const std::string& text, server_config& config);
+
+/// One JSON object with every limit and setting, for the start-up log line.
+nlohmann::json config_to_json(const server_config& config);
+
+}  // namespace tracemesh::server

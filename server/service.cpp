@@ -1,0 +1,95 @@
+#include "server/service.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "server/logging.hpp"
+
+namespace tracemesh::server {
+
+namespace {
+
+/// After the jobs are settled, how long in-flight responses (e.g. the replies of cancelled synchronous jobs) get
+/// to be written before the I/O threads stop.
+constexpr std::chrono::milliseconds response_flush_time{2000};
+
+mesher_function default_mesher(mesher_function mesher) {
+  if (mesher) return mesher;
+  return [](const molecule& mol, const mesh_params& params, const mesh_limits& limits, progress_token& token) {
+    return mesh_molecule(mol, params, limits, token);
+  };
+}
+
+job_queue_options queue_options(const server_config& config) {
+  job_queue_options options;
+  options.workers = std::max(1u, config.workers);
+  options.max_queue = config.limits.max_queue;
+  options.max_records = config.limits.max_job_records;
+  options.job_timeout = config.limits.job_timeout;
+  return options;
+}
+
+}  // namespace
+
+service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesher_function mesher)
+    : config_(std::move(config)),
+      log_(std::move(log)),
+      cors_(config_.cors_origins),
+      cache_(config_.cache_dir, cache_limits{config_.limits.cache_memory_bytes, config_.limits.cache_disk_bytes}),
+      mesh_context_{cache_, metrics_, *log_, config_.limits.mesh, config_.mesher_threads,
+                    default_mesher(std::move(mesher))},
+      jobs_(queue_options(config_),
+            [this](const std::string& id, const job_input& input, progress_token& token) {
+              return run_mesh_job(mesh_context_, id, input, token);
+            },
+            metrics_),
+      prep_(std::max(1u, config_.prep_threads)),
+      api_(api_dependencies{config_, jobs_, cache_, metrics_, *log_, state_, cors_, prep_}),
+      http_context_{config_.limits, api_, state_, metrics_, *log_, cors_} {}
+
+service::~service() { shutdown(); }
+
+status service::start() {
+  if (!config_.cache_dir.empty()) {
+    const status opened = cache_.open();
+    if (!opened.ok()) return opened;
+  }
+  listener_ = std::make_shared<http_listener>(io_, http_context_);
+  const status listening = listener_->open(config_.listen_host, config_.listen_port);
+  if (!listening.ok()) return listening;
+  listener_->run();
+  const unsigned threads = std::max(1u, config_.io_threads);
+  for (unsigned i = 0; i < threads; ++i) io_threads_.emplace_back([this] { io_.run(); });
+  running_ = true;
+  nlohmann::json settings = config_to_json(config_);
+  settings["port"] = listener_->port();
+  settings["engine_version"] = engine_version;
+  log_event(*log_, spdlog::level::info, "started", settings);
+  return status::success();
+}
+
+void service::shutdown() {
+  if (!running_) {
+    jobs_.shutdown(std::chrono::milliseconds(0));
+    return;
+  }
+  running_ = false;
+  const auto started = std::chrono::steady_clock::now();
+  log_event(*log_, spdlog::level::info, "shutdown_started",
+            {{"queued", jobs_.queue_depth()}, {"running", jobs_.running_jobs()}});
+  state_.draining.store(true);
+  listener_->stop();
+  jobs_.shutdown(config_.limits.shutdown_grace);
+  const auto flush_deadline = std::chrono::steady_clock::now() + response_flush_time;
+  while (state_.busy_requests.load() > 0 && std::chrono::steady_clock::now() < flush_deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  io_.stop();
+  for (auto& thread : io_threads_) thread.join();
+  io_threads_.clear();
+  prep_.join();
+  log_event(*log_, spdlog::level::info, "shutdown_done",
+            {{"seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()}});
+}
+
+}  // namespace tracemesh::server

@@ -1,0 +1,65 @@
+#pragma once
+/// @file service.hpp
+/// tracemeshd as an object: wires the result cache, the job queue and its workers, the prep pool, the API
+/// handlers and the HTTP listener with its I/O threads. main() runs one; tests can run one in-process with a fake
+/// mesher.
+
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/thread_pool.hpp>
+#include <spdlog/logger.h>
+
+#include "server/api_handlers.hpp"
+#include "server/http_server.hpp"
+#include "server/job_queue.hpp"
+#include "server/mesh_job.hpp"
+#include "server/metrics.hpp"
+#include "server/result_cache.hpp"
+#include "server/server_limits.hpp"
+
+namespace tracemesh::server {
+
+class service {
+ public:
+  /// Nothing runs until start(). `mesher` defaults to tracemesh::mesh_molecule.
+  service(server_config config, std::shared_ptr<spdlog::logger> log, mesher_function mesher = {});
+  ~service();  ///< shutdown() if still running
+  service(const service&) = delete;
+  service& operator=(const service&) = delete;
+
+  /// Opens the cache (errc::io_error when its directory is unusable), binds the listener (errc::io_error when
+  /// the address is taken, errc::invalid_argument when malformed) and starts the I/O threads. Logs the settings.
+  status start();
+  /// The bound port (useful with listen_port 0).
+  unsigned short port() const { return listener_ ? listener_->port() : 0; }
+
+  /// Graceful stop: refuse new uploads and connections, /readyz → 503, let jobs finish for up to
+  /// limits.shutdown_grace then cancel the rest, let in-flight responses go out, stop the threads. Idempotent.
+  void shutdown();
+
+  metrics& stats() { return metrics_; }
+  job_queue& jobs() { return jobs_; }
+  result_cache& cache() { return cache_; }
+
+ private:
+  server_config config_;
+  std::shared_ptr<spdlog::logger> log_;
+  metrics metrics_;
+  http_server_state state_;
+  cors_policy cors_;
+  result_cache cache_;
+  mesh_job_context mesh_context_;
+  job_queue jobs_;
+  boost::asio::thread_pool prep_;
+  api_handlers api_;
+  http_context http_context_;
+  boost::asio::io_context io_;
+  std::shared_ptr<http_listener> listener_;
+  std::vector<std::thread> io_threads_;
+  bool running_ = false;
+};
+
+}  // namespace tracemesh::server
