@@ -1,5 +1,6 @@
 #include "server/multipart_parser.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <utility>
 
@@ -172,10 +173,12 @@ status multipart_parser::feed(std::string_view chunk) {
         pos += scan_for_delimiter(chunk.substr(pos));
         break;
       case state::epilogue:
-        return error_;
+        pos = chunk.size();
+        break;
       case state::header_line:
       case state::header_lf:
         consume_header_byte(chunk[pos++]);
+        if (state_ == state::body) reserve_file_body(consumed_bytes_ + pos);
         break;
       case state::after_boundary:
       case state::after_close_dash:
@@ -185,6 +188,7 @@ status multipart_parser::feed(std::string_view chunk) {
         break;
     }
   }
+  consumed_bytes_ += chunk.size();
   return error_;
 }
 
@@ -351,6 +355,13 @@ void multipart_parser::end_of_headers() {
   }
   if (!seen_content_type_) current_.content_type = "text/plain";
   state_ = state::body;
+}
+
+// Reserves a file part's memory from the size hint: the part starts at `body_offset` of the body, so the rest
+// of the body bounds its size.
+void multipart_parser::reserve_file_body(std::size_t body_offset) {
+  if (!current_is_file_ || body_size_hint_ <= body_offset) return;
+  current_.body.reserve(std::min(body_size_hint_ - body_offset, limits_.max_file_bytes));
 }
 
 void multipart_parser::parse_header(std::string_view line) {

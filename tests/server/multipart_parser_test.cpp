@@ -262,6 +262,22 @@ TEST(MultipartParser, HeaderSyntaxVariantsAreUnderstood) {
   EXPECT_EQ(outcome.parts[0].body, "ATOM");
 }
 
+TEST(MultipartParser, BodySizeHintNeverChangesTheResult) {
+  const auto form = realistic_form();
+  const std::string body = build_body(form);
+  for (const std::size_t hint : {std::size_t{0}, std::size_t{10}, body.size(), body.size() * 100}) {
+    multipart_parser parser{std::string(boundary)};
+    parser.set_body_size_hint(hint);
+    for (std::size_t pos = 0; pos < body.size(); pos += 333) {
+      ASSERT_TRUE(parser.feed(std::string_view(body).substr(pos, 333)).ok());
+    }
+    ASSERT_TRUE(parser.finish().ok());
+    expect_same_parts(parser.parts(), form);
+    EXPECT_LE(parser.parts()[0].body.capacity(), std::max(body.size() * 100, form[0].body.size() * 2))
+        << "reserve is bounded by the hint";
+  }
+}
+
 // ---- Malformed bodies (item 17): distinct errors ----------------------------------------------------------
 
 struct malformed_case {
