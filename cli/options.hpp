@@ -1,0 +1,55 @@
+#pragma once
+/// @file options.hpp
+/// The `tracemesh` command line:
+///   tracemesh INPUT.pqr[.gz] -o OUT.{off,drc,vert} [--density 1] [--d -1] [--t0 1] [--threads N]
+///             [--format off|draco|msms] [--report FILE|-] [--verbose]
+/// Parameters are parsed exactly as the HTTP service parses them (proto::parse_mesh_params).
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/mesher.hpp"
+#include "core/status.hpp"
+
+namespace tracemesh::cli {
+
+/// Worker threads accepted by --threads (0 = all cores); more is a typo, not a machine.
+inline constexpr unsigned max_threads = 1024;
+
+/// What the command writes: the service's formats plus the MSMS .vert/.face pair.
+enum class output_format { off, draco, msms };
+
+/// "off" | "draco" | "msms"; errc::invalid_argument otherwise.
+result<output_format> parse_output_format(std::string_view name);
+
+/// From the output's extension (case-insensitive): .off → off, .drc → draco, .vert/.face → msms.
+/// errc::invalid_argument for any other extension (then --format is needed).
+result<output_format> infer_output_format(const std::filesystem::path& output);
+
+/// The files written for `output`: itself, or for msms its .vert and .face siblings (extension replaced).
+std::vector<std::filesystem::path> output_paths(const std::filesystem::path& output, output_format format);
+
+struct cli_options {
+  std::filesystem::path input;
+  std::filesystem::path output;
+  output_format format = output_format::off;
+  mesh_params params;
+  std::optional<std::string> report;  ///< report destination: a path, or "-" for stdout
+  bool verbose = false;               ///< timings and a summary on stderr
+};
+
+/// The outcome of parsing the command line.
+struct parsed_command_line {
+  std::optional<cli_options> options;  ///< set when the program should run
+  int exit_code = 0;                   ///< otherwise exit with this code (0 for --help/--version, 2 for misuse)
+  std::string standard_output;         ///< after printing this (help, version) to stdout
+  std::string error;                   ///< or this one-line message to stderr
+};
+
+/// Parses argv. Never throws and never prints.
+parsed_command_line parse_command_line(int argc, const char* const* argv);
+
+}  // namespace tracemesh::cli

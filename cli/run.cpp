@@ -1,0 +1,96 @@
+#include "cli/run.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "cli/atomic_file.hpp"
+#include "core/mesher.hpp"
+#include "core/pqr_reader.hpp"
+#include "proto/mesh_encoders.hpp"
+#include "proto/report_json.hpp"
+
+namespace tracemesh::cli {
+namespace {
+
+using clock_type = std::chrono::steady_clock;
+
+double seconds_since(clock_type::time_point start) {
+  return std::chrono::duration<double>(clock_type::now() - start).count();
+}
+
+/// The encoded mesh: one buffer per output path (two for MSMS).
+result<std::vector<std::string>> encode(const surface_mesh& mesh, output_format format) {
+  switch (format) {
+    case output_format::off: return std::vector<std::string>{proto::encode_off(mesh)};
+    case output_format::draco: {
+      result<std::string> bytes = proto::encode_draco(mesh);
+      if (!bytes) return bytes.error();
+      return std::vector<std::string>{std::move(bytes).value()};
+    }
+    case output_format::msms:
+      return std::vector<std::string>{proto::encode_msms_vert(mesh), proto::encode_msms_face(mesh)};
+  }
+  return status(errc::invalid_argument, "unknown output format");
+}
+
+status write_outputs(const cli_options& options, const std::vector<std::string>& encoded) {
+  const std::vector<std::filesystem::path> paths = output_paths(options.output, options.format);
+  std::vector<file_contents> files;
+  for (std::size_t i = 0; i < paths.size() && i < encoded.size(); ++i) files.push_back({paths[i], encoded[i]});
+  return write_files_atomically(files);
+}
+
+status write_report(const std::string& destination, const nlohmann::json& report) {
+  const std::string text = report.dump(2) + "\n";
+  if (destination != "-") return write_file_atomically(destination, text);
+  if (std::fwrite(text.data(), 1, text.size(), stdout) != text.size() || std::fflush(stdout) != 0) {
+    return {errc::io_error, "cannot write the report to stdout"};
+  }
+  return status::success();
+}
+
+void print_summary(const mesh_output& output) {
+  for (const stage_timing& timing : output.timings) {
+    std::fprintf(stderr, "tracemesh: %-13s %9.3f s\n", stage_name(timing.stage), timing.seconds);
+  }
+  std::fprintf(stderr, "tracemesh: %zu atoms, %zu vertices, %zu triangles, area %.2f Å², volume %.2f Å³, %s\n",
+               output.atoms_meshed, output.report.vertices, output.report.triangles, output.report.area,
+               output.report.volume, output.certified ? "certified" : "NOT certified");
+}
+
+}  // namespace
+
+status run(const cli_options& options, progress_token& progress) {
+  const mesh_limits limits;
+  auto start = clock_type::now();
+  progress.report(mesh_stage::reading, 0);
+  result<molecule> mol = read_pqr_file(options.input, limits);
+  if (!mol) return mol.error();
+  const double reading_seconds = seconds_since(start);
+  if (!progress.report(mesh_stage::reading, 1)) return {errc::cancelled, "cancelled"};
+
+  result<mesh_output> meshed = mesh_molecule(*mol, options.params, limits, progress);
+  if (!meshed) return meshed.error();
+  mesh_output& output = *meshed;
+  output.timings.insert(output.timings.begin(), {mesh_stage::reading, reading_seconds});
+
+  start = clock_type::now();
+  progress.report(mesh_stage::encoding, 0);
+  const result<std::vector<std::string>> encoded = encode(output.mesh, options.format);
+  if (!encoded) return encoded.error();
+  output.timings.push_back({mesh_stage::encoding, seconds_since(start)});
+  if (!progress.report(mesh_stage::done, 1)) return {errc::cancelled, "cancelled"};
+
+  if (status written = write_outputs(options, *encoded); !written) return written;
+  if (options.report) {
+    if (status written = write_report(*options.report, proto::report_to_json(output, options.params)); !written) {
+      return written;
+    }
+  }
+  if (options.verbose) print_summary(output);
+  return status::success();
+}
+
+}  // namespace tracemesh::cli

@@ -1,0 +1,17 @@
+#pragma once
+/// @file run.hpp
+/// One `tracemesh` run: read the PQR file, mesh it, encode the mesh, write it (and the report) atomically.
+
+#include "cli/options.hpp"
+#include "core/progress.hpp"
+#include "core/status.hpp"
+
+namespace tracemesh::cli {
+
+/// Runs `options`. Progress goes to `progress` (whose listener may draw a progress bar; cancel() stops the run
+/// with errc::cancelled). With options.verbose, timings and a summary are printed on stderr.
+/// Errors: those of read_pqr_file, mesh_molecule and the encoders, and errc::io_error when an output cannot be
+/// written. Nothing is written unless meshing and encoding succeeded.
+status run(const cli_options& options, progress_token& progress);
+
+}  // namespace tracemesh::cli

@@ -1,0 +1,242 @@
+#include "proto/api_types.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+
+namespace tracemesh::proto {
+namespace {
+
+/// A lookup over fixed fields, as a form or a query string would give.
+field_lookup fields(std::map<std::string, std::string, std::less<>> values) {
+  return [values = std::move(values)](std::string_view name) -> std::optional<std::string> {
+    const auto found = values.find(name);
+    if (found == values.end()) return std::nullopt;
+    return found->second;
+  };
+}
+
+void expect_invalid_naming(const result<mesh_params>& parsed, const std::string& field) {
+  ASSERT_FALSE(parsed) << "expected an error naming " << field;
+  EXPECT_EQ(parsed.error().code(), errc::invalid_argument);
+  EXPECT_EQ(parsed.error().message().rfind(field, 0), 0U) << parsed.error().message();
+  EXPECT_EQ(parsed.error().message().find('\n'), std::string::npos);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// parse_parameter_number
+
+TEST(ParseParameterNumber, AcceptsDecimalNumbers) {
+  const std::pair<const char*, double> cases[] = {
+      {"1", 1.0},     {"1.0", 1.0},     {"-1", -1.0},     {"0.05", 0.05}, {"2e-3", 2e-3},
+      {"1E2", 100.0}, {"-0.5", -0.5},   {".5", 0.5},      {"5.", 5.0},    {"000.25", 0.25},
+  };
+  for (const auto& [text, expected] : cases) {
+    const result<double> value = parse_parameter_number("x", text);
+    ASSERT_TRUE(value) << text << ": " << value.error().message();
+    EXPECT_EQ(*value, expected) << text;
+  }
+}
+
+TEST(ParseParameterNumber, EqualNumbersAreEqualDoubles) {
+  for (const char* spelling : {"1", "1.0", "1.00000", "1e0", "10e-1", "0.1e1", "01"}) {
+    const result<double> value = parse_parameter_number("density", spelling);
+    ASSERT_TRUE(value) << spelling;
+    EXPECT_EQ(*value, 1.0) << spelling;
+    EXPECT_EQ(canonical_number(*value), "1") << spelling;
+  }
+}
+
+TEST(ParseParameterNumber, RejectsEverythingElse) {
+  for (const char* text : {"", " 1", "1 ", "+1", "1,5", "1.5.2", "1e", "abc", "1abc", "0x10", "0x1p3", "nan",
+                           "NaN", "-nan", "inf", "-inf", "infinity", "1e999", "--1", "1\n", "\t1"}) {
+    const result<double> value = parse_parameter_number("t0", text);
+    ASSERT_FALSE(value) << '"' << text << '"';
+    EXPECT_EQ(value.error().code(), errc::invalid_argument);
+    EXPECT_EQ(value.error().message().rfind("t0: ", 0), 0U) << value.error().message();
+    EXPECT_EQ(value.error().message().find('\n'), std::string::npos) << "control bytes are not echoed";
+  }
+}
+
+TEST(ParseParameterNumber, HandlesHugeInputsWithShortMessages) {
+  const std::string huge(1 << 20, '7');  // a finite 1,048,576-digit number overflows double
+  const result<double> value = parse_parameter_number("density", huge + "x");
+  ASSERT_FALSE(value);
+  EXPECT_LT(value.error().message().size(), 200U);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// parse_mesh_params
+
+TEST(ParseMeshParams, MissingFieldsKeepTheDefaults) {
+  const result<mesh_params> parsed = parse_mesh_params(fields({}));
+  ASSERT_TRUE(parsed) << parsed.error().message();
+  const mesh_params defaults;
+  EXPECT_EQ(parsed->density, defaults.density);
+  EXPECT_EQ(parsed->d, defaults.d);
+  EXPECT_EQ(parsed->t0, defaults.t0);
+}
+
+TEST(ParseMeshParams, ReadsEveryField) {
+  const result<mesh_params> parsed = parse_mesh_params(fields({{"density", "2.5"}, {"d", "-0.5"}, {"t0", "0.75"}}));
+  ASSERT_TRUE(parsed) << parsed.error().message();
+  EXPECT_EQ(parsed->density, 2.5);
+  EXPECT_EQ(parsed->d, -0.5);
+  EXPECT_EQ(parsed->t0, 0.75);
+}
+
+TEST(ParseMeshParams, CanonicalSpellingsGiveIdenticalParameters) {
+  const result<mesh_params> short_form = parse_mesh_params(fields({{"density", "1"}, {"d", "-1"}, {"t0", "1"}}));
+  const result<mesh_params> long_form =
+      parse_mesh_params(fields({{"density", "1.0"}, {"d", "-1.000"}, {"t0", "10e-1"}}));
+  ASSERT_TRUE(short_form && long_form);
+  EXPECT_EQ(canonical_parameters(*short_form), canonical_parameters(*long_form));
+  EXPECT_EQ(canonical_parameters(*short_form), "density=1;d=-1;t0=1");
+}
+
+TEST(ParseMeshParams, RangeEndsAreAccepted) {
+  using r = parameter_ranges;
+  const result<mesh_params> low = parse_mesh_params(fields({{"density", canonical_number(r::min_density)},
+                                                            {"d", canonical_number(r::min_d)},
+                                                            {"t0", canonical_number(r::min_t0)}}));
+  ASSERT_TRUE(low) << low.error().message();
+  EXPECT_EQ(low->density, r::min_density);
+  const result<mesh_params> high = parse_mesh_params(fields({{"density", canonical_number(r::max_density)},
+                                                             {"d", canonical_number(r::max_d)},
+                                                             {"t0", canonical_number(r::max_t0)}}));
+  ASSERT_TRUE(high) << high.error().message();
+  EXPECT_EQ(high->t0, r::max_t0);
+}
+
+TEST(ParseMeshParams, OutOfRangeValuesNameTheirField) {
+  expect_invalid_naming(parse_mesh_params(fields({{"density", "0.01"}})), "density");
+  expect_invalid_naming(parse_mesh_params(fields({{"density", "21"}})), "density");
+  expect_invalid_naming(parse_mesh_params(fields({{"d", "1"}})), "d");
+  expect_invalid_naming(parse_mesh_params(fields({{"d", "0"}})), "d");
+  expect_invalid_naming(parse_mesh_params(fields({{"d", "-25"}})), "d");
+  expect_invalid_naming(parse_mesh_params(fields({{"t0", "0"}})), "t0");
+  expect_invalid_naming(parse_mesh_params(fields({{"t0", "-1"}})), "t0");
+  expect_invalid_naming(parse_mesh_params(fields({{"t0", "1000"}})), "t0");
+}
+
+TEST(ParseMeshParams, UnparsableValuesNameTheirField) {
+  expect_invalid_naming(parse_mesh_params(fields({{"density", "nan"}})), "density");
+  expect_invalid_naming(parse_mesh_params(fields({{"d", ""}})), "d");
+  expect_invalid_naming(parse_mesh_params(fields({{"t0", "1;drop"}})), "t0");
+  // Only the bad field is blamed even when others are fine.
+  expect_invalid_naming(parse_mesh_params(fields({{"density", "1"}, {"d", "-1"}, {"t0", "inf"}})), "t0");
+}
+
+TEST(ParseMeshParams, IgnoresFieldsItDoesNotKnow) {
+  const result<mesh_params> parsed = parse_mesh_params(fields({{"threads", "banana"}, {"density", "3"}}));
+  ASSERT_TRUE(parsed);
+  EXPECT_EQ(parsed->density, 3.0);
+  EXPECT_EQ(parsed->threads, mesh_params{}.threads);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// parse_mesh_request
+
+TEST(ParseMeshRequest, FormatDefaultsAndParses) {
+  const result<mesh_request> plain = parse_mesh_request(fields({}));
+  ASSERT_TRUE(plain);
+  EXPECT_EQ(plain->format, mesh_format::off);
+  const result<mesh_request> fallback = parse_mesh_request(fields({}), mesh_format::draco);
+  ASSERT_TRUE(fallback);
+  EXPECT_EQ(fallback->format, mesh_format::draco);
+  const result<mesh_request> draco = parse_mesh_request(fields({{"format", "draco"}, {"density", "2"}}));
+  ASSERT_TRUE(draco);
+  EXPECT_EQ(draco->format, mesh_format::draco);
+  EXPECT_EQ(draco->params.density, 2.0);
+}
+
+TEST(ParseMeshRequest, BadFormatOrParameterIsInvalidArgument) {
+  const result<mesh_request> format = parse_mesh_request(fields({{"format", "obj"}}));
+  ASSERT_FALSE(format);
+  EXPECT_EQ(format.error().code(), errc::invalid_argument);
+  EXPECT_NE(format.error().message().find("format"), std::string::npos);
+  const result<mesh_request> density = parse_mesh_request(fields({{"format", "off"}, {"density", "x"}}));
+  ASSERT_FALSE(density);
+  EXPECT_EQ(density.error().message().rfind("density", 0), 0U);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// canonical forms, error bodies, HTTP statuses, job states
+
+TEST(CanonicalNumber, ShortestRoundTrip) {
+  EXPECT_EQ(canonical_number(1.0), "1");
+  EXPECT_EQ(canonical_number(-1.0), "-1");
+  EXPECT_EQ(canonical_number(0.1), "0.1");
+  EXPECT_EQ(canonical_number(-0.0), "0");
+  EXPECT_EQ(canonical_number(1e-3), "0.001");
+  for (const double value : {0.05, 1.0 / 3, 19.999999999999996, -0.05}) {
+    const result<double> back = parse_parameter_number("x", canonical_number(value));
+    ASSERT_TRUE(back);
+    EXPECT_EQ(*back, value);
+  }
+}
+
+TEST(CanonicalParameters, DistinguishesDifferentParameters) {
+  mesh_params a, b;
+  b.t0 = std::nextafter(1.0, 2.0);
+  EXPECT_NE(canonical_parameters(a), canonical_parameters(b));
+  b = a;
+  b.threads = 7;
+  EXPECT_EQ(canonical_parameters(a), canonical_parameters(b)) << "threads never changes the output";
+}
+
+TEST(ErrorBody, Shape) {
+  const nlohmann::json body = error_body("invalid_argument", "density: out of range");
+  ASSERT_TRUE(body.is_object());
+  ASSERT_EQ(body.size(), 1U);
+  ASSERT_TRUE(body.at("error").is_object());
+  EXPECT_EQ(body.at("error").size(), 2U);
+  EXPECT_EQ(body.at("error").at("code"), "invalid_argument");
+  EXPECT_EQ(body.at("error").at("message"), "density: out of range");
+  EXPECT_EQ(nlohmann::json::parse(body.dump()), body);
+}
+
+TEST(ErrorBody, FromStatusUsesTheStableCodeName) {
+  const nlohmann::json body = error_body(status(errc::nothing_to_mesh, "no atom with radius > 0"));
+  EXPECT_EQ(body.at("error").at("code"), "nothing_to_mesh");
+  EXPECT_EQ(body.at("error").at("message"), "no atom with radius > 0");
+}
+
+TEST(ErrorBody, EscapesArbitraryBytes) {
+  const nlohmann::json body = error_body("invalid_input", std::string("line 3: \"quote\" \\ \x01 tab\t"));
+  const std::string text = body.dump();
+  EXPECT_EQ(text.find('\x01'), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(text), body);
+}
+
+TEST(HttpStatus, MapsEveryErrorCode) {
+  EXPECT_EQ(http_status(errc::ok), 200);
+  EXPECT_EQ(http_status(errc::invalid_input), 400);
+  EXPECT_EQ(http_status(errc::invalid_argument), 400);
+  EXPECT_EQ(http_status(errc::nothing_to_mesh), 422);
+  EXPECT_EQ(http_status(errc::limit_exceeded), 413);
+  EXPECT_EQ(http_status(errc::cancelled), 503);
+  EXPECT_EQ(http_status(errc::io_error), 500);
+  EXPECT_EQ(http_status(errc::internal_error), 500);
+}
+
+TEST(JobState, NamesRoundTripAndFinalStates) {
+  const job_state all[] = {job_state::queued, job_state::running, job_state::done, job_state::failed,
+                           job_state::cancelled};
+  for (const job_state state : all) {
+    const result<job_state> parsed = parse_job_state(job_state_name(state));
+    ASSERT_TRUE(parsed);
+    EXPECT_EQ(*parsed, state);
+  }
+  EXPECT_FALSE(parse_job_state("finished"));
+  EXPECT_FALSE(is_final(job_state::queued));
+  EXPECT_FALSE(is_final(job_state::running));
+  EXPECT_TRUE(is_final(job_state::done));
+  EXPECT_TRUE(is_final(job_state::failed));
+  EXPECT_TRUE(is_final(job_state::cancelled));
+}
+
+}  // namespace
+}  // namespace tracemesh::proto
