@@ -1,0 +1,28 @@
+#pragma once
+/// @file analysis_self_intersection.hpp
+/// The broad phase of count_self_intersections: a sparse uniform grid over triangle bounding boxes.
+///
+/// Each triangle is entered in every cell its bounding box overlaps; the (cell, triangle) entries are sorted so
+/// that each cell's triangles are contiguous; within a cell, a sweep along x finds the pairs whose boxes overlap.
+/// A pair is tested only in the cell that holds the lowest corner of the intersection of the two boxes, so it is
+/// tested exactly once however many cells both boxes share. Cells are processed in parallel; the count (an
+/// integer) does not depend on the schedule.
+
+#include <cstddef>
+#include <vector>
+
+#include "core/detail/analysis_geometry.hpp"
+#include "core/mesh.hpp"
+
+namespace tracemesh::detail {
+
+/// Grid cell edge relative to the mean bounding-box extent of the triangles: about three cells per triangle.
+inline constexpr double grid_cell_factor = 2.0;
+/// Grid entries allowed per tested triangle (plus a constant); past it the cell size doubles. Bounds memory when a
+/// few triangles are huge compared with the mean.
+inline constexpr std::size_t max_grid_entries_per_triangle = 16;
+
+/// Counts the intersecting pairs (mesh_triangles_intersect) among triangles with defects[t] == none.
+std::size_t count_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects);
+
+}  // namespace tracemesh::detail
