@@ -1,0 +1,175 @@
+#include "core/mesher.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <numbers>
+
+namespace tracemesh {
+namespace {
+
+result<mesh_output> mesh(const molecule& mol, double density, unsigned threads = 0) {
+  mesh_params params;
+  params.density = density;
+  params.threads = threads;
+  progress_token progress;
+  return mesh_molecule(mol, params, {}, progress);
+}
+
+molecule atoms(std::initializer_list<atom> list) { return molecule{std::vector<atom>(list), 0}; }
+
+TEST(mesher, single_atom_gives_a_sphere_with_analytic_area_and_volume) {
+  const double r = 2.0;
+  auto out = mesh(atoms({{{0.3, -0.2, 0.1}, r, 0}}), 2.0);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  EXPECT_EQ(out->report.components.size(), 1u);
+  EXPECT_EQ(out->report.genus, 0);
+  EXPECT_NEAR(out->report.area, 4 * std::numbers::pi * r * r, 0.005 * 4 * std::numbers::pi * r * r);
+  EXPECT_NEAR(out->report.volume, 4.0 / 3 * std::numbers::pi * r * r * r, 0.005 * 4.0 / 3 * std::numbers::pi * r * r * r);
+  for (std::size_t v = 0; v < out->mesh.vertex_count(); ++v) {
+    EXPECT_NEAR(norm(out->mesh.positions[v] - vec3{0.3, -0.2, 0.1}), r, 1e-3);
+    EXPECT_NEAR(dot(out->mesh.normals[v], normalized(out->mesh.positions[v] - vec3{0.3, -0.2, 0.1})), 1.0, 1e-9);
+    EXPECT_EQ(out->mesh.atom_index[v], 0u);
+  }
+}
+
+TEST(mesher, two_distant_atoms_give_two_components) {
+  auto out = mesh(atoms({{{0, 0, 0}, 1.5, 0}, {{10, 0, 0}, 1.5, 0}}), 1.0);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  ASSERT_EQ(out->report.components.size(), 2u);
+  EXPECT_EQ(out->report.cavities, 0u);
+  EXPECT_NEAR(out->report.components[0].area, out->report.components[1].area, 0.05 * out->report.components[0].area);
+}
+
+TEST(mesher, two_overlapping_atoms_give_one_sphere_like_component) {
+  auto out = mesh(atoms({{{0, 0, 0}, 1.5, 0}, {{2, 0, 0}, 1.5, 0}}), 1.0);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  ASSERT_EQ(out->report.components.size(), 1u);
+  EXPECT_EQ(out->report.genus, 0);
+  EXPECT_EQ(out->report.euler_characteristic, 2);
+}
+
+TEST(mesher, ring_of_atoms_has_genus_one) {
+  molecule ring;
+  constexpr int count = 16;
+  for (int n = 0; n < count; ++n) {
+    const double angle = 2 * std::numbers::pi * n / count;
+    ring.atoms.push_back({{5 * std::cos(angle), 5 * std::sin(angle), 0}, 1.5, 0});
+  }
+  auto out = mesh(ring, 2.0);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  ASSERT_EQ(out->report.components.size(), 1u);
+  EXPECT_EQ(out->report.genus, 1);
+}
+
+TEST(mesher, hollow_shell_has_a_flagged_cavity) {
+  molecule shell;
+  // Fibonacci sphere of atoms: a closed shell around an empty core.
+  constexpr int count = 400;
+  const double radius = 9;
+  for (int n = 0; n < count; ++n) {
+    const double z = 1 - 2 * (n + 0.5) / count;
+    const double rho = std::sqrt(1 - z * z);
+    const double angle = n * std::numbers::pi * (3 - std::sqrt(5.0));
+    shell.atoms.push_back({{radius * rho * std::cos(angle), radius * rho * std::sin(angle), radius * z}, 1.6, 0});
+  }
+  auto out = mesh(shell, 1.0);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  ASSERT_EQ(out->report.components.size(), 2u);
+  EXPECT_EQ(out->report.cavities, 1u);
+  EXPECT_FALSE(out->report.components[0].cavity);  // the outer surface is the larger one
+  EXPECT_TRUE(out->report.components[1].cavity);
+  EXPECT_LT(out->report.components[1].volume, 0);
+}
+
+TEST(mesher, output_is_identical_whatever_the_thread_count) {
+  molecule mol;
+  for (int n = 0; n < 60; ++n) {
+    mol.atoms.push_back({{std::fmod(n * 1.37, 9.0), std::fmod(n * 2.11, 7.0), std::fmod(n * 0.73, 8.0)}, 1.2 + 0.01 * n, 0});
+  }
+  auto one = mesh(mol, 1.5, 1);
+  auto two = mesh(mol, 1.5, 2);
+  ASSERT_TRUE(one.ok() && two.ok());
+  ASSERT_EQ(one->mesh.positions.size(), two->mesh.positions.size());
+  ASSERT_EQ(one->mesh.triangles, two->mesh.triangles);
+  EXPECT_EQ(0, std::memcmp(one->mesh.positions.data(), two->mesh.positions.data(),
+                           one->mesh.positions.size() * sizeof(vec3)));
+  EXPECT_EQ(0, std::memcmp(one->mesh.normals.data(), two->mesh.normals.data(), one->mesh.normals.size() * sizeof(vec3)));
+  EXPECT_EQ(one->mesh.atom_index, two->mesh.atom_index);
+}
+
+TEST(mesher, atoms_far_apart_are_meshed_without_a_dense_grid) {
+  auto out = mesh(atoms({{{0, 0, 0}, 1.5, 0}, {{1e5, 0, 0}, 1.5, 0}}), 1.0);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_EQ(out->report.components.size(), 2u);
+}
+
+TEST(mesher, extent_beyond_the_lattice_limit_is_refused) {
+  auto out = mesh(atoms({{{-9e5, 0, 0}, 1.5, 0}, {{9e5, 0, 0}, 1.5, 0}}), 1.0);
+  ASSERT_FALSE(out.ok());
+  EXPECT_EQ(out.error().code(), errc::limit_exceeded);
+}
+
+TEST(mesher, bad_parameters_are_refused_with_their_name) {
+  const molecule mol = atoms({{{0, 0, 0}, 1.5, 0}});
+  progress_token progress;
+  for (const auto& [params, name] : std::vector<std::pair<mesh_params, std::string>>{
+           {{0.0, -1, 1, 0}, "density"}, {{NAN, -1, 1, 0}, "density"}, {{1, 0.5, 1, 0}, "d"},
+           {{1, -1, -1, 0}, "t0"}, {{1, -1, INFINITY, 0}, "t0"}}) {
+    auto out = mesh_molecule(mol, params, {}, progress);
+    ASSERT_FALSE(out.ok());
+    EXPECT_EQ(out.error().code(), errc::invalid_argument);
+    EXPECT_EQ(out.error().message().rfind(name, 0), 0u) << out.error().message();
+  }
+}
+
+TEST(mesher, only_radius_zero_atoms_is_nothing_to_mesh) {
+  auto out = mesh(atoms({{{0, 0, 0}, 0.0, 0.4}}), 1.0);
+  ASSERT_FALSE(out.ok());
+  EXPECT_EQ(out.error().code(), errc::nothing_to_mesh);
+}
+
+TEST(mesher, radius_zero_atoms_are_counted_and_ignored) {
+  auto with_zero = mesh(atoms({{{0, 0, 0}, 1.5, 0}, {{0.9, 0, 0}, 0.0, 0.4}}), 1.0);
+  auto without = mesh(atoms({{{0, 0, 0}, 1.5, 0}}), 1.0);
+  ASSERT_TRUE(with_zero.ok() && without.ok());
+  EXPECT_EQ(with_zero->zero_radius_atoms, 1u);
+  EXPECT_EQ(with_zero->atoms_meshed, 1u);
+  EXPECT_EQ(with_zero->mesh.triangles, without->mesh.triangles);
+}
+
+TEST(mesher, cancellation_stops_the_work) {
+  molecule mol;
+  for (int n = 0; n < 200; ++n) mol.atoms.push_back({{n * 0.9, 0, 0}, 1.5, 0});
+  mesh_params params;
+  progress_token progress;
+  progress.cancel();
+  auto out = mesh_molecule(mol, params, {}, progress);
+  ASSERT_FALSE(out.ok());
+  EXPECT_EQ(out.error().code(), errc::cancelled);
+}
+
+TEST(mesher, progress_is_reported_through_the_stages) {
+  molecule mol;
+  for (int n = 0; n < 50; ++n) mol.atoms.push_back({{n * 0.9, 0, 0}, 1.5, 0});
+  std::vector<mesh_stage> stages;
+  progress_token progress([&](mesh_stage stage, double fraction) {
+    EXPECT_GE(fraction, 0.0);
+    EXPECT_LE(fraction, 1.0);
+    if (stages.empty() || stages.back() != stage) stages.push_back(stage);
+  });
+  auto out = mesh_molecule(mol, {}, {}, progress);
+  ASSERT_TRUE(out.ok());
+  ASSERT_FALSE(stages.empty());
+  EXPECT_EQ(stages.back(), mesh_stage::done);
+  EXPECT_TRUE(std::is_sorted(stages.begin(), stages.end()));
+}
+
+}  // namespace
+}  // namespace tracemesh

@@ -1,0 +1,93 @@
+// Every molecule of the shared ladder up to ~35k atoms, at densities 1 and 2: the mesh must carry the certificate
+// (closed, oriented, manifold, no self-intersection, vertices on the surface) and meet the quality targets.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <string>
+
+#include "core/mesher.hpp"
+#include "core/pqr_reader.hpp"
+#include "support/test_paths.hpp"
+
+namespace tracemesh {
+namespace {
+
+struct ladder_case {
+  std::string file;
+  double density;
+};
+
+std::string case_name(const ::testing::TestParamInfo<ladder_case>& info) {
+  std::string name = info.param.file.substr(0, info.param.file.find('.'));
+  return name + "_density_" + std::to_string(static_cast<int>(info.param.density));
+}
+
+bool sanitized_build() { return std::getenv("TRACEMESH_SANITIZED") != nullptr; }
+
+class molecule_ladder : public ::testing::TestWithParam<ladder_case> {};
+
+TEST_P(molecule_ladder, mesh_is_certified_and_well_shaped) {
+  const ladder_case& c = GetParam();
+  auto mol = read_pqr_file(testing::molecule_path(c.file));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  if (sanitized_build() && mol->atoms.size() > 10000) GTEST_SKIP() << "large molecules run in the Release suite only";
+  mesh_params params;
+  params.density = c.density;
+  progress_token progress;
+  auto out = mesh_molecule(*mol, params, {}, progress);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  const mesh_report& r = out->report;
+  EXPECT_TRUE(out->certified);
+  EXPECT_EQ(r.boundary_edges, 0u);
+  EXPECT_EQ(r.non_manifold_edges, 0u);
+  EXPECT_EQ(r.non_manifold_vertices, 0u);
+  EXPECT_EQ(r.inconsistently_oriented_edges, 0u);
+  EXPECT_EQ(r.degenerate_triangles, 0u);
+  EXPECT_EQ(r.self_intersections, 0u);
+  EXPECT_EQ(r.inward_oriented_components, 0u);
+  EXPECT_LE(out->max_surface_distance, 1e-3);
+  EXPECT_GT(r.volume, 0);
+  EXPECT_NEAR(r.achieved_density, c.density, 0.2 * c.density);
+  EXPECT_GE(r.quality.edge_ratio_mean, 0.70);
+  EXPECT_LT(r.quality.fraction_below_0_2, 0.01);
+  EXPECT_GE(r.quality.shortest_edge, 0.1 * r.quality.median_edge);
+  EXPECT_EQ(out->mesh.normals.size(), out->mesh.positions.size());
+  EXPECT_EQ(out->mesh.atom_index.size(), out->mesh.positions.size());
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    ladder, molecule_ladder,
+    ::testing::Values(ladder_case{"gly.pqr", 1}, ladder_case{"gly.pqr", 2}, ladder_case{"adp.pqr", 1},
+                      ladder_case{"adp.pqr", 2}, ladder_case{"villin_1vii.pqr", 1}, ladder_case{"villin_1vii.pqr", 2},
+                      ladder_case{"fas2.pqr", 1}, ladder_case{"fas2.pqr", 2}, ladder_case{"mache.pqr", 1},
+                      ladder_case{"mache.pqr", 2}, ladder_case{"achbp.pqr", 1}, ladder_case{"achbp.pqr", 2},
+                      ladder_case{"3j6r_asu.pqr", 1}, ladder_case{"3j6r_asu.pqr", 2}, ladder_case{"1ihm_asu.pqr", 1},
+                      ladder_case{"1ihm_asu.pqr", 2}, ladder_case{"2buk_12asu.pqr", 1},
+                      ladder_case{"2buk_12asu.pqr", 2}),
+    case_name);
+
+// Area and volume converge to a much finer reference as the density grows (fas2, 906 atoms).
+TEST(mesh_convergence, area_and_volume_approach_a_fine_reference) {
+  auto mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  const auto measure = [&](double density) {
+    mesh_params params;
+    params.density = density;
+    progress_token progress;
+    auto out = mesh_molecule(*mol, params, {}, progress);
+    EXPECT_TRUE(out.ok()) << out.error().message();
+    return std::pair{out->report.area, out->report.volume};
+  };
+  const auto [reference_area, reference_volume] = measure(8.0);
+  const auto [area1, volume1] = measure(1.0);
+  const auto [area2, volume2] = measure(2.0);
+  const double area_error1 = std::abs(area1 - reference_area) / reference_area;
+  const double area_error2 = std::abs(area2 - reference_area) / reference_area;
+  const double volume_error2 = std::abs(volume2 - reference_volume) / reference_volume;
+  EXPECT_LT(area_error2, 0.02);
+  EXPECT_LT(volume_error2, 0.01);
+  EXPECT_LT(area_error2, area_error1);
+}
+
+}  // namespace
+}  // namespace tracemesh
