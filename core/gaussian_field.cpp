@@ -168,6 +168,28 @@ std::uint32_t gaussian_field::dominant_atom(const vec3& p) const {
   return best_index;
 }
 
+gaussian_field::point_probe gaussian_field::probe(const vec3& p) const {
+  point_probe out{0, {}, std::numeric_limits<std::uint32_t>::max()};
+  double best = -1;
+  visit_near(p, [&](const atom_data& a, double dx, double dy, double dz, double r2) {
+    const double k = std::exp(d_ * (r2 * a.inv_r2 - 1));
+    out.value += k;
+    const double s = 2 * d_ * a.inv_r2 * k;
+    out.gradient += vec3{s * dx, s * dy, s * dz};
+    if (k > best || (k == best && a.original_index < out.dominant_atom)) {
+      best = k;
+      out.dominant_atom = a.original_index;
+    }
+  });
+  if (out.dominant_atom == std::numeric_limits<std::uint32_t>::max()) out.dominant_atom = dominant_atom(p);
+  return out;
+}
+
+double gaussian_field::point_probe::surface_distance(double t0) const {
+  const double gn = norm(gradient);
+  return gn > 0 ? std::abs(value - t0) / gn : std::numeric_limits<double>::infinity();
+}
+
 double gaussian_field::surface_distance(const vec3& p) const {
   vec3 g;
   const double phi = value_and_gradient(p, g);

@@ -50,8 +50,18 @@ class gaussian_field {
   double value(const vec3& p) const;
   /// φ(p); writes ∇φ(p) to `gradient`.
   double value_and_gradient(const vec3& p, vec3& gradient) const;
-  /// Index into the molecule's atoms of the atom with the largest kernel value at p.
+  /// Index into the molecule's atoms of the atom with the largest kernel value at p (ties: the lower index).
   std::uint32_t dominant_atom(const vec3& p) const;
+
+  /// Everything the mesh needs at a vertex, from one pass over the nearby atoms.
+  struct point_probe {
+    double value;               ///< φ(p)
+    vec3 gradient;              ///< ∇φ(p)
+    std::uint32_t dominant_atom;  ///< as dominant_atom(p)
+    /// |φ − t0| / |∇φ|, Å
+    double surface_distance(double t0) const;
+  };
+  point_probe probe(const vec3& p) const;
   /// |φ(p) − t0| / |∇φ(p)|: first-order distance from p to the surface, Å (infinity where ∇φ = 0).
   double surface_distance(const vec3& p) const;
   /// Moves p onto {φ = t0} by Newton steps along ∇φ (paper Algorithm 1, step 3). Returns false, leaving p

@@ -148,22 +148,18 @@ void assemble_triangles(const std::vector<block_output>& outputs, const std::vec
   });
 }
 
-/// Outward unit normals (−∇φ/|∇φ|) and the dominant atom of every vertex.
-void fill_vertex_attributes(const gaussian_field& field, surface_mesh& mesh) {
+/// Outward unit normals (−∇φ/|∇φ|) and the dominant atom of every vertex; returns the largest distance of a vertex
+/// from the surface, |φ − t0| / |∇φ| (one field pass for all three).
+double finish_vertices(const gaussian_field& field, surface_mesh& mesh) {
   mesh.normals.resize(mesh.positions.size());
   mesh.atom_index.resize(mesh.positions.size());
-  tbb::parallel_for(std::size_t{0}, mesh.positions.size(), [&](std::size_t v) {
-    vec3 gradient;
-    field.value_and_gradient(mesh.positions[v], gradient);
-    mesh.normals[v] = normalized(-gradient);
-    mesh.atom_index[v] = field.dominant_atom(mesh.positions[v]);
-  });
-}
-
-double max_surface_distance(const gaussian_field& field, const surface_mesh& mesh) {
   std::vector<double> distances(mesh.positions.size());
-  tbb::parallel_for(std::size_t{0}, mesh.positions.size(),
-                    [&](std::size_t v) { distances[v] = field.surface_distance(mesh.positions[v]); });
+  tbb::parallel_for(std::size_t{0}, mesh.positions.size(), [&](std::size_t v) {
+    const gaussian_field::point_probe probe = field.probe(mesh.positions[v]);
+    mesh.normals[v] = normalized(-probe.gradient);
+    mesh.atom_index[v] = probe.dominant_atom;
+    distances[v] = probe.surface_distance(field.t0());
+  });
   return distances.empty() ? 0.0 : *std::max_element(distances.begin(), distances.end());
 }
 
@@ -219,12 +215,11 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   }
   clock.finish(mesh_stage::triangulating);
 
-  fill_vertex_attributes(field, out.mesh);
   clock.finish(mesh_stage::refining);
   if (!progress.report(mesh_stage::certifying, 0)) return cancelled_status();
 
+  out.max_surface_distance = finish_vertices(field, out.mesh);
   out.report = analyze_mesh(out.mesh);
-  out.max_surface_distance = max_surface_distance(field, out.mesh);
   out.certified = out.report.topologically_certified() && out.max_surface_distance <= surface_distance_tolerance;
   clock.finish(mesh_stage::certifying);
   if (!out.certified) return status{errc::internal_error, certificate_failure(out)};
