@@ -1,0 +1,290 @@
+// Black-box tests of the `tracemesh` executable: exit codes, the one-line error contract, outputs and atomicity.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "support/test_paths.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct run_result {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string shell_quote(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+std::size_t line_count(const std::string& text) {
+  return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));
+}
+
+/// A scratch directory per test, removed afterwards.
+class TracemeshCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() /
+           ("tracemesh_cli_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path path(const std::string& name) const { return dir_ / name; }
+
+  fs::path write(const std::string& name, const std::string& content) const {
+    std::ofstream(path(name), std::ios::binary) << content;
+    return path(name);
+  }
+
+  /// Runs tracemesh with `args` (each shell-quoted), stdout and stderr captured, stdin from /dev/null.
+  run_result run(const std::vector<std::string>& args) const {
+    std::string command = shell_quote(tracemesh::testing::binary_path("tracemesh").string());
+    // Appended piece by piece: g++ 12 raises a false -Wrestrict on `" " + std::string`.
+    for (const std::string& arg : args) {
+      command += ' ';
+      command += shell_quote(arg);
+    }
+    command += " < /dev/null > ";
+    command += shell_quote(path("stdout").string());
+    command += " 2> ";
+    command += shell_quote(path("stderr").string());
+    const int raw = std::system(command.c_str());
+    run_result result;
+    result.exit_code = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+    result.out = read_file(path("stdout"));
+    result.err = read_file(path("stderr"));
+    fs::remove(path("stdout"));
+    fs::remove(path("stderr"));
+    return result;
+  }
+
+  /// The files the test directory holds (names only).
+  std::vector<std::string> files() const {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(dir_)) names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+
+  /// The failure contract: the expected exit code, exactly one stderr line "tracemesh: ...", nothing on stdout.
+  static void expect_one_line_failure(const run_result& result, int exit_code, const std::string& mentions = "") {
+    EXPECT_EQ(result.exit_code, exit_code) << result.err;
+    EXPECT_EQ(line_count(result.err), 1U) << result.err;
+    EXPECT_EQ(result.err.rfind("tracemesh: ", 0), 0U) << result.err;
+    EXPECT_NE(result.err.find(mentions), std::string::npos) << result.err;
+    EXPECT_TRUE(result.out.empty()) << result.out;
+  }
+
+  fs::path dir_;
+};
+
+const char* const garbage_pqr = "ATOM      1  N   GLY     1      -1.0   abc   0.5 -0.3 1.5\n";
+const char* const one_atom_pqr = "ATOM      1  C   GLY     1       1.0   2.0   3.0  0.0 1.7\n";
+
+struct parsed_off {
+  std::size_t vertices = 0, triangles = 0;
+  bool ok = false;
+};
+
+/// Checks the OFF structure fully: header, counts, every vertex and triangle line, indices in range.
+parsed_off parse_off(const std::string& text) {
+  parsed_off off;
+  std::istringstream in(text);
+  std::string magic;
+  std::size_t edges = 1;
+  if (!(in >> magic >> off.vertices >> off.triangles >> edges) || magic != "OFF" || edges != 0) return off;
+  for (std::size_t i = 0; i < off.vertices; ++i) {
+    double x, y, z;
+    if (!(in >> x >> y >> z)) return off;
+  }
+  for (std::size_t f = 0; f < off.triangles; ++f) {
+    std::size_t corners, a, b, c;
+    if (!(in >> corners >> a >> b >> c) || corners != 3 || a >= off.vertices || b >= off.vertices ||
+        c >= off.vertices) {
+      return off;
+    }
+  }
+  std::string rest;
+  off.ok = !(in >> rest);
+  return off;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Misuse: exit code 2
+
+TEST_F(TracemeshCli, NoArgumentsIsUsage) { expect_one_line_failure(run({}), 2); }
+
+TEST_F(TracemeshCli, MissingOutputIsUsage) {
+  expect_one_line_failure(run({write("a.pqr", one_atom_pqr).string()}), 2, "output");
+}
+
+TEST_F(TracemeshCli, UnknownOptionIsUsage) {
+  expect_one_line_failure(run({write("a.pqr", one_atom_pqr).string(), "-o", path("a.off").string(), "--bogus"}),
+                          2, "--bogus");
+}
+
+TEST_F(TracemeshCli, BadParametersAreUsageAndNameTheParameter) {
+  const std::string input = write("a.pqr", one_atom_pqr).string();
+  const std::string output = path("a.off").string();
+  expect_one_line_failure(run({input, "-o", output, "--density", "abc"}), 2, "density");
+  expect_one_line_failure(run({input, "-o", output, "--density", "nan"}), 2, "density");
+  expect_one_line_failure(run({input, "-o", output, "--density", "0"}), 2, "density");
+  expect_one_line_failure(run({input, "-o", output, "--d", "1"}), 2, "tracemesh: d");
+  expect_one_line_failure(run({input, "-o", output, "--t0", "-1"}), 2, "t0");
+  expect_one_line_failure(run({input, "-o", output, "--t0", "1\nsecond line"}), 2, "t0");
+  expect_one_line_failure(run({input, "-o", output, "--threads", "many"}), 2, "threads");
+  expect_one_line_failure(run({input, "-o", output, "--format", "obj"}), 2, "format");
+  expect_one_line_failure(run({input, "-o", path("a.xyz").string()}), 2, "format");
+  EXPECT_EQ(files(), std::vector<std::string>{"a.pqr"}) << "nothing written on misuse";
+}
+
+TEST_F(TracemeshCli, HelpAndVersionSucceed) {
+  const run_result help = run({"--help"});
+  EXPECT_EQ(help.exit_code, 0);
+  EXPECT_NE(help.out.find("--density"), std::string::npos);
+  EXPECT_TRUE(help.err.empty());
+  const run_result version = run({"--version"});
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_NE(version.out.find("tracemesh"), std::string::npos);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Bad input: exit code 1
+
+TEST_F(TracemeshCli, MissingInputFile) {
+  expect_one_line_failure(run({path("absent.pqr").string(), "-o", path("a.off").string()}), 1, "absent.pqr");
+}
+
+TEST_F(TracemeshCli, GarbagePqr) {
+  expect_one_line_failure(run({write("bad.pqr", garbage_pqr).string(), "-o", path("bad.off").string()}), 1,
+                          "line 1");
+  EXPECT_FALSE(fs::exists(path("bad.off")));
+}
+
+TEST_F(TracemeshCli, BinaryInput) {
+  std::string bytes(4096, '\0');
+  for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<char>(i * 7919 % 256);
+  expect_one_line_failure(run({write("noise.pqr", bytes).string(), "-o", path("noise.off").string()}), 1);
+}
+
+TEST_F(TracemeshCli, NothingToMesh) {
+  expect_one_line_failure(run({write("empty.pqr", "REMARK nothing here\nEND\n").string(), "-o",
+                               path("empty.off").string()}),
+                          1);
+}
+
+TEST_F(TracemeshCli, UnwritableOutput) {
+  expect_one_line_failure(run({write("a.pqr", one_atom_pqr).string(), "-o", path("no/such/dir/a.off").string()}),
+                          1, "a.off");
+}
+
+TEST_F(TracemeshCli, FailedRunLeavesAnExistingOutputUntouched) {
+  write("keep.off", "previous content");
+  expect_one_line_failure(run({write("bad.pqr", garbage_pqr).string(), "-o", path("keep.off").string()}), 1);
+  EXPECT_EQ(read_file(path("keep.off")), "previous content");
+  EXPECT_EQ(files(), (std::vector<std::string>{"bad.pqr", "keep.off"})) << "no temporary file left behind";
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Success on real molecules (needs the mesher)
+
+TEST_F(TracemeshCli, MeshesGlycineToOffWithACertifiedReport) {
+  const run_result result = run({tracemesh::testing::molecule_path("gly.pqr").string(), "-o",
+                                 path("gly.off").string(), "--report", path("gly.json").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_TRUE(result.err.empty()) << "quiet by default, no progress bar off a TTY: " << result.err;
+  EXPECT_TRUE(result.out.empty());
+  const parsed_off off = parse_off(read_file(path("gly.off")));
+  ASSERT_TRUE(off.ok);
+  EXPECT_GT(off.vertices, 100U);
+  const nlohmann::json report = nlohmann::json::parse(read_file(path("gly.json")));
+  EXPECT_EQ(report.at("certificate").at("certified"), true);
+  EXPECT_EQ(report.at("vertices"), off.vertices);
+  EXPECT_EQ(report.at("triangles"), off.triangles);
+  EXPECT_EQ(report.at("atoms_meshed"), 7);
+  EXPECT_EQ(report.at("components").size(), 1U);
+  EXPECT_EQ(report.at("genus"), 0);
+  EXPECT_TRUE(report.at("timings").contains("encoding"));
+  EXPECT_EQ(files(), (std::vector<std::string>{"gly.json", "gly.off"}));
+}
+
+TEST_F(TracemeshCli, MeshesFasciculinWithTheReportOnStdout) {
+  const run_result result = run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o",
+                                 path("fas2.off").string(), "--report", "-", "--density", "1.0", "--d=-1",
+                                 "--t0", "1"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const nlohmann::json report = nlohmann::json::parse(result.out);
+  EXPECT_EQ(report.at("certificate").at("certified"), true);
+  EXPECT_EQ(report.at("atoms_meshed"), 906);
+  EXPECT_EQ(report.at("parameters"), (nlohmann::json{{"density", 1.0}, {"d", -1.0}, {"t0", 1.0}}));
+  const parsed_off off = parse_off(read_file(path("fas2.off")));
+  ASSERT_TRUE(off.ok);
+  EXPECT_EQ(report.at("vertices"), off.vertices);
+  EXPECT_EQ(report.at("triangles"), off.triangles);
+}
+
+TEST_F(TracemeshCli, OutputIsTheSameWhateverTheThreadCount) {
+  const std::string input = tracemesh::testing::molecule_path("fas2.pqr").string();
+  ASSERT_EQ(run({input, "-o", path("one.off").string(), "--threads", "1"}).exit_code, 0);
+  ASSERT_EQ(run({input, "-o", path("two.off").string(), "--threads", "2"}).exit_code, 0);
+  EXPECT_EQ(read_file(path("one.off")), read_file(path("two.off")));
+}
+
+TEST_F(TracemeshCli, FormatFromTheExtensionOrTheOption) {
+  const std::string input = tracemesh::testing::molecule_path("gly.pqr").string();
+  ASSERT_EQ(run({input, "-o", path("gly.drc").string()}).exit_code, 0);
+  EXPECT_EQ(read_file(path("gly.drc")).rfind("DRACO", 0), 0U) << "Draco magic";
+  ASSERT_EQ(run({input, "-o", path("gly.bin").string(), "--format", "draco"}).exit_code, 0);
+  EXPECT_EQ(read_file(path("gly.bin")), read_file(path("gly.drc")));
+  ASSERT_EQ(run({input, "-o", path("upper.OFF").string()}).exit_code, 0);
+  EXPECT_TRUE(parse_off(read_file(path("upper.OFF"))).ok);
+}
+
+TEST_F(TracemeshCli, MsmsPair) {
+  const run_result result =
+      run({tracemesh::testing::molecule_path("gly.pqr").string(), "-o", path("gly.vert").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const std::string vert = read_file(path("gly.vert")), face = read_file(path("gly.face"));
+  std::istringstream vert_header(vert.substr(vert.find('\n', vert.find('\n') + 1) + 1));
+  std::istringstream face_header(face.substr(face.find('\n', face.find('\n') + 1) + 1));
+  std::size_t vertices = 0, triangles = 0;
+  ASSERT_TRUE(vert_header >> vertices);
+  ASSERT_TRUE(face_header >> triangles);
+  EXPECT_EQ(line_count(vert), 3 + vertices);
+  EXPECT_EQ(line_count(face), 3 + triangles);
+  EXPECT_EQ(2 * vertices - 4, triangles) << "a closed genus-0 surface";
+}
+
+TEST_F(TracemeshCli, VerbosePrintsTimingsOnStderr) {
+  const run_result result = run({tracemesh::testing::molecule_path("gly.pqr").string(), "-o",
+                                 path("gly.off").string(), "--verbose"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.err.find("sampling"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("certified"), std::string::npos) << result.err;
+}
+
+}  // namespace
