@@ -1,0 +1,365 @@
+#include "core/detail/remesh_operations.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/detail/remesh_geometry.hpp"
+
+namespace tracemesh::detail {
+namespace {
+
+/// Below this shape quality a triangle's normal is dominated by position noise (marching-tetrahedra slivers): it
+/// is not used to decide whether its replacement flips.
+constexpr double meaningful_normal_quality = 0.05;
+/// Cancellation is polled every this many candidate edges.
+constexpr std::size_t poll_interval = 4096;
+/// Sweeps of splitting (or collapsing) repeated within one iteration until nothing changes.
+constexpr int max_repeated_sweeps = 4;
+constexpr int target_valence = 6;
+/// Splits and collapses may leave their worst triangle at this fraction of the worst one they replace (when under
+/// the quality floor): dissolving a cluster of slivers makes some neighbouring thin triangle marginally thinner.
+constexpr double topological_quality_slack = 0.5;
+
+bool contains(const std::vector<std::uint32_t>& list, std::uint32_t value) {
+  return std::find(list.begin(), list.end(), value) != list.end();
+}
+
+}  // namespace
+
+remesh_operations::remesh_operations(remesh_mesh& mesh, const gaussian_field& field,
+                                     const remesh_thresholds& thresholds, const progress_token& progress)
+    : mesh_(mesh), field_(field), thresholds_(thresholds), progress_(progress) {}
+
+bool remesh_operations::stop_requested(std::size_t step) const {
+  return step % poll_interval == 0 && progress_.cancelled();
+}
+
+bool remesh_operations::project(vec3& p, vec3& n) const {
+  return project_onto_surface(field_, p, n, thresholds_.max_move, thresholds_.surface_tolerance);
+}
+
+// --- acceptance of new triangles ------------------------------------------------------------------------------
+
+namespace {
+
+/// The worst agreement between the triangle's normal and the field normals at its corners: min over corners of
+/// cos(angle); 0 for a degenerate triangle.
+template <class Triangle>
+double agreement(const Triangle& t) {
+  const vec3 normal = normalized(area_vector(t.p[0], t.p[1], t.p[2]));
+  return std::min({dot(normal, t.n[0]), dot(normal, t.n[1]), dot(normal, t.n[2])});
+}
+
+template <class Triangle>
+double quality(const Triangle& t) {
+  return triangle_quality(t.p[0], t.p[1], t.p[2]);
+}
+
+}  // namespace
+
+remesh_operations::oriented_triangle remesh_operations::triangle_of(std::uint32_t h) const {
+  const std::uint32_t a = mesh_.from(h), b = mesh_.to(h), c = mesh_.apex(h);
+  return {{mesh_.position(a), mesh_.position(b), mesh_.position(c)}, {mesh_.normal(a), mesh_.normal(b), mesh_.normal(c)}};
+}
+
+remesh_operations::replaced_triangle remesh_operations::replaced(const oriented_triangle& t,
+                                                                 double worst_quality) const {
+  const bool meaningful = quality(t) >= meaningful_normal_quality;
+  return {worst_quality, agreement(t), meaningful ? normalized(area_vector(t.p[0], t.p[1], t.p[2])) : vec3{}};
+}
+
+bool remesh_operations::acceptable(const oriented_triangle& t, const replaced_triangle& old) const {
+  const double q = quality(t);
+  if (!(q >= thresholds_.hard_quality_floor) || q < std::min(thresholds_.quality_floor, old.quality)) return false;
+  // Face the way the surface does at every corner (checked at the vertices, where the field normal is exact and
+  // known, rather than at the off-surface centroid); never worse than the triangle replaced.
+  if (agreement(t) < std::min(thresholds_.min_normal_cosine, old.agreement)) return false;
+  return dot(normalized(area_vector(t.p[0], t.p[1], t.p[2])), old.normal) >= 0;
+}
+
+// --- split ------------------------------------------------------------------------------------------------------
+
+bool remesh_operations::split_long_edges() {
+  const double limit2 = thresholds_.split_above * thresholds_.split_above;
+  for (int sweep = 0; sweep < max_repeated_sweeps; ++sweep) {
+    const std::size_t before = counts_.splits;
+    // New half-edges are appended and visited in the same sweep.
+    for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
+      if (stop_requested(h)) return false;
+      if (mesh_.face_removed(remesh_mesh::face_of(h)) || mesh_.opposite(h) < h) continue;
+      if (squared_norm(mesh_.position(mesh_.to(h)) - mesh_.position(mesh_.from(h))) <= limit2) continue;
+      if (!try_split(h)) ++counts_.rejected;
+    }
+    if (counts_.splits == before) break;
+  }
+  return true;
+}
+
+bool remesh_operations::try_split(std::uint32_t h) {
+  const std::uint32_t o = mesh_.opposite(h);
+  const std::uint32_t a = mesh_.from(h), b = mesh_.to(h), c = mesh_.apex(h), d = mesh_.apex(o);
+  for (const std::uint32_t v : {a, b, c, d}) {
+    if (mesh_.protection(v) == vertex_protection::frozen) return false;
+  }
+  if (c == d) return false;
+  vec3 p = (mesh_.position(a) + mesh_.position(b)) * 0.5, n;
+  if (!project(p, n)) return false;
+
+  // (a, b, c) becomes (a, p, c) + (p, b, c); (b, a, d) becomes (b, p, d) + (p, a, d).
+  const oriented_triangle abc = triangle_of(h), bad = triangle_of(o);
+  const double worst = topological_quality_slack * std::min(quality(abc), quality(bad));
+  const replaced_triangle old_abc = replaced(abc, worst), old_bad = replaced(bad, worst);
+  const auto with_midpoint = [&](oriented_triangle t, int corner) {
+    t.p[corner] = p;
+    t.n[corner] = n;
+    return t;
+  };
+  if (!acceptable(with_midpoint(abc, 1), old_abc) || !acceptable(with_midpoint(abc, 0), old_abc) ||
+      !acceptable(with_midpoint(bad, 1), old_bad) || !acceptable(with_midpoint(bad, 0), old_bad)) {
+    return false;
+  }
+  mesh_.split_edge(h, p, n);
+  ++counts_.splits;
+  return true;
+}
+
+// --- collapse ---------------------------------------------------------------------------------------------------
+
+bool remesh_operations::collapse_short_edges(double shorter_than) {
+  const double limit2 = shorter_than * shorter_than;
+  for (int sweep = 0; sweep < max_repeated_sweeps; ++sweep) {
+    const std::size_t before = counts_.collapses;
+    for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
+      if (stop_requested(h)) return false;
+      if (mesh_.face_removed(remesh_mesh::face_of(h)) || mesh_.opposite(h) < h) continue;
+      const std::uint32_t a = mesh_.from(h), b = mesh_.to(h);
+      if (squared_norm(mesh_.position(b) - mesh_.position(a)) >= limit2) continue;
+      if (mesh_.protection(a) != vertex_protection::free || mesh_.protection(b) != vertex_protection::free) continue;
+      if (!try_collapse(h)) ++counts_.rejected;
+    }
+    if (counts_.collapses == before) break;
+  }
+  return true;
+}
+
+bool remesh_operations::try_collapse(std::uint32_t h) {
+  const std::uint32_t o = mesh_.opposite(h);
+  const std::uint32_t a = mesh_.from(h), b = mesh_.to(h), c = mesh_.apex(h), d = mesh_.apex(o);
+  if (c == d) return false;
+  // Topology: the merged vertex keeps valence ≥ 3, c and d keep ≥ 3, and a and b share no neighbour but c and d
+  // (the link condition: otherwise the collapse would pinch the surface).
+  mesh_.one_ring(a, ring_a_);
+  mesh_.one_ring(b, ring_b_);
+  if (ring_a_.size() + ring_b_.size() < 7) return false;
+  if (mesh_.valence(c) <= 3 || mesh_.valence(d) <= 3) return false;
+  int common = 0;
+  for (const std::uint32_t x : ring_a_) common += contains(ring_b_, x);
+  if (common != 2) return false;
+
+  const std::uint32_t f0 = remesh_mesh::face_of(h), f1 = remesh_mesh::face_of(o);
+  const vec3 &pa = mesh_.position(a), &pb = mesh_.position(b);
+  const vec3 &na = mesh_.normal(a), &nb = mesh_.normal(b);
+  const double keep_a = collapse_outcome(a, pa, na, b, f0, f1, ring_b_);
+  const double keep_b = collapse_outcome(b, pb, nb, a, f0, f1, ring_a_);
+  if (keep_a >= 0 || keep_b >= 0) {
+    if (keep_a >= keep_b) {
+      mesh_.collapse_edge(h, pa, na);
+    } else {
+      mesh_.collapse_edge(o, pb, nb);
+    }
+    ++counts_.collapses;
+    return true;
+  }
+  // Neither end point will do: try the midpoint, projected (it moves both ends, so both fans are checked).
+  vec3 p = (pa + pb) * 0.5, n;
+  if (!project(p, n) || collapse_outcome(a, p, n, b, f0, f1, ring_b_) < 0 ||
+      collapse_outcome(b, p, n, a, f0, f1, ring_a_) < 0) {
+    return false;
+  }
+  mesh_.collapse_edge(h, p, n);
+  ++counts_.collapses;
+  return true;
+}
+
+double remesh_operations::collapse_outcome(std::uint32_t kept, const vec3& p, const vec3& n, std::uint32_t removed,
+                                           std::uint32_t f0, std::uint32_t f1,
+                                           const std::vector<std::uint32_t>& removed_ring) {
+  // No new edge longer than the split length (edges that already were wait for the next split sweep).
+  const double max_edge2 = thresholds_.max_edge_after_collapse * thresholds_.max_edge_after_collapse;
+  for (const std::uint32_t x : removed_ring) {
+    if (x == kept || squared_norm(mesh_.position(x) - p) <= max_edge2) continue;
+    if (squared_norm(mesh_.position(x) - mesh_.position(removed)) <= max_edge2) return -1;
+  }
+  // The removed vertex's faces, except the two that vanish, get the kept vertex instead.
+  double worst = 1;
+  const std::uint32_t start = mesh_.outgoing(removed);
+  std::uint32_t g = start;
+  do {
+    worst = std::min(worst, topological_quality_slack * quality(triangle_of(g)));
+    g = mesh_.rotate(g);
+  } while (g != start);
+  double worst_new = 1;
+  g = start;
+  do {
+    const std::uint32_t f = remesh_mesh::face_of(g);
+    if (f != f0 && f != f1) {
+      const oriented_triangle old = triangle_of(g);
+      oriented_triangle moved = old;
+      moved.p[0] = p;
+      moved.n[0] = n;
+      if (!acceptable(moved, replaced(old, worst))) return -1;
+      worst_new = std::min(worst_new, quality(moved));
+    }
+    g = mesh_.rotate(g);
+  } while (g != start);
+  return worst_new;
+}
+
+// --- flip -------------------------------------------------------------------------------------------------------
+
+bool remesh_operations::flip_edges_for_valence() {
+  std::vector<int> valences(mesh_.vertex_slots(), 0);
+  for (std::uint32_t v = 0; v < mesh_.vertex_slots(); ++v) {
+    if (!mesh_.vertex_removed(v)) valences[v] = static_cast<int>(mesh_.valence(v));
+  }
+  for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
+    if (stop_requested(h)) return false;
+    if (mesh_.face_removed(remesh_mesh::face_of(h)) || mesh_.opposite(h) < h) continue;
+    try_flip(h, valences);
+  }
+  return true;
+}
+
+bool remesh_operations::try_flip(std::uint32_t h, std::vector<int>& valences) {
+  const std::uint32_t o = mesh_.opposite(h);
+  const std::uint32_t a = mesh_.from(h), b = mesh_.to(h), c = mesh_.apex(h), d = mesh_.apex(o);
+  const auto deviation = [](int va, int vb, int vc, int vd) {
+    const auto sq = [](int x) { return (x - target_valence) * (x - target_valence); };
+    return sq(va) + sq(vb) + sq(vc) + sq(vd);
+  };
+  const int before = deviation(valences[a], valences[b], valences[c], valences[d]);
+  const int after = deviation(valences[a] - 1, valences[b] - 1, valences[c] + 1, valences[d] + 1);
+  if (after >= before || valences[a] <= 3 || valences[b] <= 3 || c == d) return false;
+  for (const std::uint32_t v : {a, b, c, d}) {
+    if (mesh_.protection(v) == vertex_protection::frozen) return false;
+  }
+  if (mesh_.find_halfedge(c, d) != no_index) {
+    ++counts_.rejected;
+    return false;
+  }
+  // (a, b, c) and (b, a, d) become (a, d, c) and (d, b, c). Each must match the worse of the old pair, and the
+  // two may not fold against each other along c–d.
+  const oriented_triangle abc = triangle_of(h), bad = triangle_of(o);
+  const oriented_triangle adc{{abc.p[0], bad.p[2], abc.p[2]}, {abc.n[0], bad.n[2], abc.n[2]}};
+  const oriented_triangle dbc{{bad.p[2], abc.p[1], abc.p[2]}, {bad.n[2], abc.n[1], abc.n[2]}};
+  const double worst = std::min(quality(abc), quality(bad));
+  const double worst_agreement = std::min(agreement(abc), agreement(bad));
+  const replaced_triangle against_dbc{worst, worst_agreement, normalized(area_vector(dbc.p[0], dbc.p[1], dbc.p[2]))};
+  const replaced_triangle against_adc{worst, worst_agreement, normalized(area_vector(adc.p[0], adc.p[1], adc.p[2]))};
+  if (!acceptable(adc, against_dbc) || !acceptable(dbc, against_adc)) {
+    ++counts_.rejected;
+    return false;
+  }
+  mesh_.flip_edge(h);
+  --valences[a];
+  --valences[b];
+  ++valences[c];
+  ++valences[d];
+  ++counts_.flips;
+  return true;
+}
+
+// --- tangential relaxation -------------------------------------------------------------------------------------
+
+bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& normal) const {
+  const vec3& p = mesh_.position(v);
+  vec3 weighted{};
+  double total_area = 0;
+  double worst = 1;
+  const std::uint32_t start = mesh_.outgoing(v);
+  std::uint32_t g = start;
+  do {
+    const oriented_triangle t = triangle_of(g);
+    const double area = norm(area_vector(t.p[0], t.p[1], t.p[2]));
+    weighted += (t.p[0] + t.p[1] + t.p[2]) * (area / 3);
+    total_area += area;
+    worst = std::min(worst, quality(t));
+    g = mesh_.rotate(g);
+  } while (g != start);
+  if (!(total_area > 0)) return false;
+
+  const vec3& n = mesh_.normal(v);
+  vec3 move = weighted / total_area - p;
+  move -= n * dot(n, move);  // stay in the tangent plane; the projection below follows the curvature
+  if (squared_norm(move) == 0) return false;
+  vec3 q = p + move, nq;
+  if (!project(q, nq)) return false;
+
+  g = start;
+  do {
+    const oriented_triangle old = triangle_of(g);
+    oriented_triangle moved = old;
+    moved.p[0] = q;
+    moved.n[0] = nq;
+    if (!acceptable(moved, replaced(old, worst))) return false;
+    g = mesh_.rotate(g);
+  } while (g != start);
+  position = q;
+  normal = nq;
+  return true;
+}
+
+bool remesh_operations::relax_vertices() {
+  enum outcome : std::uint8_t { unchanged, moved, refused };
+  std::vector<std::uint8_t> outcomes(mesh_.vertex_slots(), unchanged);
+  for (const auto& colour : colour_free_vertices(mesh_)) {
+    if (progress_.cancelled()) return false;
+    // Vertices of one colour are pairwise non-adjacent: each reads only its own 1-ring, which nobody moves now.
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, colour.size(), 256), [&](const auto& range) {
+      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+        const std::uint32_t v = colour[i];
+        vec3 position, normal;
+        if (relaxed_position(v, position, normal)) {
+          mesh_.move_vertex(v, position, normal);
+          outcomes[v] = moved;
+        } else {
+          outcomes[v] = refused;
+        }
+      }
+    });
+  }
+  for (const std::uint8_t o : outcomes) {
+    counts_.relaxations += o == moved;
+    counts_.rejected += o == refused;
+  }
+  return true;
+}
+
+std::vector<std::vector<std::uint32_t>> colour_free_vertices(const remesh_mesh& mesh) {
+  constexpr std::uint8_t uncoloured = 255;
+  std::vector<std::uint8_t> colour(mesh.vertex_slots(), uncoloured);
+  std::vector<std::vector<std::uint32_t>> classes;
+  std::vector<std::uint32_t> ring;
+  std::vector<bool> used;
+  for (std::uint32_t v = 0; v < mesh.vertex_slots(); ++v) {
+    if (mesh.vertex_removed(v) || mesh.protection(v) != vertex_protection::free) continue;
+    mesh.one_ring(v, ring);
+    used.assign(classes.size() + 1, false);
+    for (const std::uint32_t x : ring) {
+      if (colour[x] != uncoloured) used[colour[x]] = true;
+    }
+    std::size_t c = 0;
+    while (used[c]) ++c;
+    // Valences stay far below 254 on a remeshed surface; a vertex of huge valence simply does not move.
+    if (c >= uncoloured) continue;
+    if (c == classes.size()) classes.emplace_back();
+    colour[v] = static_cast<std::uint8_t>(c);
+    classes[c].push_back(v);
+  }
+  return classes;
+}
+
+}  // namespace tracemesh::detail

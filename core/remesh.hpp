@@ -1,0 +1,79 @@
+#pragma once
+/// @file remesh.hpp
+/// The quality pass: turns the valid but badly shaped marching-tetrahedra mesh of {φ = t0} into a well-shaped
+/// mesh whose edges are close to a target length L, without ever losing validity (isotropic remeshing after
+/// Botsch & Kobbelt, "A remeshing approach to multiresolution modeling", 2004, made safe).
+///
+/// Each outer iteration splits long edges, collapses short ones, flips edges towards valence 6 and moves every
+/// vertex towards the centre of its 1-ring in the tangent plane; every new or moved vertex is projected onto the
+/// surface. Every operation is checked locally (link condition, normals against the field normal, no degenerate
+/// triangle). Local checks cannot see two sheets of surface that come close, so the result is then checked for
+/// self-intersections and degenerate triangles: when any are found, the input vertices near them are frozen and
+/// the pass restarts from the input, until the result is clean (at worst everything is frozen and the input is
+/// returned). Deterministic: the same input gives the same output whatever the number of threads.
+
+#include <cstddef>
+
+#include "core/gaussian_field.hpp"
+#include "core/limits.hpp"
+#include "core/mesh.hpp"
+#include "core/progress.hpp"
+#include "core/status.hpp"
+
+namespace tracemesh {
+
+struct remesh_options {
+  double target_edge = 1.0;  ///< L, Å. The mesher derives it from the density: L = √(2 / (√3 · density)).
+  int iterations = 5;        ///< outer iterations of split / collapse / flip / relax
+  double split_above = 4.0 / 3.0;     ///< split edges longer than this × L
+  double collapse_below = 4.0 / 5.0;  ///< collapse edges shorter than this × L (never creating one > split_above × L)
+  double tiny_edge_below = 0.2;       ///< edges shorter than this × L are collapsed in a first, separate sweep
+  /// Every new or moved triangle's normal must stay within this angle (degrees) of the field normal −∇φ/|∇φ|
+  /// averaged over its three vertices: this is what keeps the mesh from folding.
+  double max_normal_deviation_deg = 70.0;
+  /// Shape quality q = 4√3·area / Σ edge² (1 = equilateral, 0 = degenerate). An operation may not create a triangle
+  /// below min(quality_floor, worst quality among the triangles it replaces)...
+  double quality_floor = 0.25;
+  /// ...nor, whatever it replaces, one below this (keeps every triangle clearly non-degenerate).
+  double hard_quality_floor = 1e-6;
+  /// Å: every new or moved vertex ends within this first-order distance |φ − t0| / |∇φ| of the surface.
+  double surface_tolerance = 1e-5;
+  int final_relaxations = 2;          ///< extra tangential relaxation sweeps after the last iteration
+  /// After a failed check, input vertices within freeze_radius × L of an offending triangle are frozen; the radius
+  /// doubles with every further round.
+  double freeze_radius = 2.0;
+  /// When true and mesh.normals holds one unit normal per vertex, they are taken as the field normals −∇φ/|∇φ| of
+  /// the input vertices instead of evaluating the field there (the mesher's root finder may already know them).
+  bool trust_input_normals = false;
+  int max_rounds = 6;  ///< rounds (pass + check) before giving up and returning the input unchanged
+  std::size_t max_triangles = mesh_limits{}.max_triangles;  ///< errc::limit_exceeded when the output would exceed it
+};
+
+struct remesh_stats {
+  // Operations applied in the final round.
+  std::size_t splits = 0;
+  std::size_t collapses = 0;
+  std::size_t flips = 0;
+  std::size_t relaxations = 0;    ///< accepted vertex moves
+  std::size_t rejected_ops = 0;   ///< candidate operations refused by a local safety check
+  std::size_t frozen_vertices = 0;  ///< input vertices frozen in the final round
+  int rounds = 0;                 ///< rounds run (1 when the first result was clean)
+  bool input_returned = false;    ///< true when no round gave a clean result and the input was kept
+};
+
+/// Improves `mesh` in place.
+/// @param mesh     precondition: closed, edge- and vertex-manifold, consistently oriented (counter-clockwise seen
+///                 from outside), no degenerate triangle, no self-intersection, no unreferenced vertex, vertices on
+///                 {φ = t0}. Postcondition: the same properties, the same number of components and the same genus
+///                 per component, every moved or new vertex within 1e-4 Å of the surface; mesh.normals
+///                 (−∇φ/|∇φ|) and mesh.atom_index (field.dominant_atom) filled for the final vertices.
+/// @param field    the field whose surface {φ = field.t0()} the mesh approximates.
+/// @param options  target edge length and thresholds (see remesh_options).
+/// @param progress polled between sweeps and every few thousand operations (stage mesh_stage::refining).
+/// @return the statistics, or: errc::invalid_argument (options out of range, or a mesh that is not a closed
+///         oriented manifold), errc::limit_exceeded (output over options.max_triangles), errc::cancelled. On
+///         error the mesh is left unchanged.
+result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& field, const remesh_options& options,
+                                    progress_token& progress);
+
+}  // namespace tracemesh
