@@ -279,6 +279,31 @@ TEST_F(TracemeshCli, MsmsPair) {
   EXPECT_EQ(2 * vertices - 4, triangles) << "a closed genus-0 surface";
 }
 
+TEST_F(TracemeshCli, GzipInputGivesTheSameMesh) {
+  const fs::path plain = tracemesh::testing::molecule_path("gly.pqr");
+  const std::string gzip = "gzip -c " + shell_quote(plain.string()) + " > " + shell_quote(path("gly.pqr.gz").string());
+  ASSERT_EQ(std::system(gzip.c_str()), 0);
+  ASSERT_EQ(run({plain.string(), "-o", path("plain.off").string()}).exit_code, 0);
+  const run_result result = run({path("gly.pqr.gz").string(), "-o", path("gzip.off").string()});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(read_file(path("gzip.off")), read_file(path("plain.off")));
+}
+
+TEST_F(TracemeshCli, InterruptCancelsCleanly) {
+  // SIGINT half a second into an 8,279-atom run: exit 130, one line, no output and no temporary file.
+  const std::string command =
+      shell_quote(tracemesh::testing::binary_path("tracemesh").string()) + " " +
+      shell_quote(tracemesh::testing::molecule_path("mache.pqr").string()) + " -o " +
+      shell_quote(path("mache.off").string()) + " 2> " + shell_quote(path("stderr").string()) +
+      " & pid=$!; sleep 0.5; kill -INT $pid; wait $pid; echo $? > " + shell_quote(path("exit").string());
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  EXPECT_EQ(read_file(path("exit")), "130\n");
+  const std::string err = read_file(path("stderr"));
+  EXPECT_EQ(line_count(err), 1U) << err;
+  EXPECT_NE(err.find("cancelled"), std::string::npos) << err;
+  EXPECT_EQ(files(), (std::vector<std::string>{"exit", "stderr"}));
+}
+
 TEST_F(TracemeshCli, VerbosePrintsTimingsOnStderr) {
   const run_result result = run({tracemesh::testing::molecule_path("gly.pqr").string(), "-o",
                                  path("gly.off").string(), "--verbose"});
