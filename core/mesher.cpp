@@ -14,6 +14,7 @@
 #include "core/lattice.hpp"
 #include "core/lattice_sampler.hpp"
 #include "core/marching_tetrahedra.hpp"
+#include "core/remesh.hpp"
 
 namespace tracemesh {
 namespace {
@@ -215,6 +216,11 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   }
   clock.finish(mesh_stage::triangulating);
 
+  remesh_options refine;
+  refine.target_edge = edge;
+  refine.max_triangles = limits.max_triangles;
+  auto refined = remesh_surface(out.mesh, field, refine, progress);
+  if (!refined) return refined.error();
   clock.finish(mesh_stage::refining);
   if (!progress.report(mesh_stage::certifying, 0)) return cancelled_status();
 
