@@ -1,6 +1,7 @@
 #include "server/http_server.hpp"
 
 #include <chrono>
+#include <limits>
 #include <optional>
 #include <utility>
 
@@ -72,7 +73,9 @@ class session : public std::enable_shared_from_this<session> {
   void read_header() {
     header_parser_.emplace();
     header_parser_->header_limit(context_.limits.max_header_bytes);
-    header_parser_->body_limit(boost::none);  // decided per route in plan(), before any body byte is read
+    // The real limit is set per route once plan() has seen the header. Not boost::none: Beast 1.74 compares
+    // Content-Length against the optional, and any length is "greater" than an empty optional.
+    header_parser_->body_limit(std::numeric_limits<std::uint64_t>::max());
     body_parser_.reset();
     small_parser_.reset();
     multipart_.reset();

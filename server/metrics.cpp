@@ -1,6 +1,6 @@
 #include "server/metrics.hpp"
 
-#include <cstdio>
+#include <charconv>
 
 namespace tracemesh::server {
 
@@ -18,10 +18,11 @@ void family(std::string& out, const char* name, const char* type, const char* he
   out += '\n';
 }
 
+// Shortest text that reads back as `value` ("0.01", "2.5", "300"), so bucket labels are what people expect.
 std::string number(double value) {
   char text[64];
-  std::snprintf(text, sizeof text, "%.17g", value);
-  return text;
+  const auto written = std::to_chars(text, text + sizeof text, value);
+  return std::string(text, written.ptr);
 }
 
 void sample(std::string& out, const std::string& name_and_labels, double value) {

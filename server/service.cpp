@@ -58,6 +58,7 @@ status service::start() {
   const status listening = listener_->open(config_.listen_host, config_.listen_port);
   if (!listening.ok()) return listening;
   listener_->run();
+  io_work_.emplace(io_.get_executor());
   const unsigned threads = std::max(1u, config_.io_threads);
   for (unsigned i = 0; i < threads; ++i) io_threads_.emplace_back([this] { io_.run(); });
   running_ = true;
@@ -84,6 +85,7 @@ void service::shutdown() {
   while (state_.busy_requests.load() > 0 && std::chrono::steady_clock::now() < flush_deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
+  io_work_.reset();
   io_.stop();
   for (auto& thread : io_threads_) thread.join();
   io_threads_.clear();

@@ -5,9 +5,11 @@
 /// mesher.
 
 #include <memory>
+#include <optional>
 #include <thread>
 #include <vector>
 
+#include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/thread_pool.hpp>
 #include <spdlog/logger.h>
@@ -57,6 +59,9 @@ class service {
   api_handlers api_;
   http_context http_context_;
   boost::asio::io_context io_;
+  // Keeps the I/O threads running while sessions wait for jobs with no socket operation pending (e.g. during
+  // shutdown, after the acceptor closed).
+  std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> io_work_;
   std::shared_ptr<http_listener> listener_;
   std::vector<std::thread> io_threads_;
   bool running_ = false;
