@@ -22,10 +22,6 @@ using detail::triangle_list;
 using detail::vertex_protection;
 
 constexpr double pi = 3.14159265358979323846;
-/// Shortest edge (Å) the certificate accepts; shorter counts as degenerate.
-constexpr double degenerate_edge = 1e-9;
-/// Relative area (|area vector| / longest edge²) under which a triangle counts as degenerate.
-constexpr double degenerate_relative_area = 1e-12;
 constexpr int max_iterations = 100;
 
 status invalid(const std::string& what) { return {errc::invalid_argument, "remesh: " + what}; }
@@ -113,25 +109,6 @@ std::vector<long> component_euler_characteristics(std::size_t vertex_count, cons
   return chi;
 }
 
-bool degenerate(const vec3& a, const vec3& b, const vec3& c) {
-  const double longest2 = std::max({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
-  const double shortest2 = std::min({squared_norm(b - a), squared_norm(c - b), squared_norm(a - c)});
-  return shortest2 < degenerate_edge * degenerate_edge ||
-         !(norm(detail::area_vector(a, b, c)) > degenerate_relative_area * longest2);
-}
-
-/// Triangles that would fail the certificate: members of intersecting pairs, and degenerate ones. Sorted, unique.
-std::vector<std::uint32_t> offending_triangles(const std::vector<vec3>& positions, const triangle_list& triangles) {
-  std::vector<std::uint32_t> bad;
-  for (const auto& pair : detail::find_intersecting_pairs(positions, triangles)) bad.insert(bad.end(), pair.begin(), pair.end());
-  for (std::uint32_t t = 0; t < triangles.size(); ++t) {
-    if (degenerate(positions[triangles[t][0]], positions[triangles[t][1]], positions[triangles[t][2]])) bad.push_back(t);
-  }
-  std::sort(bad.begin(), bad.end());
-  bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
-  return bad;
-}
-
 /// Marks every point within `radius` (at least; bounding boxes are used) of a listed triangle. Returns how many
 /// points became frozen.
 std::size_t freeze_near(const std::vector<vec3>& points, const std::vector<vec3>& triangle_positions,
@@ -208,9 +185,7 @@ void protect(remesh_mesh& mesh, const std::vector<std::uint8_t>& frozen) {
 }
 
 struct round_output {
-  std::vector<vec3> positions;
-  std::vector<vec3> normals;
-  triangle_list triangles;
+  surface_mesh mesh;  ///< positions, normals and triangles
   detail::operation_counts counts;
 };
 
@@ -239,7 +214,12 @@ result<round_output> run_round(remesh_mesh work, const gaussian_field& field, co
     }
   }
   work.compact();
-  return round_output{work.positions(), work.normals(), work.triangles(), ops.counts()};
+  round_output out;
+  out.mesh.positions = work.positions();
+  out.mesh.normals = work.normals();
+  out.mesh.triangles = work.triangles();
+  out.counts = ops.counts();
+  return out;
 }
 
 void write_mesh(surface_mesh& mesh, const gaussian_field& field, std::vector<vec3> positions,
@@ -285,10 +265,11 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
     result<round_output> out = run_round(std::move(work), field, options, progress);
     if (!out) return out.error();
 
-    const std::vector<std::uint32_t> bad = offending_triangles(out->positions, out->triangles);
+    surface_mesh& result_mesh = out->mesh;
+    const std::vector<std::uint32_t> bad = detail::find_offending_triangles(result_mesh);
     const bool topology_kept =
-        component_euler_characteristics(out->positions.size(), out->triangles) == input_topology &&
-        remesh_mesh::build(out->positions, out->normals, out->triangles).ok();
+        component_euler_characteristics(result_mesh.positions.size(), result_mesh.triangles) == input_topology &&
+        remesh_mesh::build(result_mesh.positions, result_mesh.normals, result_mesh.triangles).ok();
     if (!topology_kept) break;  // cannot happen by construction; never hand out a broken mesh
     if (bad.empty()) {
       stats.splits = out->counts.splits;
@@ -297,11 +278,13 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
       stats.relaxations = out->counts.relaxations;
       stats.rejected_ops = out->counts.rejected;
       stats.frozen_vertices = frozen_count;
-      write_mesh(mesh, field, std::move(out->positions), std::move(out->normals), std::move(out->triangles));
+      write_mesh(mesh, field, std::move(result_mesh.positions), std::move(result_mesh.normals),
+                 std::move(result_mesh.triangles));
       return stats;
     }
     const double radius = options.freeze_radius * l * std::ldexp(1.0, round - 1);
-    const std::size_t added = freeze_near(mesh.positions, out->positions, out->triangles, bad, radius, frozen);
+    const std::size_t added =
+        freeze_near(mesh.positions, result_mesh.positions, result_mesh.triangles, bad, radius, frozen);
     frozen_count += added;
     if (added == 0 || frozen_count == frozen.size()) break;
   }

@@ -17,6 +17,8 @@
 #include "core/detail/remesh_intersections.hpp"
 #include "core/detail/remesh_mesh.hpp"
 #include "core/detail/remesh_operations.hpp"
+#include "core/mesh_analysis.hpp"
+#include "support/analysis_meshes.hpp"
 
 namespace tracemesh {
 namespace {
@@ -161,78 +163,30 @@ surface_mesh marching_tetrahedra(const gaussian_field& field, double spacing) {
 /// Vertex density (per Å²) for a target edge L: one vertex per two equilateral triangles.
 double density_for(double edge) { return 2 / (std::sqrt(3.0) * edge * edge); }
 
-// --- a local certificate (the project's analyze_mesh checks the same) ---------------------------------------------
+// --- measuring results --------------------------------------------------------------------------------------------
 
-struct mesh_facts {
-  bool manifold = false;        ///< closed, edge- and vertex-manifold, consistently oriented
-  std::size_t intersecting_pairs = 0;
-  std::size_t degenerate = 0;
-  std::vector<long> euler_characteristics;  ///< per component, sorted
-  double area = 0;
-  double edge_ratio_mean = 0;
-  double fraction_below_0_2 = 0;
-  double shortest_edge = 0, median_edge = 0, longest_edge = 0;
-  double max_surface_distance = 0;
-  double min_normal_agreement = 1;  ///< smallest dot(face normal, mean field normal of its corners)
-};
-
-mesh_facts measure(const surface_mesh& mesh, const gaussian_field& field) {
-  mesh_facts facts;
-  facts.manifold =
-      detail::remesh_mesh::build(mesh.positions, std::vector<vec3>(mesh.positions.size()), mesh.triangles).ok();
-  facts.intersecting_pairs = detail::find_intersecting_pairs(mesh.positions, mesh.triangles).size();
-
-  std::vector<std::uint32_t> parent(mesh.positions.size());
-  std::iota(parent.begin(), parent.end(), 0U);
-  const auto root = [&](std::uint32_t v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];
-    return v;
-  };
-  std::vector<double> edges;
-  double ratio_sum = 0;
-  std::size_t below = 0;
-  for (const auto& t : mesh.triangles) {
-    const vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
-    const vec3 area = detail::area_vector(a, b, c);
-    facts.area += norm(area) / 2;
-    if (norm(area) <= 1e-12) ++facts.degenerate;
-    const double ratio = detail::edge_ratio(a, b, c);
-    ratio_sum += ratio;
-    below += ratio < 0.2;
-    for (int i = 0; i < 3; ++i) {
-      if (t[i] < t[(i + 1) % 3]) edges.push_back(distance(mesh.positions[t[i]], mesh.positions[t[(i + 1) % 3]]));
-      parent[root(t[i])] = root(t[(i + 1) % 3]);
-    }
-    const vec3 mean_normal = normalized(detail::field_normal(field, a) + detail::field_normal(field, b) +
-                                        detail::field_normal(field, c));
-    facts.min_normal_agreement = std::min(facts.min_normal_agreement, dot(normalized(area), mean_normal));
-  }
-  std::map<std::uint32_t, std::array<long, 2>> components;  // root → {vertices, faces}
-  for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) ++components[root(v)][0];
-  for (const auto& t : mesh.triangles) ++components[root(t[0])][1];
-  for (const auto& [r, counts] : components) facts.euler_characteristics.push_back(counts[0] - counts[1] / 2);
-  std::sort(facts.euler_characteristics.begin(), facts.euler_characteristics.end());
-
-  const double triangles = static_cast<double>(mesh.triangles.size());
-  facts.edge_ratio_mean = ratio_sum / triangles;
-  facts.fraction_below_0_2 = static_cast<double>(below) / triangles;
-  std::sort(edges.begin(), edges.end());
-  facts.shortest_edge = edges.front();
-  facts.median_edge = edges[edges.size() / 2];
-  facts.longest_edge = edges.back();
-  for (const vec3& p : mesh.positions) facts.max_surface_distance = std::max(facts.max_surface_distance, field.surface_distance(p));
-  return facts;
+std::vector<long> euler_characteristics(const mesh_report& report) {
+  std::vector<long> chi;
+  for (const auto& c : report.components) chi.push_back(c.euler_characteristic);
+  std::sort(chi.begin(), chi.end());
+  return chi;
 }
 
-/// The postcondition of remesh_surface, against the facts of its input.
-void expect_valid(const surface_mesh& mesh, const gaussian_field& field, const mesh_facts& input_facts) {
-  const mesh_facts facts = measure(mesh, field);
-  EXPECT_TRUE(facts.manifold);
-  EXPECT_EQ(facts.intersecting_pairs, 0U);
-  EXPECT_EQ(facts.degenerate, 0U);
-  EXPECT_EQ(facts.euler_characteristics, input_facts.euler_characteristics);
-  EXPECT_LE(facts.max_surface_distance, 1e-4);
-  EXPECT_GT(facts.min_normal_agreement, 0.0);
+double max_surface_distance(const surface_mesh& mesh, const gaussian_field& field) {
+  double worst = 0;
+  for (const vec3& p : mesh.positions) worst = std::max(worst, field.surface_distance(p));
+  return worst;
+}
+
+/// The postcondition of remesh_surface: certified, same topology as `input`, on the surface, normals and atoms.
+void expect_valid(const surface_mesh& mesh, const gaussian_field& field, const mesh_report& input) {
+  const mesh_report report = analyze_mesh(mesh);
+  EXPECT_TRUE(report.topologically_certified())
+      << "self-intersections " << report.self_intersections << ", degenerate " << report.degenerate_triangles
+      << ", inward components " << report.inward_oriented_components;
+  EXPECT_EQ(euler_characteristics(report), euler_characteristics(input));
+  EXPECT_EQ(report.genus, input.genus);
+  EXPECT_LE(max_surface_distance(mesh, field), 1e-4);
   ASSERT_EQ(mesh.normals.size(), mesh.positions.size());
   ASSERT_EQ(mesh.atom_index.size(), mesh.positions.size());
   for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
@@ -242,31 +196,12 @@ void expect_valid(const surface_mesh& mesh, const gaussian_field& field, const m
 }
 
 /// Quality targets of the pass at target edge `edge`.
-void expect_quality(const surface_mesh& mesh, const gaussian_field& field, double edge) {
-  const mesh_facts facts = measure(mesh, field);
-  EXPECT_GE(facts.edge_ratio_mean, 0.70);
-  EXPECT_LT(facts.fraction_below_0_2, 0.01);
-  EXPECT_GE(facts.shortest_edge, 0.1 * facts.median_edge);
-  const double density = static_cast<double>(mesh.positions.size()) / facts.area;
-  EXPECT_NEAR(density / density_for(edge), 1.0, 0.2) << "vertices " << mesh.positions.size() << " area " << facts.area;
-}
-
-struct remesh_run {
-  surface_mesh mesh;
-  remesh_stats stats;
-};
-
-remesh_run remesh_ok(surface_mesh mesh, const gaussian_field& field, const remesh_options& options) {
-  progress_token progress;
-  result<remesh_stats> stats = remesh_surface(mesh, field, options, progress);
-  EXPECT_TRUE(stats.ok()) << stats.error().message();
-  return {std::move(mesh), stats.ok() ? stats.value() : remesh_stats{}};
-}
-
-remesh_options options_for(double edge) {
-  remesh_options options;
-  options.target_edge = edge;
-  return options;
+void expect_quality(const surface_mesh& mesh, double edge) {
+  const mesh_report report = analyze_mesh(mesh);
+  EXPECT_GE(report.quality.edge_ratio_mean, 0.75);
+  EXPECT_LT(report.quality.fraction_below_0_2, 0.01);
+  EXPECT_GE(report.quality.shortest_edge, 0.1 * report.quality.median_edge);
+  EXPECT_NEAR(report.achieved_density / density_for(edge), 1.0, 0.2) << "vertices " << report.vertices;
 }
 
 // --- the corner table ----------------------------------------------------------------------------------------------
@@ -383,6 +318,216 @@ TEST(RemeshMesh, ColouringSeparatesNeighbours) {
     mesh->one_ring(v, ring);
     for (const std::uint32_t x : ring) EXPECT_NE(colour[x], colour[v]) << v << " " << x;
   }
+}
+
+// --- intersections and projection ---------------------------------------------------------------------------------
+
+TEST(RemeshIntersections, ListsThePairsTheCertificateCounts) {
+  // Two interpenetrating tetrahedra, and a third far away.
+  surface_mesh mesh = testing::tetrahedron({0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0, 0, 2});
+  testing::append(mesh, testing::tetrahedron({0.5, 0.5, 0.5}, {3, 0.5, 0.5}, {0.5, 3, 0.5}, {0.5, 0.5, 3}));
+  testing::append(mesh, testing::tetrahedron({10, 0, 0}, {12, 0, 0}, {10, 2, 0}, {10, 0, 2}));
+  const auto pairs = detail::find_intersecting_pairs(mesh, detail::classify_triangles(mesh));
+  EXPECT_EQ(pairs.size(), count_self_intersections(mesh));
+  ASSERT_FALSE(pairs.empty());
+  for (const auto& pair : pairs) {
+    EXPECT_LT(pair[0], 4U);  // one face of the first tetrahedron...
+    EXPECT_GE(pair[1], 4U);  // ...with one of the second
+    EXPECT_LT(pair[1], 8U);
+  }
+  EXPECT_TRUE(std::is_sorted(pairs.begin(), pairs.end()));
+
+  const auto offending = detail::find_offending_triangles(mesh);
+  EXPECT_FALSE(offending.empty());
+  for (const std::uint32_t t : offending) EXPECT_LT(t, 8U);
+  EXPECT_TRUE(detail::find_offending_triangles(testing::icosphere(3, 2.0)).empty());
+}
+
+TEST(RemeshIntersections, DegenerateTrianglesOffend) {
+  surface_mesh mesh = testing::icosphere(1, 1.0);
+  mesh.positions[mesh.triangles[5][1]] = mesh.positions[mesh.triangles[5][0]];  // a zero-length edge
+  const auto offending = detail::find_offending_triangles(mesh);
+  EXPECT_NE(std::find(offending.begin(), offending.end(), 5U), offending.end());
+}
+
+TEST(RemeshGeometry, ProjectsOntoTheSurfaceWithItsNormal) {
+  const gaussian_field field(make_molecule({{{1, 2, 3}, 1.5}}), -1.0, 1.0);  // the sphere of radius 1.5
+  vec3 p{1 + 1.9, 2 + 0.2, 3 - 0.1}, n;
+  ASSERT_TRUE(detail::project_onto_surface(field, p, n, 1.0, 1e-7));
+  EXPECT_LE(field.surface_distance(p), 1e-7);
+  EXPECT_NEAR(distance(p, {1, 2, 3}), 1.5, 1e-6);
+  EXPECT_NEAR(dot(n, normalized(p - vec3{1, 2, 3})), 1.0, 1e-9);
+
+  vec3 far{1 + 4.0, 2, 3}, unused;
+  EXPECT_FALSE(detail::project_onto_surface(field, far, unused, 1.0, 1e-7));  // 2.5 Å away, max move 1 Å
+  EXPECT_EQ(far, (vec3{5, 2, 3}));
+}
+
+// --- remesh_surface ---------------------------------------------------------------------------------------------
+
+struct remesh_run {
+  surface_mesh mesh;
+  remesh_stats stats;
+};
+
+remesh_run remesh_ok(surface_mesh mesh, const gaussian_field& field, const remesh_options& options) {
+  progress_token progress;
+  result<remesh_stats> stats = remesh_surface(mesh, field, options, progress);
+  EXPECT_TRUE(stats.ok()) << stats.error().message();
+  return {std::move(mesh), stats.ok() ? stats.value() : remesh_stats{}};
+}
+
+remesh_options options_for(double edge) {
+  remesh_options options;
+  options.target_edge = edge;
+  return options;
+}
+
+/// Meshes `atoms` with the test's marching tetrahedra at `spacing`, remeshes at `edge` and checks the
+/// postcondition and the quality targets.
+void expect_remeshed_well(const std::vector<std::pair<vec3, double>>& atoms, double spacing, double edge) {
+  const gaussian_field field(make_molecule(atoms), -1.0, 1.0);
+  const surface_mesh input = marching_tetrahedra(field, spacing);
+  const mesh_report before = analyze_mesh(input);
+  ASSERT_TRUE(before.topologically_certified());
+  ASSERT_LT(before.quality.edge_ratio_mean, 0.6);  // the input really is poor
+
+  const remesh_run run = remesh_ok(input, field, options_for(edge));
+  EXPECT_EQ(run.stats.rounds, 1);
+  EXPECT_FALSE(run.stats.input_returned);
+  EXPECT_GT(run.stats.collapses + run.stats.splits, 0U);
+  expect_valid(run.mesh, field, before);
+  expect_quality(run.mesh, edge);
+}
+
+TEST(RemeshSurface, OneAtom) { expect_remeshed_well({{{0.3, -0.2, 0.1}, 2.0}}, 0.5, 0.5); }
+
+TEST(RemeshSurface, OverlappingAtoms) {
+  expect_remeshed_well({{{0, 0, 0}, 1.6}, {{2.2, 0.3, 0}, 1.4}, {{1.0, 1.9, 0.5}, 1.2}, {{1.1, 0.8, 1.8}, 1.0}}, 0.4,
+                       0.45);
+}
+
+TEST(RemeshSurface, RefinesACoarseInput) {
+  // Target edges shorter than the input's: splits dominate.
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.8}, {{2.0, 0, 0}, 1.5}}), -1.0, 1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.8);
+  const mesh_report before = analyze_mesh(input);
+  const remesh_run run = remesh_ok(input, field, options_for(0.3));
+  EXPECT_GT(run.stats.splits, run.stats.collapses);
+  expect_valid(run.mesh, field, before);
+  expect_quality(run.mesh, 0.3);
+}
+
+TEST(RemeshSurface, KeepsTheGenusOfARing) {
+  std::vector<std::pair<vec3, double>> ring;
+  for (int k = 0; k < 10; ++k) {
+    const double angle = 2 * 3.14159265358979 * k / 10;
+    ring.push_back({{3.5 * std::cos(angle), 3.5 * std::sin(angle), 0.2 * (k % 2)}, 1.3});
+  }
+  const gaussian_field field(make_molecule(ring), -1.0, 1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.45);
+  const mesh_report before = analyze_mesh(input);
+  ASSERT_EQ(before.genus, 1);
+  const remesh_run run = remesh_ok(input, field, options_for(0.5));
+  expect_valid(run.mesh, field, before);
+  expect_quality(run.mesh, 0.5);
+}
+
+TEST(RemeshSurface, KeepsSeparateComponents) {
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.5}, {{6, 0, 0}, 1.2}}), -1.0, 1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.4);
+  const mesh_report before = analyze_mesh(input);
+  ASSERT_EQ(before.components.size(), 2U);
+  const remesh_run run = remesh_ok(input, field, options_for(0.45));
+  expect_valid(run.mesh, field, before);
+  EXPECT_EQ(analyze_mesh(run.mesh).components.size(), 2U);
+}
+
+TEST(RemeshSurface, IsDeterministicWhateverTheThreadCount) {
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.6}, {{2.1, 0.4, 0}, 1.3}, {{0.9, 1.8, 0.6}, 1.1}}), -1.0,
+                             1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.35);
+  const auto run_with = [&](int threads) {
+    tbb::task_arena arena(threads);
+    remesh_run run;
+    arena.execute([&] { run = remesh_ok(input, field, options_for(0.4)); });
+    return run;
+  };
+  const remesh_run one = run_with(1), two = run_with(2), again = run_with(2);
+  EXPECT_EQ(one.mesh.triangles, two.mesh.triangles);
+  EXPECT_EQ(one.mesh.positions, two.mesh.positions);  // bitwise
+  EXPECT_EQ(one.mesh.normals, two.mesh.normals);
+  EXPECT_EQ(one.mesh.atom_index, two.mesh.atom_index);
+  EXPECT_EQ(two.mesh.positions, again.mesh.positions);
+  EXPECT_EQ(one.stats.relaxations, two.stats.relaxations);
+}
+
+TEST(RemeshSurface, HonoursCancellation) {
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.5}, {{2.0, 0, 0}, 1.5}}), -1.0, 1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.4);
+
+  surface_mesh mesh = input;
+  progress_token cancelled_before;
+  cancelled_before.cancel();
+  EXPECT_EQ(remesh_surface(mesh, field, options_for(0.45), cancelled_before).error().code(), errc::cancelled);
+  EXPECT_EQ(mesh.positions, input.positions);
+  EXPECT_EQ(mesh.triangles, input.triangles);
+
+  // Cancelled from the listener once the pass has reported some progress.
+  progress_token* self = nullptr;
+  std::atomic<int> reports{0};
+  progress_token midway([&](mesh_stage stage, double fraction) {
+    EXPECT_EQ(stage, mesh_stage::refining);
+    EXPECT_GE(fraction, 0.0);
+    EXPECT_LE(fraction, 1.0);
+    if (++reports == 3) self->cancel();
+  });
+  self = &midway;
+  EXPECT_EQ(remesh_surface(mesh, field, options_for(0.45), midway).error().code(), errc::cancelled);
+  EXPECT_GE(reports.load(), 3);
+  EXPECT_EQ(mesh.positions, input.positions);
+  EXPECT_EQ(mesh.triangles, input.triangles);
+}
+
+TEST(RemeshSurface, RefusesBadArgumentsAndLeavesTheMesh) {
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.5}}), -1.0, 1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.5);
+  progress_token progress;
+  const auto expect_refused = [&](surface_mesh mesh, const remesh_options& options, errc code) {
+    const surface_mesh before = mesh;
+    EXPECT_EQ(remesh_surface(mesh, field, options, progress).error().code(), code);
+    EXPECT_EQ(mesh.positions, before.positions);
+    EXPECT_EQ(mesh.triangles, before.triangles);
+  };
+  for (const double edge : {0.0, -1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    expect_refused(input, options_for(edge), errc::invalid_argument);
+  }
+  remesh_options inverted = options_for(0.5);
+  inverted.collapse_below = 1.5;  // above split_above: would oscillate
+  expect_refused(input, inverted, errc::invalid_argument);
+  remesh_options negative_iterations = options_for(0.5);
+  negative_iterations.iterations = -1;
+  expect_refused(input, negative_iterations, errc::invalid_argument);
+
+  surface_mesh open = input;
+  open.triangles.pop_back();
+  expect_refused(open, options_for(0.5), errc::invalid_argument);
+
+  remesh_options small_budget = options_for(0.05);  // ~28 Å² at 0.05 Å edges: ~50,000 triangles
+  small_budget.max_triangles = 10'000;
+  expect_refused(input, small_budget, errc::limit_exceeded);
+}
+
+TEST(RemeshSurface, ZeroIterationsOnlyFillsTheVertexData) {
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.5}}), -1.0, 1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.5);
+  remesh_options options = options_for(0.5);
+  options.iterations = 0;
+  options.final_relaxations = 0;
+  const remesh_run run = remesh_ok(input, field, options);
+  EXPECT_EQ(run.mesh.positions, input.positions);
+  EXPECT_EQ(run.mesh.triangles, input.triangles);
+  expect_valid(run.mesh, field, analyze_mesh(input));
 }
 
 }  // namespace
