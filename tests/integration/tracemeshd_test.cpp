@@ -1,0 +1,438 @@
+// End-to-end tests of the tracemeshd binary: the real server with the real mesher on a loopback port and a
+// temporary cache directory, talked to with curl (as a scientist would) and decoded with Debian's draco_decoder.
+// Molecules are the small ones of the shared ladder (gly, adp, villin, fas2) so the suite stays fast.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "support/test_paths.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+using tracemesh::testing::binary_path;
+using tracemesh::testing::molecule_path;
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+/// Runs a shell command; returns its standard output (trailing newline kept).
+std::string run(const std::string& command) {
+  std::string out;
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (!pipe) return out;
+  std::array<char, 4096> buffer;
+  std::size_t n;
+  while ((n = std::fread(buffer.data(), 1, buffer.size(), pipe)) > 0) out.append(buffer.data(), n);
+  ::pclose(pipe);
+  return out;
+}
+
+/// A curl reply: status, headers (lower-case names) and the body saved in a file.
+struct curl_reply {
+  int status = 0;
+  std::map<std::string, std::string> headers;
+  std::string body;
+};
+
+/// A temporary directory removed at the end of the test.
+class temp_dir {
+ public:
+  temp_dir() {
+    std::string pattern = (fs::temp_directory_path() / "tracemeshd-test-XXXXXX").string();
+    path_ = ::mkdtemp(pattern.data());
+  }
+  ~temp_dir() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+/// tracemeshd as a child process on an ephemeral loopback port; killed on destruction.
+class server_process {
+ public:
+  server_process(const fs::path& work, std::vector<std::string> args) : log_(work / "server.log") {
+    args.insert(args.begin(), {binary_path("tracemeshd").string(), "--listen", "127.0.0.1:0"});
+    std::error_code ignored;
+    fs::remove(log_, ignored);  // the port is read from this run's "started" line
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const int log_fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      ::dup2(log_fd, STDERR_FILENO);
+      ::dup2(log_fd, STDOUT_FILENO);
+      std::vector<char*> argv;
+      for (auto& arg : args) argv.push_back(arg.data());
+      argv.push_back(nullptr);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    port_ = wait_for_port();
+  }
+  ~server_process() { kill(SIGKILL); }
+
+  unsigned short port() const { return port_; }
+  std::string url(const std::string& path) const { return "http://127.0.0.1:" + std::to_string(port_) + path; }
+  std::string log() const { return read_file(log_); }
+
+  /// Sends `signal` and reaps the process; returns its exit status (-1 when killed by a signal or already gone).
+  int kill(int signal) {
+    if (pid_ <= 0) return -1;
+    ::kill(pid_, signal);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+  /// Waits up to `within` for the process to exit by itself; its exit code, or -1.
+  int wait_exit(std::chrono::milliseconds within) {
+    const auto deadline = std::chrono::steady_clock::now() + within;
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+      }
+      std::this_thread::sleep_for(10ms);
+    }
+    return -1;
+  }
+
+ private:
+  unsigned short wait_for_port() {
+    for (int i = 0; i < 1000; ++i) {
+      std::istringstream lines(read_file(log_));
+      std::string line;
+      while (std::getline(lines, line)) {
+        if (line.find("\"event\":\"started\"") == std::string::npos) continue;
+        return nlohmann::json::parse(line).at("port").get<unsigned short>();
+      }
+      std::this_thread::sleep_for(5ms);
+    }
+    ADD_FAILURE() << "tracemeshd did not start: " << read_file(log_);
+    return 0;
+  }
+
+  fs::path log_;
+  pid_t pid_ = -1;
+  unsigned short port_ = 0;
+};
+
+class TracemeshdTest : public ::testing::Test {
+ protected:
+  /// `curl <args> <url>`, saving headers and body under the work dir.
+  curl_reply curl(const std::string& args, const std::string& url) {
+    const std::string tag = std::to_string(calls_++);
+    const fs::path headers = work_.path() / ("headers" + tag);
+    const fs::path body = work_.path() / ("body" + tag);
+    const std::string code = run(std::string(TRACEMESH_CURL) + " -s -S -o " + body.string() + " -D " +
+                                 headers.string() + " -w '%{http_code}' " + args + " '" + url + "'");
+    curl_reply reply;
+    reply.status = code.empty() ? 0 : std::atoi(code.c_str());
+    std::istringstream lines(read_file(headers));
+    std::string line;
+    while (std::getline(lines, line)) {
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      const auto colon = line.find(':');
+      if (colon == std::string::npos) continue;
+      std::string name = line.substr(0, colon);
+      for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      reply.headers[name] = line.substr(line.find_first_not_of(' ', colon + 1));
+    }
+    reply.body = read_file(body);
+    return reply;
+  }
+
+  curl_reply upload(const server_process& server, const fs::path& pqr, const std::string& fields = {},
+                    const std::string& route = "/mesh") {
+    return curl("-F pqr=@" + pqr.string() + " " + fields, server.url(route));
+  }
+
+  /// The value of an unlabelled sample in /metrics.
+  double metric(const server_process& server, const std::string& name) {
+    std::istringstream lines(curl("", server.url("/metrics")).body);
+    std::string line;
+    while (std::getline(lines, line)) {
+      if (line.rfind(name + " ", 0) == 0) return std::stod(line.substr(name.size() + 1));
+    }
+    return -1;
+  }
+
+  void expect_error(const curl_reply& reply, int status, const std::string& code, const std::string& what) {
+    EXPECT_EQ(reply.status, status) << what << ": " << reply.body;
+    const auto doc = nlohmann::json::parse(reply.body, nullptr, false);
+    ASSERT_FALSE(doc.is_discarded()) << what << ": " << reply.body;
+    EXPECT_EQ(doc["error"]["code"], code) << what << ": " << reply.body;
+  }
+
+  /// Vertex and triangle counts from an OFF header.
+  static std::pair<long, long> off_counts(const std::string& off) {
+    std::istringstream in(off);
+    std::string magic;
+    long vertices = -1, triangles = -1;
+    in >> magic >> vertices >> triangles;
+    return {vertices, triangles};
+  }
+
+  fs::path write(const std::string& name, const std::string& content) {
+    const fs::path path = work_.path() / name;
+    std::ofstream(path, std::ios::binary) << content;
+    return path;
+  }
+
+  temp_dir work_;
+  temp_dir cache_;
+  int calls_ = 0;
+};
+
+TEST_F(TracemeshdTest, OffAndDracoRoundTripsOnRealMolecules) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  for (const char* name : {"gly.pqr", "adp.pqr", "villin_1vii.pqr"}) {
+    curl_reply off = upload(server, molecule_path(name));
+    ASSERT_EQ(off.status, 200) << name << ": " << off.body;
+    EXPECT_EQ(off.headers["x-cache"], "miss") << name;
+    const auto [vertices, triangles] = off_counts(off.body);
+    EXPECT_GT(vertices, 0) << name;
+    EXPECT_GT(triangles, vertices) << name;
+
+    curl_reply draco = upload(server, molecule_path(name), "-F format=draco");
+    ASSERT_EQ(draco.status, 200) << name;
+    EXPECT_EQ(draco.headers["x-cache"], "hit") << name << ": the job cached both encodings";
+    EXPECT_EQ(draco.headers["x-job-id"], off.headers["x-job-id"]);
+    const fs::path drc = write(std::string(name) + ".drc", draco.body);
+    const fs::path obj = work_.path() / (std::string(name) + ".obj");
+    run(std::string(TRACEMESH_DRACO_DECODER) + " -i " + drc.string() + " -o " + obj.string() + " > /dev/null");
+    std::istringstream decoded(read_file(obj));
+    long decoded_vertices = 0, decoded_faces = 0;
+    std::string line;
+    while (std::getline(decoded, line)) {
+      if (line.rfind("v ", 0) == 0) ++decoded_vertices;
+      if (line.rfind("f ", 0) == 0) ++decoded_faces;
+    }
+    EXPECT_EQ(decoded_vertices, vertices) << name;
+    EXPECT_EQ(decoded_faces, triangles) << name;
+  }
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 3);
+}
+
+TEST_F(TracemeshdTest, CacheHitsOnTheSecondRequestAndAfterARestart) {
+  const fs::path gly = molecule_path("gly.pqr");
+  std::string first_body, etag;
+  {
+    server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+    curl_reply first = upload(server, gly, "-F density=2");
+    ASSERT_EQ(first.status, 200) << first.body;
+    EXPECT_EQ(first.headers["x-cache"], "miss");
+    curl_reply second = upload(server, gly, "-F density=2");
+    EXPECT_EQ(second.headers["x-cache"], "hit");
+    EXPECT_EQ(second.body, first.body);
+    first_body = first.body;
+    etag = first.headers["etag"];
+    // A gzipped upload of the same atoms is the same job.
+    run("gzip -c " + gly.string() + " > " + (work_.path() / "gly.pqr.gz").string());
+    curl_reply gzipped = upload(server, work_.path() / "gly.pqr.gz", "-F density=2.0");
+    EXPECT_EQ(gzipped.headers["x-cache"], "hit");
+    EXPECT_EQ(gzipped.headers["x-job-id"], first.headers["x-job-id"]);
+    EXPECT_EQ(server.kill(SIGTERM), 0);
+  }
+  server_process restarted(work_.path(), {"--cache-dir", cache_.path().string()});
+  curl_reply after = upload(restarted, gly, "-F density=2");
+  ASSERT_EQ(after.status, 200);
+  EXPECT_EQ(after.headers["x-cache"], "hit");
+  EXPECT_EQ(after.body, first_body);
+  EXPECT_EQ(after.headers["etag"], etag);
+  curl_reply revalidated = curl("-H 'If-None-Match: " + etag + "'",
+                                      restarted.url("/jobs/" + after.headers["x-job-id"] + "/mesh"));
+  EXPECT_EQ(revalidated.status, 304);
+  EXPECT_EQ(metric(restarted, "tracemesh_mesher_runs_total"), 0);
+}
+
+TEST_F(TracemeshdTest, TwentyConcurrentDistinctUploadsAllSucceed) {
+  server_process server(work_.path(), {"--workers", "2", "--max-queue", "32"});
+  std::string script;
+  for (int i = 0; i < 20; ++i) {
+    script += std::string(TRACEMESH_CURL) + " -s -o " + (work_.path() / ("distinct" + std::to_string(i))).string() +
+              " -w '%{http_code}\\n' -F pqr=@" + molecule_path("gly.pqr").string() + " -F t0=" +
+              std::to_string(0.8 + 0.01 * i) + " '" + server.url("/mesh") + "' & ";
+  }
+  const std::string codes = run("(" + script + "wait)");
+  EXPECT_EQ(std::count(codes.begin(), codes.end(), '\n'), 20) << codes;
+  EXPECT_EQ(codes.find_first_not_of("200\n"), std::string::npos) << codes;
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_EQ(read_file(work_.path() / ("distinct" + std::to_string(i))).rfind("OFF\n", 0), 0u) << i;
+  }
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 20);
+}
+
+TEST_F(TracemeshdTest, TwentyConcurrentIdenticalUploadsRunTheMesherOnce) {
+  server_process server(work_.path(), {"--workers", "2"});
+  std::string script;
+  for (int i = 0; i < 20; ++i) {
+    script += std::string(TRACEMESH_CURL) + " -s -o " + (work_.path() / ("same" + std::to_string(i))).string() +
+              " -w '%{http_code}\\n' -F pqr=@" + molecule_path("villin_1vii.pqr").string() + " '" +
+              server.url("/mesh") + "' & ";
+  }
+  const std::string codes = run("(" + script + "wait)");
+  EXPECT_EQ(std::count(codes.begin(), codes.end(), '\n'), 20) << codes;
+  EXPECT_EQ(codes.find_first_not_of("200\n"), std::string::npos) << codes;
+  const std::string reference = read_file(work_.path() / "same0");
+  for (int i = 1; i < 20; ++i) EXPECT_EQ(read_file(work_.path() / ("same" + std::to_string(i))), reference) << i;
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1);
+}
+
+TEST_F(TracemeshdTest, QueueOverflowGives429WithRetryAfter) {
+  server_process server(work_.path(), {"--workers", "1", "--max-queue", "1"});
+  const fs::path fas2 = molecule_path("fas2.pqr");
+  curl_reply running = upload(server, fas2, "-F density=2", "/jobs");
+  curl_reply queued = upload(server, fas2, "-F density=2.5", "/jobs");
+  curl_reply refused = upload(server, fas2, "-F density=3", "/jobs");
+  EXPECT_EQ(running.status, 202) << running.body;
+  EXPECT_EQ(queued.status, 202) << queued.body;
+  expect_error(refused, 429, "queue_full", "third job");
+  EXPECT_EQ(refused.headers["retry-after"], "5");
+  EXPECT_EQ(curl("", server.url("/healthz")).status, 200);
+  const std::string id = nlohmann::json::parse(running.body).at("id");
+  curl_reply status = curl("", server.url("/jobs/" + id));
+  const auto doc = nlohmann::json::parse(status.body);
+  EXPECT_TRUE(doc.at("status") == "running" || doc.at("status") == "done") << doc;
+  curl_reply cancelled = curl("-X DELETE", server.url("/jobs/" + std::string(nlohmann::json::parse(
+                                                                           queued.body).at("id"))));
+  EXPECT_EQ(cancelled.status, 200) << cancelled.body;
+}
+
+TEST_F(TracemeshdTest, BadInputsGetTheRight4xxAndTheServerKeepsServing) {
+  server_process server(work_.path(), {"--max-atoms", "300", "--max-upload-bytes", "200000"});
+  const fs::path gly = molecule_path("gly.pqr");
+  struct bad_pqr {
+    const char* what;
+    std::string content;
+    int status;
+    const char* code;
+  };
+  const std::vector<bad_pqr> cases = {
+      {"empty file", "", 422, "nothing_to_mesh"},
+      {"only remarks", "REMARK 1\nTER\nEND\n", 422, "nothing_to_mesh"},
+      {"NaN coordinate", "ATOM 1 N GLY 1 nan 0 0 0 1.5\n", 400, "invalid_input"},
+      {"overflowing number", "ATOM 1 N GLY 1 1e400 0 0 0 1.5\n", 400, "invalid_input"},
+      {"hex float", "ATOM 1 N GLY 1 0x1p3 0 0 0 1.5\n", 400, "invalid_input"},
+      {"decimal comma", "ATOM 1 N GLY 1 1,5 0 0 0 1.5\n", 400, "invalid_input"},
+      {"negative radius", "ATOM 1 N GLY 1 0 0 0 0 -1.5\n", 400, "invalid_input"},
+      {"huge radius", "ATOM 1 N GLY 1 0 0 0 0 50\n", 400, "invalid_input"},
+      {"huge coordinate", "ATOM 1 N GLY 1 1e9 0 0 0 1.5\n", 400, "invalid_input"},
+      {"too few fields", "ATOM 1 N GLY 1 0 0\n", 400, "invalid_input"},
+      {"binary garbage", std::string("\x7f" "ELF\x02\x01\x01\x00\x00\x00\x00", 12), 400, "invalid_input"},
+      {"only zero radii", "ATOM 1 HG SER 1 0 0 0 0.4 0.0\n", 422, "nothing_to_mesh"},
+      {"corrupt gzip", std::string("\x1f\x8b\x08\x00garbage", 11), 400, "invalid_input"},
+  };
+  for (const bad_pqr& c : cases) {
+    const fs::path path = write("bad.pqr", c.content);
+    curl_reply reply = upload(server, path);
+    expect_error(reply, c.status, c.code, c.what);
+  }
+  curl_reply named_line = upload(server, write("line3.pqr", "REMARK x\nATOM 1 N GLY 1 0 0 0 0 1.5\n"
+                                                                  "ATOM 2 N GLY 1 0 0 inf 0 1.5\n"));
+  EXPECT_NE(named_line.body.find("line 3"), std::string::npos) << named_line.body;
+  expect_error(upload(server, molecule_path("villin_1vii.pqr")), 413, "limit_exceeded", "596 atoms over 300");
+  expect_error(upload(server, gly, "-F density=0"), 400, "invalid_argument", "density out of range");
+  expect_error(upload(server, gly, "-F d=1"), 400, "invalid_argument", "positive decay");
+  expect_error(upload(server, gly, "-F t0=nan"), 400, "invalid_argument", "NaN isovalue");
+  expect_error(upload(server, gly, "-F format=stl"), 400, "invalid_argument", "unknown format");
+  expect_error(curl("-F other=@" + gly.string(), server.url("/mesh")), 400, "invalid_input", "no pqr field");
+  expect_error(curl("--data-binary @" + gly.string() + " -H 'Content-Type: text/plain'", server.url("/mesh")), 415,
+               "unsupported_media_type", "not multipart");
+  expect_error(curl("", server.url("/jobs/" + std::string(64, '0'))), 404, "not_found", "unknown job");
+  expect_error(curl("", server.url("/jobs/..%2F..%2Fetc%2Fpasswd")), 400, "invalid_argument", "traversal");
+  expect_error(curl("-X PUT", server.url("/mesh")), 405, "method_not_allowed", "PUT");
+
+  // curl sends Expect: 100-continue for this 1.1 MB body: the 413 comes from Content-Length, without waiting for
+  // curl's one-second fallback and without reading the body.
+  const auto started = std::chrono::steady_clock::now();
+  expect_error(upload(server, molecule_path("achbp.pqr")), 413, "limit_exceeded", "upload over the byte limit");
+  EXPECT_LT(std::chrono::steady_clock::now() - started, 900ms);
+
+  EXPECT_EQ(curl("", server.url("/healthz")).status, 200);
+  curl_reply good = upload(server, gly);
+  EXPECT_EQ(good.status, 200) << good.body;
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1);
+}
+
+TEST_F(TracemeshdTest, KillDuringCacheWritesLeavesAUsableCache) {
+  const fs::path villin = molecule_path("villin_1vii.pqr");
+  std::string reference;
+  {
+    temp_dir clean_cache;
+    server_process server(work_.path(), {"--cache-dir", clean_cache.path().string()});
+    reference = upload(server, villin).body;
+    ASSERT_EQ(reference.rfind("OFF\n", 0), 0u);
+  }
+  // Kill -9 at moments spread over the job (meshing, encoding, the three cache writes), restarting each time on
+  // the same cache directory; whatever was left must never be served wrong.
+  for (int delay_ms : {150, 300, 400, 450, 500, 550, 600, 700}) {
+    server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+    std::thread client([&] { upload(server, villin); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    server.kill(SIGKILL);
+    client.join();
+  }
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  curl_reply after = upload(server, villin);
+  ASSERT_EQ(after.status, 200);
+  EXPECT_EQ(after.body, reference) << "X-Cache: " << after.headers["x-cache"];
+  EXPECT_EQ(upload(server, villin).headers["x-cache"], "hit");
+  EXPECT_EQ(metric(server, "tracemesh_cache_corrupt_entries_total"), 0);
+}
+
+TEST_F(TracemeshdTest, SigtermFinishesRunningWorkThenExitsZero) {
+  server_process server(work_.path(), {"--shutdown-grace", "20"});
+  curl_reply waiting;
+  std::thread client([&] { waiting = upload(server, molecule_path("fas2.pqr")); });
+  for (int i = 0; i < 200 && metric(server, "tracemesh_running_jobs") < 1; ++i) std::this_thread::sleep_for(5ms);
+  const auto started = std::chrono::steady_clock::now();
+  EXPECT_EQ(server.kill(SIGTERM), 0);
+  client.join();
+  EXPECT_LT(std::chrono::steady_clock::now() - started, 15s);
+  EXPECT_EQ(waiting.status, 200) << "the running job finishes within the grace period";
+  EXPECT_EQ(off_counts(waiting.body).first > 0, true);
+  const std::string log = server.log();
+  EXPECT_NE(log.find("\"event\":\"shutdown_done\""), std::string::npos) << log;
+  EXPECT_EQ(log.find("ATOM"), std::string::npos) << "no PQR content in logs";
+}
+
+TEST_F(TracemeshdTest, SigtermCancelsWorkStillRunningAtTheGraceDeadline) {
+  server_process server(work_.path(), {"--shutdown-grace", "0.05"});
+  curl_reply waiting;
+  std::thread client([&] { waiting = upload(server, molecule_path("fas2.pqr"), "-F density=4"); });
+  for (int i = 0; i < 200 && metric(server, "tracemesh_running_jobs") < 1; ++i) std::this_thread::sleep_for(5ms);
+  const auto started = std::chrono::steady_clock::now();
+  EXPECT_EQ(server.kill(SIGTERM), 0);
+  client.join();
+  EXPECT_LT(std::chrono::steady_clock::now() - started, 5s);
+  expect_error(waiting, 503, "shutdown", "job cancelled at the grace deadline");
+}
+
+}  // namespace
