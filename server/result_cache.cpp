@@ -344,7 +344,9 @@ std::shared_ptr<const std::string> result_cache::read_from_disk(const std::strin
   if (hasher.finish() != parsed->checksum) return corrupt();
 
   ::futimens(fd.get(), nullptr);  // last use survives restarts (LRU order); best effort
-  {
+  // Index the entry unless it was evicted (unlinked) while we read it: the bytes are still good to serve.
+  const bool still_linked = ::fstat(fd.get(), &info) == 0 && info.st_nlink > 0;
+  if (still_linked) {
     std::lock_guard lock(disk_mutex_);
     index_disk_entry_locked(key, file_bytes);
     evict_disk_locked();
@@ -372,7 +374,7 @@ status result_cache::put(const std::string& key, std::string_view bytes) {
     return status(errc::limit_exceeded, "result cache: entry of " + std::to_string(bytes.size()) +
                                             " bytes exceeds the cache bounds");
   }
-  if (fits_disk && !disk_index_contains(key)) {
+  if (fits_disk && !disk_entry_present(key)) {
     const status written = write_to_disk(key, bytes);
     if (!written.ok()) {
       write_failures_.fetch_add(1);
@@ -440,9 +442,18 @@ status result_cache::publish_temp_file(const std::string& key, const fs::path& t
 
 // ---- disk index --------------------------------------------------------------------------------------------
 
-bool result_cache::disk_index_contains(const std::string& key) {
-  std::lock_guard lock(disk_mutex_);
-  return disk_index_.count(key) != 0;
+// True when the entry is indexed and its file is still there with the indexed size (nobody removed it behind
+// our back). Content addressing makes a present entry as good as a fresh write.
+bool result_cache::disk_entry_present(const std::string& key) {
+  std::uint64_t indexed_bytes = 0;
+  {
+    std::lock_guard lock(disk_mutex_);
+    const auto found = disk_index_.find(key);
+    if (found == disk_index_.end()) return false;
+    indexed_bytes = found->second->file_bytes;
+  }
+  struct stat info {};
+  return ::stat(entry_path(key).c_str(), &info) == 0 && static_cast<std::uint64_t>(info.st_size) == indexed_bytes;
 }
 
 void result_cache::touch_disk_entry(const std::string& key) {

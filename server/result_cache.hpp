@@ -74,10 +74,11 @@ class result_cache {
   /// The entry's bytes, or nullptr on a miss (unknown or invalid key, corrupt entry — then removed —, read
   /// error). A disk hit is promoted to memory. The returned bytes stay valid even if the entry is evicted.
   std::shared_ptr<const std::string> get(const std::string& key);
-  /// Like get() but never touches the disk: safe on threads that must not block.
+  /// Like get() but never touches the disk: safe on threads that must not block. Counts hits only (a caller
+  /// that falls back to get() on nullptr gets the miss counted there, so each lookup counts once).
   std::shared_ptr<const std::string> get_from_memory(const std::string& key);
 
-  /// Stores `bytes` under `key`: on disk first (atomic), then in memory.
+  /// Stores `bytes` under `key`: on disk first (atomic), then in memory. A key already on disk is not rewritten.
   /// @return errc::invalid_argument for an invalid key; errc::limit_exceeded when the entry exceeds every
   ///         tier's bound (nothing is stored); errc::io_error when the disk write fails — then nothing is
   ///         stored anywhere and no temporary file is left.
@@ -112,7 +113,7 @@ class result_cache {
   void remember_in_memory(const std::string& key, std::shared_ptr<const std::string> bytes);
   std::shared_ptr<const std::string> find_in_memory(const std::string& key);
 
-  bool disk_index_contains(const std::string& key);
+  bool disk_entry_present(const std::string& key);
   void touch_disk_entry(const std::string& key);
   std::shared_ptr<const std::string> read_from_disk(const std::string& key);
   status write_to_disk(const std::string& key, std::string_view bytes);

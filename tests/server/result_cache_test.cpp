@@ -454,6 +454,19 @@ TEST_F(ResultCacheTest, EntryLargerThanTheDiskBoundStaysInMemoryOnly) {
   EXPECT_EQ(cache.stats().disk_bytes, 0u);
 }
 
+TEST_F(ResultCacheTest, PutRewritesAnEntryRemovedBehindTheCachesBack) {
+  auto cache = open_disk_only();
+  ASSERT_TRUE(cache->put(key_for(1), "first").ok());
+  const auto file = path_of(key_for(1));
+  const auto written = fs::last_write_time(file);
+  ASSERT_TRUE(cache->put(key_for(1), "first").ok());
+  EXPECT_EQ(fs::last_write_time(file), written) << "an entry already on disk is not rewritten";
+  fs::remove(file);
+  ASSERT_TRUE(cache->put(key_for(1), "first").ok());
+  ASSERT_TRUE(fs::exists(file));
+  EXPECT_EQ(*open_disk_only()->get(key_for(1)), "first");
+}
+
 TEST_F(ResultCacheTest, EntriesWrittenByAnotherProcessAreFound) {
   auto reader = open_disk_only();
   ASSERT_TRUE(open_disk_only()->put(key_for(1), "shared").ok());
