@@ -17,5 +17,11 @@ endif()
 if(NOT CMAKE_BUILD_TYPE AND NOT CMAKE_CONFIGURATION_TYPES)
   set(CMAKE_BUILD_TYPE Release CACHE STRING "Build type" FORCE)
 endif()
-# "CI" build type: optimised but keeps assertions.
-set(CMAKE_CXX_FLAGS_CI "-O2 -g" CACHE STRING "Flags for the CI build type")
+# "CI" build type: optimised but keeps assertions. (CMake pre-creates an empty CMAKE_CXX_FLAGS_CI, hence FORCE.)
+if(NOT CMAKE_CXX_FLAGS_CI)
+  set(CMAKE_CXX_FLAGS_CI "-O2 -g" CACHE STRING "Flags for the CI build type" FORCE)
+endif()
+# Fuzzer builds instrument every library for coverage, so libFuzzer sees inside the parsers.
+if(TRACEMESH_BUILD_FUZZERS)
+  add_compile_options(-fsanitize=fuzzer-no-link)
+endif()
