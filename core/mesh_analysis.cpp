@@ -5,6 +5,7 @@
 #include <limits>
 #include <numeric>
 
+#include "core/detail/analysis_fan_pairs.hpp"
 #include "core/detail/analysis_geometry.hpp"
 #include "core/detail/analysis_self_intersection.hpp"
 #include "core/detail/analysis_topology.hpp"
@@ -144,10 +145,17 @@ void add_components(const surface_mesh& mesh, const std::vector<triangle_defect>
   report.inward_oriented_components = count_inward_components(mesh, sums);
 }
 
+/// All intersecting pairs: those sharing no vertex through the grid, the others fan by fan.
+std::size_t count_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                     const detail::vertex_fans& fans) {
+  return detail::count_intersecting_separate_pairs(mesh, defects) +
+         detail::count_intersecting_fan_pairs(mesh, defects, fans);
+}
+
 void add_topology_and_components(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                                 mesh_report& report) {
+                                 const detail::vertex_fans& fans, mesh_report& report) {
   const component_labels labels = detail::label_components(mesh, defects);
-  edge_census census = detail::take_edge_census(mesh, detail::build_vertex_fans(mesh, defects));
+  edge_census census = detail::take_edge_census(mesh, fans);
   report.boundary_edges = census.boundary_edges;
   report.non_manifold_edges = census.non_manifold_edges;
   report.non_manifold_vertices = census.non_manifold_vertices;
@@ -173,15 +181,17 @@ mesh_report analyze_mesh(const surface_mesh& mesh, const analysis_options& optio
   count_defects(defects, report);
   report.unreferenced_vertices = count_unreferenced_vertices(mesh);
   report.quality = detail::measure_triangle_quality(mesh, defects);
-  add_topology_and_components(mesh, defects, report);
-  if (options.check_self_intersections) report.self_intersections = detail::count_intersecting_pairs(mesh, defects);
+  const detail::vertex_fans fans = detail::build_vertex_fans(mesh, defects);
+  add_topology_and_components(mesh, defects, fans, report);
+  if (options.check_self_intersections) report.self_intersections = count_intersecting_pairs(mesh, defects, fans);
   report.achieved_density = report.area > 0 ? static_cast<double>(report.vertices) / report.area : 0.0;
   return report;
 }
 
 std::size_t count_self_intersections(const surface_mesh& mesh) {
   if (too_many_triangles(mesh)) return 0;
-  return detail::count_intersecting_pairs(mesh, detail::classify_triangles(mesh));
+  const std::vector<triangle_defect> defects = detail::classify_triangles(mesh);
+  return count_intersecting_pairs(mesh, defects, detail::build_vertex_fans(mesh, defects));
 }
 
 }  // namespace tracemesh

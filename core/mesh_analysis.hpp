@@ -93,9 +93,9 @@ inline constexpr double degenerate_edge_length = 1e-9;
 /// A triangle whose area is below this times its longest edge squared is degenerate (its corners are collinear
 /// to within rounding: exactly collinear corners give a computed area of about 1e-16 · longest²).
 inline constexpr double degenerate_area_ratio = 1e-12;
-/// Corners beyond this |coordinate| (Å) make a triangle degenerate: the exact predicates of the intersection test
-/// would overflow. Any mesh of limits.hpp stays far below it.
-inline constexpr double max_analysed_coordinate = 1e100;
+/// Corners beyond this |coordinate| (Å) make a triangle degenerate: the intersection test keeps single-precision
+/// bounding boxes and cubes coordinate differences, which must stay finite. Meshes within limits.hpp stay far below.
+inline constexpr double max_analysed_coordinate = 1e30;
 
 /// Analyses `mesh` (see the vocabulary above). When mesh.normals is non-empty, each component's face orientation
 /// is compared with those normals. Components are sorted by decreasing area, ties by their first triangle.

@@ -1,6 +1,8 @@
 #include "core/detail/analysis_self_intersection.hpp"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -8,7 +10,6 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
 
 #include "core/detail/analysis_parallel.hpp"
 #include "core/detail/triangle_intersection.hpp"
@@ -16,16 +17,18 @@
 namespace tracemesh::detail {
 namespace {
 
+/// An axis-aligned box in single precision, rounded outward so that it contains the exact box of its triangle.
+/// The broad phase only needs conservative boxes; halving their size keeps the per-triangle table small.
 struct bounds {
-  vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-          std::numeric_limits<double>::infinity()};
-  vec3 hi{-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
-          -std::numeric_limits<double>::infinity()};
+  std::array<float, 3> lo{std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity(),
+                          std::numeric_limits<float>::infinity()};
+  std::array<float, 3> hi{-std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+                          -std::numeric_limits<float>::infinity()};
 
   void include(const vec3& p) {
     for (int axis = 0; axis < 3; ++axis) {
-      lo[axis] = std::min(lo[axis], p[axis]);
-      hi[axis] = std::max(hi[axis], p[axis]);
+      lo[axis] = std::min(lo[axis], round_down(p[axis]));
+      hi[axis] = std::max(hi[axis], round_up(p[axis]));
     }
   }
   void include(const bounds& other) {
@@ -34,66 +37,108 @@ struct bounds {
       hi[axis] = std::max(hi[axis], other.hi[axis]);
     }
   }
-  double largest_extent() const { return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z}); }
+  double largest_extent() const {
+    return std::max({double(hi[0]) - lo[0], double(hi[1]) - lo[1], double(hi[2]) - lo[2]});
+  }
+  /// Closed boxes: touching counts. Bitwise | instead of || avoids six hard-to-predict branches.
+  bool overlaps(const bounds& o) const {
+    int apart = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      apart |= static_cast<int>(o.hi[axis] < lo[axis]) | static_cast<int>(hi[axis] < o.lo[axis]);
+    }
+    return apart == 0;
+  }
+
+ private:
+  // v is finite and |v| ≤ max_analysed_coordinate < FLT_MAX. The nearest float is within half a gap of v, so the
+  // float one step further out is always on the right side of v (also next to powers of two, where the gap below
+  // is half the gap above). Stepping unconditionally avoids an unpredictable branch per coordinate.
+  static float round_down(double v) { return next_down(static_cast<float>(v)); }
+  static float round_up(double v) { return -next_down(-static_cast<float>(v)); }
+  /// The largest float below the finite float f.
+  static float next_down(float f) {
+    const auto bits = std::bit_cast<std::uint32_t>(f);
+    if (bits == 0) return -std::numeric_limits<float>::denorm_min();  // +0
+    return std::bit_cast<float>(f > 0 ? bits - 1 : bits + 1);        // −0 becomes −denorm_min
+  }
 };
 
-bounds triangle_bounds(const surface_mesh& mesh, std::uint32_t t) {
+bounds triangle_bounds(const surface_mesh& mesh, std::size_t t) {
   bounds box;
   for (const std::uint32_t v : mesh.triangles[t]) box.include(mesh.positions[v]);
   return box;
 }
 
-/// Cell indices take 21 bits per axis so that a cell key packs into 64 bits.
-constexpr int cell_index_bits = 21;
-constexpr std::uint32_t max_cell_index = (1u << cell_index_bits) - 1;
+/// The box of every triangle (left empty for untested ones), computed once.
+std::vector<bounds> all_triangle_bounds(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
+  std::vector<bounds> boxes(mesh.triangles.size());
+  for_each_chunk(mesh.triangles.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t t = begin; t < end; ++t) {
+      if (defects[t] == triangle_defect::none) boxes[t] = triangle_bounds(mesh, t);
+    }
+  });
+  return boxes;
+}
 
 using cell_coordinates = std::array<std::uint32_t, 3>;
 
-class sparse_grid {
- public:
-  sparse_grid(const vec3& origin, double cell_size) : origin_(origin), cell_size_(cell_size) {}
+/// Cells are numbered x-major in the box of the tested triangles; their count must fit in 32 bits so that a
+/// (cell, triangle) entry packs into one 64-bit integer.
+constexpr double max_grid_cells = 4294967295.0;
 
-  /// Monotone in `coordinate`, so a box's cells run from index(lo) to index(hi) on each axis.
-  std::uint32_t index(double coordinate, int axis) const {
-    const double cell = std::floor((coordinate - origin_[axis]) / cell_size_);
-    return static_cast<std::uint32_t>(std::clamp(cell, 0.0, static_cast<double>(max_cell_index)));
+class uniform_grid {
+ public:
+  uniform_grid(const bounds& domain, double cell_size)
+      : origin_{domain.lo[0], domain.lo[1], domain.lo[2]}, inverse_cell_size_(1.0 / cell_size) {
+    for (int axis = 0; axis < 3; ++axis) cells_[axis] = std::floor((domain.hi[axis] - origin_[axis]) * inverse_cell_size_) + 1;
   }
 
+  double cell_count() const { return cells_[0] * cells_[1] * cells_[2]; }
+
+  /// Monotone in `coordinate` (a subtraction and a multiplication by a positive constant, both rounded), so the
+  /// cells of a box run from index(lo) to index(hi) and index(max(a, b)) = max(index(a), index(b)).
+  /// coordinate ≥ origin, so the scaled offset is ≥ 0 and truncation is the floor (without a libm call).
+  std::uint32_t index(double coordinate, int axis) const {
+    const double cell = (coordinate - origin_[axis]) * inverse_cell_size_;
+    return static_cast<std::uint32_t>(std::min(cell, cells_[axis] - 1));
+  }
   cell_coordinates first_cell(const bounds& box) const {
-    return {index(box.lo.x, 0), index(box.lo.y, 1), index(box.lo.z, 2)};
+    return {index(box.lo[0], 0), index(box.lo[1], 1), index(box.lo[2], 2)};
   }
   cell_coordinates last_cell(const bounds& box) const {
-    return {index(box.hi.x, 0), index(box.hi.y, 1), index(box.hi.z, 2)};
+    return {index(box.hi[0], 0), index(box.hi[1], 1), index(box.hi[2], 2)};
   }
-
   std::uint64_t cells_overlapped(const bounds& box) const {
     const cell_coordinates first = first_cell(box), last = last_cell(box);
     std::uint64_t cells = 1;
-    for (int axis = 0; axis < 3; ++axis) cells *= std::uint64_t{last[axis] - first[axis]} + 1;  // < 2⁶³
+    for (int axis = 0; axis < 3; ++axis) cells *= std::uint64_t{last[axis] - first[axis]} + 1;  // ≤ 2³²
     return cells;
   }
-
-  static std::uint64_t key(std::uint32_t x, std::uint32_t y, std::uint32_t z) {
-    return (std::uint64_t{x} << (2 * cell_index_bits)) | (std::uint64_t{y} << cell_index_bits) | z;
+  std::uint32_t key(std::uint32_t x, std::uint32_t y, std::uint32_t z) const {
+    return static_cast<std::uint32_t>((std::uint64_t{x} * cell_count_y() + y) * cell_count_z() + z);
   }
-  static cell_coordinates coordinates(std::uint64_t key) {
-    return {static_cast<std::uint32_t>(key >> (2 * cell_index_bits)),
-            static_cast<std::uint32_t>((key >> cell_index_bits) & max_cell_index),
-            static_cast<std::uint32_t>(key & max_cell_index)};
+  cell_coordinates coordinates(std::uint32_t key) const {
+    const std::uint64_t z = key % cell_count_z(), xy = key / cell_count_z();
+    return {static_cast<std::uint32_t>(xy / cell_count_y()), static_cast<std::uint32_t>(xy % cell_count_y()),
+            static_cast<std::uint32_t>(z)};
   }
+  /// Significant bits of a key.
+  int key_bits() const { return static_cast<int>(std::ceil(std::log2(cell_count() + 1))); }
 
  private:
+  std::uint64_t cell_count_y() const { return static_cast<std::uint64_t>(cells_[1]); }
+  std::uint64_t cell_count_z() const { return static_cast<std::uint64_t>(cells_[2]); }
+
   vec3 origin_;
-  double cell_size_;
+  double inverse_cell_size_;
+  std::array<double, 3> cells_{};
 };
 
-struct grid_entry {
-  std::uint64_t cell;
-  std::uint32_t triangle;
-  friend bool operator<(const grid_entry& a, const grid_entry& b) {
-    return a.cell < b.cell || (a.cell == b.cell && a.triangle < b.triangle);
-  }
-};
+/// A grid entry: the cell key in the high 32 bits, the triangle in the low 32 bits. Sorting entries sorts by cell,
+/// then by triangle.
+using grid_entry = std::uint64_t;
+std::uint32_t cell_of(grid_entry entry) { return static_cast<std::uint32_t>(entry >> 32); }
+std::uint32_t triangle_of(grid_entry entry) { return static_cast<std::uint32_t>(entry); }
 
 /// The triangles to test and the extent of their boxes.
 struct tested_set {
@@ -102,14 +147,16 @@ struct tested_set {
   bounds domain;
 };
 
-tested_set survey(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
+bool tested(const std::vector<triangle_defect>& defects, std::size_t t) { return defects[t] == triangle_defect::none; }
+
+tested_set survey(const std::vector<bounds>& boxes, const std::vector<triangle_defect>& defects) {
   return deterministic_reduce(
-      mesh.triangles.size(), tested_set{},
+      boxes.size(), tested_set{},
       [&](std::size_t begin, std::size_t end) {
         tested_set part;
         for (std::size_t t = begin; t < end; ++t) {
-          if (defects[t] != triangle_defect::none) continue;
-          const bounds box = triangle_bounds(mesh, static_cast<std::uint32_t>(t));
+          if (!tested(defects, t)) continue;
+          const bounds& box = boxes[t];
           ++part.triangles;
           part.extent_sum += box.largest_extent();
           part.domain.include(box);
@@ -124,67 +171,103 @@ tested_set survey(const surface_mesh& mesh, const std::vector<triangle_defect>& 
       });
 }
 
-std::uint64_t saturating_add(std::uint64_t a, std::uint64_t b) {
-  return a > std::numeric_limits<std::uint64_t>::max() - b ? std::numeric_limits<std::uint64_t>::max() : a + b;
-}
-
-/// Grid entries of each chunk of triangles (saturating).
-std::vector<std::uint64_t> entries_per_chunk(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                                             const sparse_grid& grid) {
-  std::vector<std::uint64_t> counts(chunk_count(mesh.triangles.size()), 0);
-  for_each_chunk(mesh.triangles.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
-    std::uint64_t count = 0;
+/// Grid entries of each chunk of triangles.
+std::vector<std::uint64_t> entries_per_chunk(const std::vector<bounds>& boxes,
+                                             const std::vector<triangle_defect>& defects, const uniform_grid& grid) {
+  std::vector<std::uint64_t> counts(chunk_count(boxes.size()), 0);
+  for_each_chunk(boxes.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+    std::uint64_t count = 0;  // ≤ 2¹⁴ triangles × 2³² cells: no overflow
     for (std::size_t t = begin; t < end; ++t) {
-      if (defects[t] != triangle_defect::none) continue;
-      count = saturating_add(count, grid.cells_overlapped(triangle_bounds(mesh, static_cast<std::uint32_t>(t))));
+      if (tested(defects, t)) count += grid.cells_overlapped(boxes[t]);
     }
     counts[chunk] = count;
   });
   return counts;
 }
 
-/// The grid: cells of grid_cell_factor × the mean box extent, at most 2²¹ per axis, doubled until the entries fit
-/// the budget. Returns it with the entry count of each chunk of triangles.
-sparse_grid choose_grid(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                        const tested_set& tested, std::vector<std::uint64_t>& chunk_entries) {
-  const double mean_extent = tested.extent_sum / static_cast<double>(tested.triangles);
-  double cell_size = std::max(grid_cell_factor * mean_extent,
-                              tested.domain.largest_extent() / static_cast<double>(max_cell_index));
-  if (!(cell_size > 0)) cell_size = 1;  // unreachable for non-degenerate triangles; keeps the division defined
-  const std::uint64_t budget = max_grid_entries_per_triangle * std::uint64_t{tested.triangles} + 1024;
-  for (;;) {
-    const sparse_grid grid(tested.domain.lo, cell_size);
-    chunk_entries = entries_per_chunk(mesh, defects, grid);
-    std::uint64_t total = 0;
-    for (const std::uint64_t count : chunk_entries) total = saturating_add(total, count);
-    if (total <= budget) return grid;
-    cell_size *= 2;
+std::uint64_t saturating_sum(const std::vector<std::uint64_t>& values) {
+  std::uint64_t total = 0;
+  for (const std::uint64_t value : values) {
+    total = value > std::numeric_limits<std::uint64_t>::max() - total ? std::numeric_limits<std::uint64_t>::max()
+                                                                       : total + value;
+  }
+  return total;
+}
+
+/// Cells of grid_cell_factor × the mean box extent, doubled until there are at most 2³² − 1 of them and the
+/// entries fit the budget. Returns the grid with the entry count of each chunk of triangles.
+uniform_grid choose_grid(const std::vector<bounds>& boxes, const std::vector<triangle_defect>& defects,
+                         const tested_set& tested_triangles, std::vector<std::uint64_t>& chunk_entries) {
+  double cell_size = grid_cell_factor * tested_triangles.extent_sum / static_cast<double>(tested_triangles.triangles);
+  if (!(cell_size > 0)) cell_size = 1;  // unreachable for non-degenerate triangles; keeps the grid defined
+  const std::uint64_t budget = max_grid_entries_per_triangle * std::uint64_t{tested_triangles.triangles} + 1024;
+  for (;; cell_size *= 2) {
+    const uniform_grid grid(tested_triangles.domain, cell_size);
+    if (grid.cell_count() > max_grid_cells) continue;
+    chunk_entries = entries_per_chunk(boxes, defects, grid);
+    if (saturating_sum(chunk_entries) <= budget) return grid;
   }
 }
 
-std::vector<grid_entry> fill_grid(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                                  const sparse_grid& grid, const std::vector<std::uint64_t>& chunk_entries) {
+/// Digits of the radix sort of grid entries.
+constexpr int radix_bits = 11;
+constexpr std::size_t radix_buckets = std::size_t{1} << radix_bits;
+constexpr std::size_t radix_chunk_size = std::size_t{1} << 16;
+
+/// Stable parallel LSD radix sort of the entries by cell (the triangle bits are already in order). Each pass counts
+/// digits per chunk, turns the counts into per-chunk write positions (digit-major, chunk order), then scatters.
+void sort_by_cell(std::vector<grid_entry>& entries, int key_bits) {
+  std::vector<grid_entry> scratch(entries.size());
+  const std::size_t chunks = chunk_count(entries.size(), radix_chunk_size);
+  std::vector<std::array<std::size_t, radix_buckets>> positions(chunks);
+  for (int shift = 32; shift < 32 + key_bits; shift += radix_bits) {
+    const auto digit = [shift](grid_entry entry) { return (entry >> shift) & (radix_buckets - 1); };
+    for_each_chunk(
+        entries.size(),
+        [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+          positions[chunk].fill(0);
+          for (std::size_t i = begin; i < end; ++i) ++positions[chunk][digit(entries[i])];
+        },
+        radix_chunk_size);
+    std::size_t next = 0;
+    for (std::size_t bucket = 0; bucket < radix_buckets; ++bucket) {
+      for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+        const std::size_t count = positions[chunk][bucket];
+        positions[chunk][bucket] = next;
+        next += count;
+      }
+    }
+    for_each_chunk(
+        entries.size(),
+        [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+          for (std::size_t i = begin; i < end; ++i) scratch[positions[chunk][digit(entries[i])]++] = entries[i];
+        },
+        radix_chunk_size);
+    entries.swap(scratch);
+  }
+}
+
+/// Every (cell, triangle) entry, sorted by cell then triangle.
+std::vector<grid_entry> fill_grid(const std::vector<bounds>& boxes, const std::vector<triangle_defect>& defects,
+                                  const uniform_grid& grid, const std::vector<std::uint64_t>& chunk_entries) {
   std::vector<std::size_t> chunk_offsets(chunk_entries.size() + 1, 0);
   for (std::size_t chunk = 0; chunk < chunk_entries.size(); ++chunk) {
     chunk_offsets[chunk + 1] = chunk_offsets[chunk] + static_cast<std::size_t>(chunk_entries[chunk]);
   }
   std::vector<grid_entry> entries(chunk_offsets.back());
-  for_each_chunk(mesh.triangles.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+  for_each_chunk(boxes.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
     std::size_t next = chunk_offsets[chunk];
     for (std::size_t t = begin; t < end; ++t) {
-      if (defects[t] != triangle_defect::none) continue;
-      const bounds box = triangle_bounds(mesh, static_cast<std::uint32_t>(t));
-      const cell_coordinates first = grid.first_cell(box), last = grid.last_cell(box);
+      if (!tested(defects, t)) continue;
+      const cell_coordinates first = grid.first_cell(boxes[t]), last = grid.last_cell(boxes[t]);
       for (std::uint32_t x = first[0]; x <= last[0]; ++x) {
         for (std::uint32_t y = first[1]; y <= last[1]; ++y) {
-          for (std::uint32_t z = first[2]; z <= last[2]; ++z) {
-            entries[next++] = {sparse_grid::key(x, y, z), static_cast<std::uint32_t>(t)};
-          }
+          for (std::uint32_t z = first[2]; z <= last[2]; ++z) entries[next++] = (grid_entry{grid.key(x, y, z)} << 32) | t;
         }
       }
     }
   });
-  tbb::parallel_sort(entries.begin(), entries.end());
+  sort_by_cell(entries, grid.key_bits());
   return entries;
 }
 
@@ -192,7 +275,7 @@ std::vector<grid_entry> fill_grid(const surface_mesh& mesh, const std::vector<tr
 std::vector<std::size_t> cell_starts(const std::vector<grid_entry>& entries) {
   std::vector<std::size_t> starts;
   for (std::size_t i = 0; i < entries.size(); ++i) {
-    if (i == 0 || entries[i].cell != entries[i - 1].cell) starts.push_back(i);
+    if (i == 0 || cell_of(entries[i]) != cell_of(entries[i - 1])) starts.push_back(i);
   }
   starts.push_back(entries.size());
   return starts;
@@ -201,56 +284,101 @@ std::vector<std::size_t> cell_starts(const std::vector<grid_entry>& entries) {
 struct candidate {
   bounds box;
   std::uint32_t triangle;
+  /// Bit a is set when the box starts in this cell along axis a. Both boxes of a pair in this cell start in it or
+  /// before it, so their common box starts here (max of the starts, by monotonicity) exactly when, on every axis,
+  /// at least one of them starts here: (a.starts_here | b.starts_here) == all_axes.
+  std::uint8_t starts_here;
 };
 
-/// Intersecting pairs whose boxes' common part starts in this cell (entries[begin, end) share the cell).
-std::size_t count_pairs_in_cell(const surface_mesh& mesh, const sparse_grid& grid,
-                                const std::vector<grid_entry>& entries, std::size_t begin, std::size_t end,
-                                std::vector<candidate>& candidates) {
-  const cell_coordinates cell = sparse_grid::coordinates(entries[begin].cell);
-  candidates.clear();
-  for (std::size_t i = begin; i < end; ++i) {
-    candidates.push_back({triangle_bounds(mesh, entries[i].triangle), entries[i].triangle});
+constexpr std::uint8_t all_axes = 0b111;
+
+bool share_a_vertex(const std::array<std::uint32_t, 3>& t, const std::array<std::uint32_t, 3>& u) {
+  for (const std::uint32_t a : t) {
+    if (a == u[0] || a == u[1] || a == u[2]) return true;
   }
-  std::sort(candidates.begin(), candidates.end(), [](const candidate& a, const candidate& b) {
-    return a.box.lo.x < b.box.lo.x || (a.box.lo.x == b.box.lo.x && a.triangle < b.triangle);
-  });
-  std::size_t count = 0;
-  for (std::size_t i = 0; i < candidates.size(); ++i) {
-    const bounds& a = candidates[i].box;
-    // Sorted by lo.x: the boxes overlap in x while the next one starts before this one ends.
-    for (std::size_t j = i + 1; j < candidates.size() && candidates[j].box.lo.x <= a.hi.x; ++j) {
-      const bounds& b = candidates[j].box;
-      if (b.lo.y > a.hi.y || a.lo.y > b.hi.y || b.lo.z > a.hi.z || a.lo.z > b.hi.z) continue;
-      const bool lowest_common_cell = grid.index(b.lo.x, 0) == cell[0] &&
-                                      grid.index(std::max(a.lo.y, b.lo.y), 1) == cell[1] &&
-                                      grid.index(std::max(a.lo.z, b.lo.z), 2) == cell[2];
-      if (!lowest_common_cell) continue;
-      if (mesh_triangles_intersect(mesh.positions, mesh.triangles[candidates[i].triangle],
-                                   mesh.triangles[candidates[j].triangle])) {
-        ++count;
+  return false;
+}
+
+/// Cells with more triangles than this are swept along x instead of testing every pair of boxes.
+constexpr std::size_t sweep_threshold = 32;
+
+class cell_pair_counter {
+ public:
+  cell_pair_counter(const surface_mesh& mesh, const std::vector<bounds>& boxes, const uniform_grid& grid)
+      : mesh_(mesh), boxes_(boxes), grid_(grid) {}
+
+  /// Intersecting pairs tested in the cell of entries[begin, end).
+  std::size_t count(const std::vector<grid_entry>& entries, std::size_t begin, std::size_t end) {
+    const cell_coordinates cell = grid_.coordinates(cell_of(entries[begin]));
+    candidates_.clear();
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::uint32_t t = triangle_of(entries[i]);
+      const cell_coordinates first = grid_.first_cell(boxes_[t]);
+      std::uint8_t starts_here = 0;
+      for (int axis = 0; axis < 3; ++axis) starts_here |= static_cast<std::uint8_t>((first[axis] == cell[axis]) << axis);
+      candidates_.push_back({boxes_[t], t, starts_here});
+    }
+    return candidates_.size() > sweep_threshold ? count_by_sweep() : count_all_pairs();
+  }
+
+ private:
+  /// Counts a pair whose boxes overlap and whose common box starts in this cell, so that it is counted once.
+  /// Pairs sharing a vertex are left to the fan pass (analysis_fan_pairs.hpp).
+  std::size_t test(const candidate& a, const candidate& b) const {
+    if ((a.starts_here | b.starts_here) != all_axes || !a.box.overlaps(b.box)) return 0;
+    const std::array<std::uint32_t, 3>& t = mesh_.triangles[a.triangle];
+    const std::array<std::uint32_t, 3>& u = mesh_.triangles[b.triangle];
+    if (share_a_vertex(t, u)) return 0;
+    return triangles_intersect({mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]},
+                               {mesh_.positions[u[0]], mesh_.positions[u[1]], mesh_.positions[u[2]]})
+               ? 1
+               : 0;
+  }
+
+  std::size_t count_all_pairs() const {
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < candidates_.size(); ++i) {
+      for (std::size_t j = i + 1; j < candidates_.size(); ++j) count += test(candidates_[i], candidates_[j]);
+    }
+    return count;
+  }
+
+  /// Sorted by lo.x, the boxes overlapping a box in x are the ones that start before it ends.
+  std::size_t count_by_sweep() {
+    std::sort(candidates_.begin(), candidates_.end(), [](const candidate& a, const candidate& b) {
+      return a.box.lo[0] < b.box.lo[0] || (a.box.lo[0] == b.box.lo[0] && a.triangle < b.triangle);
+    });
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < candidates_.size(); ++i) {
+      for (std::size_t j = i + 1; j < candidates_.size() && candidates_[j].box.lo[0] <= candidates_[i].box.hi[0]; ++j) {
+        count += test(candidates_[i], candidates_[j]);
       }
     }
+    return count;
   }
-  return count;
-}
+
+  const surface_mesh& mesh_;
+  const std::vector<bounds>& boxes_;
+  const uniform_grid& grid_;
+  std::vector<candidate> candidates_;
+};
 
 }  // namespace
 
-std::size_t count_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
-  const tested_set tested = survey(mesh, defects);
-  if (tested.triangles < 2) return 0;
+std::size_t count_intersecting_separate_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
+  const std::vector<bounds> boxes = all_triangle_bounds(mesh, defects);
+  const tested_set tested_triangles = survey(boxes, defects);
+  if (tested_triangles.triangles < 2) return 0;
   std::vector<std::uint64_t> chunk_entries;
-  const sparse_grid grid = choose_grid(mesh, defects, tested, chunk_entries);
-  const std::vector<grid_entry> entries = fill_grid(mesh, defects, grid, chunk_entries);
+  const uniform_grid grid = choose_grid(boxes, defects, tested_triangles, chunk_entries);
+  const std::vector<grid_entry> entries = fill_grid(boxes, defects, grid, chunk_entries);
   const std::vector<std::size_t> starts = cell_starts(entries);
-  const std::size_t cells = starts.size() - 1;
   return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, cells, 64), std::size_t{0},
-      [&](const tbb::blocked_range<std::size_t>& range, std::size_t count) {
-        std::vector<candidate> candidates;
-        for (std::size_t cell = range.begin(); cell != range.end(); ++cell) {
-          count += count_pairs_in_cell(mesh, grid, entries, starts[cell], starts[cell + 1], candidates);
+      tbb::blocked_range<std::size_t>(0, starts.size() - 1, 64), std::size_t{0},
+      [&](const tbb::blocked_range<std::size_t>& cells, std::size_t count) {
+        cell_pair_counter counter(mesh, boxes, grid);
+        for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
+          count += counter.count(entries, starts[cell], starts[cell + 1]);
         }
         return count;
       },

@@ -1,12 +1,14 @@
 #pragma once
 /// @file analysis_self_intersection.hpp
-/// The broad phase of count_self_intersections: a sparse uniform grid over triangle bounding boxes.
+/// The broad phase of count_self_intersections for pairs of triangles that share no vertex: a sparse uniform grid
+/// over triangle bounding boxes (pairs that share a vertex are handled fan by fan, see analysis_fan_pairs.hpp).
 ///
-/// Each triangle is entered in every cell its bounding box overlaps; the (cell, triangle) entries are sorted so
-/// that each cell's triangles are contiguous; within a cell, a sweep along x finds the pairs whose boxes overlap.
-/// A pair is tested only in the cell that holds the lowest corner of the intersection of the two boxes, so it is
-/// tested exactly once however many cells both boxes share. Cells are processed in parallel; the count (an
-/// integer) does not depend on the schedule.
+/// Each triangle is entered in every cell its (single-precision, outward-rounded) bounding box overlaps; the
+/// (cell, triangle) entries are packed into 64-bit integers and radix-sorted so that each cell's triangles are
+/// contiguous; within a cell, pairs of overlapping boxes are found by testing all pairs (or a sweep along x in
+/// crowded cells). A pair is tested only in the cell that holds the lowest corner of the intersection of the two
+/// boxes, so it is tested exactly once however many cells both boxes share. Cells are processed in parallel; the
+/// count (an integer) does not depend on the schedule.
 
 #include <cstddef>
 #include <vector>
@@ -22,7 +24,7 @@ inline constexpr double grid_cell_factor = 2.0;
 /// few triangles are huge compared with the mean.
 inline constexpr std::size_t max_grid_entries_per_triangle = 16;
 
-/// Counts the intersecting pairs (mesh_triangles_intersect) among triangles with defects[t] == none.
-std::size_t count_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects);
+/// Counts the intersecting pairs among triangles with defects[t] == none that share no vertex.
+std::size_t count_intersecting_separate_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects);
 
 }  // namespace tracemesh::detail

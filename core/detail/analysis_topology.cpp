@@ -45,15 +45,6 @@ std::uint32_t position_in(const std::vector<std::uint32_t>& sorted, std::uint32_
   return static_cast<std::uint32_t>(std::lower_bound(sorted.begin(), sorted.end(), value) - sorted.begin());
 }
 
-int corner_of(const std::array<std::uint32_t, 3>& triangle, std::uint32_t vertex) {
-  return triangle[0] == vertex ? 0 : (triangle[1] == vertex ? 1 : 2);
-}
-
-/// One triangle's view from a vertex v: the edge v→next it traverses, and prev→v.
-struct corner_view {
-  std::uint32_t next, prev;
-};
-
 /// A use of edge (v, other), other > v, by one triangle, in direction v→other (forward) or other→v.
 struct half_edge_use {
   std::uint32_t other;
@@ -73,7 +64,7 @@ struct census_chunk {
 
 /// Reusable per-chunk scratch space for the per-vertex work.
 struct vertex_scratch {
-  std::vector<corner_view> corners;
+  std::vector<fan_corner> corners;
   std::vector<half_edge_use> uses;
   std::vector<std::uint32_t> neighbours;
   union_find fan_sets{0};
@@ -111,14 +102,14 @@ std::uint32_t census_edges_at(const surface_mesh& mesh, std::uint32_t v, const s
 bool is_single_fan(vertex_scratch& scratch) {
   std::vector<std::uint32_t>& neighbours = scratch.neighbours;
   neighbours.clear();
-  for (const corner_view& corner : scratch.corners) {
+  for (const fan_corner& corner : scratch.corners) {
     neighbours.push_back(corner.next);
     neighbours.push_back(corner.prev);
   }
   std::sort(neighbours.begin(), neighbours.end());
   neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
   scratch.fan_sets.reset(neighbours.size());
-  for (const corner_view& corner : scratch.corners) {
+  for (const fan_corner& corner : scratch.corners) {
     scratch.fan_sets.unite(position_in(neighbours, corner.next), position_in(neighbours, corner.prev));
   }
   for (std::uint32_t i = 1; i < neighbours.size(); ++i) {
@@ -127,18 +118,27 @@ bool is_single_fan(vertex_scratch& scratch) {
   return true;
 }
 
-/// Census of the edges at their smaller end v, and the fan check of v. Returns the number of such edges.
-std::uint32_t census_vertex(const surface_mesh& mesh, const vertex_fans& fans, std::uint32_t v,
-                            vertex_scratch& scratch, census_chunk& out) {
-  const std::span<const std::uint32_t> around = fans.around(v);
-  if (around.empty()) return 0;
-  scratch.corners.clear();
+/// The common case: a closed manifold fan. Each edge (v, w) is used once in each direction, so there is nothing
+/// to classify; only the lengths of the edges with w > v are recorded.
+std::uint32_t census_closed_fan(const surface_mesh& mesh, std::uint32_t v, const std::vector<fan_corner>& corners,
+                                census_chunk& out) {
+  std::uint32_t edges = 0;
+  const bool v_usable = usable_coordinate(mesh.positions[v]);
+  for (const fan_corner& corner : corners) {
+    if (corner.next < v) continue;
+    ++edges;
+    if (v_usable && usable_coordinate(mesh.positions[corner.next])) {
+      out.lengths.push_back(distance(mesh.positions[v], mesh.positions[corner.next]));
+    }
+  }
+  return edges;
+}
+
+/// Any other fan: sorts the uses of each edge (v, w > v) and checks that the triangles are edge-connected.
+std::uint32_t census_general_fan(const surface_mesh& mesh, std::uint32_t v, vertex_scratch& scratch,
+                                 census_chunk& out) {
   scratch.uses.clear();
-  for (const std::uint32_t t : around) {
-    const std::array<std::uint32_t, 3>& triangle = mesh.triangles[t];
-    const int k = corner_of(triangle, v);
-    const corner_view corner{triangle[(k + 1) % 3], triangle[(k + 2) % 3]};
-    scratch.corners.push_back(corner);
+  for (const fan_corner& corner : scratch.corners) {
     if (corner.next > v) scratch.uses.push_back({corner.next, true});
     if (corner.prev > v) scratch.uses.push_back({corner.prev, false});
   }
@@ -148,6 +148,16 @@ std::uint32_t census_vertex(const surface_mesh& mesh, const vertex_fans& fans, s
   return edges;
 }
 
+/// Census of the edges at their smaller end v, and the fan check of v. Returns the number of such edges.
+std::uint32_t census_vertex(const surface_mesh& mesh, const vertex_fans& fans, std::uint32_t v,
+                            vertex_scratch& scratch, census_chunk& out) {
+  const std::span<const std::uint32_t> around = fans.around(v);
+  if (around.empty()) return 0;
+  read_fan_corners(mesh, v, around, scratch.corners);
+  if (corners_form_one_cycle(scratch.corners)) return census_closed_fan(mesh, v, scratch.corners, out);
+  return census_general_fan(mesh, v, scratch, out);
+}
+
 template <class T>
 void append_and_release(std::vector<T>& destination, std::vector<T>& source) {
   destination.insert(destination.end(), source.begin(), source.end());
@@ -155,6 +165,37 @@ void append_and_release(std::vector<T>& destination, std::vector<T>& source) {
 }
 
 }  // namespace
+
+void read_fan_corners(const surface_mesh& mesh, std::uint32_t vertex, std::span<const std::uint32_t> around,
+                      std::vector<fan_corner>& corners) {
+  corners.clear();
+  for (const std::uint32_t t : around) {
+    const std::array<std::uint32_t, 3>& triangle = mesh.triangles[t];
+    const int k = triangle[0] == vertex ? 0 : (triangle[1] == vertex ? 1 : 2);
+    corners.push_back({triangle[(k + 1) % 3], triangle[(k + 2) % 3]});
+  }
+}
+
+// Walking "to the triangle whose prev is my next" from corner 0 must find exactly one such triangle at each step
+// and first return after k steps. A walk by a function that first returns to its start after k steps has visited
+// k distinct corners, i.e. all of them: the function is then one k-cycle, so nexts and prevs are all distinct and
+// every neighbour x is the next of one triangle and the prev of one other.
+bool corners_form_one_cycle(const std::vector<fan_corner>& corners) {
+  std::size_t current = 0;
+  for (std::size_t step = 1; step <= corners.size(); ++step) {
+    std::size_t following = corners.size(), matches = 0;
+    for (std::size_t j = 0; j < corners.size(); ++j) {
+      if (corners[j].prev == corners[current].next) {
+        following = j;
+        ++matches;
+      }
+    }
+    if (matches != 1) return false;
+    current = following;
+    if (current == 0) return step == corners.size();
+  }
+  return false;
+}
 
 vertex_fans build_vertex_fans(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
   const std::size_t vertex_count = mesh.positions.size();

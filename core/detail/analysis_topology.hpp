@@ -34,6 +34,20 @@ struct vertex_fans {
 
 vertex_fans build_vertex_fans(const surface_mesh& mesh, const std::vector<triangle_defect>& defects);
 
+/// A triangle seen from one of its corners v: counter-clockwise it runs v → next → prev.
+struct fan_corner {
+  std::uint32_t next, prev;
+};
+
+/// The triangles `around` vertex v, seen from v (replaces the contents of `corners`).
+void read_fan_corners(const surface_mesh& mesh, std::uint32_t vertex, std::span<const std::uint32_t> around,
+                      std::vector<fan_corner>& corners);
+
+/// True when the triangles form one closed cycle around their vertex, each edge (vertex, x) shared by exactly two
+/// of them in opposite directions: a closed, manifold, consistently oriented fan (a disk around an interior
+/// vertex). Quadratic in the fan size (fans are small); allocates nothing.
+bool corners_form_one_cycle(const std::vector<fan_corner>& corners);
+
 using edge_key = std::array<std::uint32_t, 2>;  ///< (smaller vertex, larger vertex)
 
 struct edge_census {
@@ -43,7 +57,7 @@ struct edge_census {
   std::size_t non_manifold_vertices = 0;          ///< vertices whose triangles form more than one fan
   std::vector<std::uint32_t> edges_at_smaller_end;  ///< per vertex v: how many edges (v, w) have w > v
   std::vector<edge_key> boundary;                   ///< the boundary edges, in increasing order
-  std::vector<double> lengths;  ///< Å, one per edge whose ends have usable coordinates, in increasing edge order
+  std::vector<double> lengths;  ///< Å, one per edge whose ends have usable coordinates, grouped by smaller end
 };
 
 edge_census take_edge_census(const surface_mesh& mesh, const vertex_fans& fans);

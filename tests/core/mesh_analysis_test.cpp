@@ -12,7 +12,10 @@
 #include <numbers>
 #include <random>
 
+#include "core/detail/analysis_fan_pairs.hpp"
+#include "core/detail/analysis_geometry.hpp"
 #include "core/detail/analysis_predicates.hpp"
+#include "core/detail/analysis_topology.hpp"
 #include "core/detail/triangle_intersection.hpp"
 #include "support/analysis_meshes.hpp"
 
@@ -370,6 +373,55 @@ TEST(MeshAnalysis, GridAgreesWithBruteForceOnRandomSoups) {
     EXPECT_GT(expected, 0u) << "round " << round;
     EXPECT_EQ(count_self_intersections(mesh), expected) << "round " << round;
   }
+}
+
+TEST(MeshAnalysis, CrumpledSphereAgreesWithBruteForce) {
+  // Random displacements of about an edge length fold many fans: adjacent pairs go through the per-fan test,
+  // separate pairs through the grid; the total must match the all-pairs loop.
+  std::mt19937_64 random(7);
+  std::normal_distribution<double> noise(0.0, 0.08);
+  for (int round = 0; round < 3; ++round) {
+    surface_mesh mesh = icosphere(3);
+    for (vec3& p : mesh.positions) p += vec3{noise(random), noise(random), noise(random)} * (round + 1.0);
+    const std::size_t expected = count_intersections_brute_force(mesh);
+    EXPECT_GT(expected, 0u) << "round " << round;
+    EXPECT_EQ(count_self_intersections(mesh), expected) << "round " << round;
+  }
+}
+
+TEST(MeshAnalysis, FanCertificateAcceptsStarsOnly) {
+  // Vertex 0 at the origin, a ring of neighbours 1..n around it at height `rise(k)`, triangles (0, k, k + 1).
+  const auto fan = [](int turns, int per_turn, double pitch) {
+    surface_mesh mesh;
+    mesh.positions.push_back({0, 0, 0});
+    const int n = turns * per_turn;
+    for (int k = 0; k < n; ++k) {
+      const double angle = 2 * pi * k / per_turn;
+      mesh.positions.push_back({std::cos(angle), std::sin(angle), pitch * k - 0.3});
+    }
+    for (int k = 0; k < n; ++k) {
+      mesh.triangles.push_back({0, static_cast<std::uint32_t>(1 + k), static_cast<std::uint32_t>(1 + (k + 1) % n)});
+    }
+    return mesh;
+  };
+  const auto certified = [](const surface_mesh& mesh) {
+    const auto defects = detail::classify_triangles(mesh);
+    const detail::vertex_fans fans = detail::build_vertex_fans(mesh, defects);
+    return detail::fan_is_embedded_star(mesh, defects, 0, fans.around(0));
+  };
+  EXPECT_TRUE(certified(fan(1, 7, 0.0)));  // a flat disk: projects one-to-one
+  EXPECT_TRUE(certified(fan(1, 7, 0.05)));  // a twisted cone: still one turn
+  const surface_mesh spiral = fan(2, 7, 0.05);  // two turns: a screw, winding 2
+  EXPECT_FALSE(certified(spiral));
+  EXPECT_EQ(count_self_intersections(spiral), count_intersections_brute_force(spiral));
+  EXPECT_GT(count_self_intersections(spiral), 0u);  // the last triangle closes the screw through the first turn
+
+  surface_mesh flipped = fan(1, 7, 0.0);
+  std::swap(flipped.triangles[3][1], flipped.triangles[3][2]);
+  EXPECT_FALSE(certified(flipped));  // not one consistently oriented cycle
+  surface_mesh open = fan(1, 7, 0.0);
+  open.triangles.pop_back();
+  EXPECT_FALSE(certified(open));  // a boundary vertex
 }
 
 TEST(MeshAnalysis, TrianglePairsWithoutSharedVertices) {
