@@ -218,11 +218,12 @@ class session : public std::enable_shared_from_this<session> {
 
   // ---- writing the response ----------------------------------------------------------------------------------
 
-  /// A reply_sink that hands the reply back to this session's strand, from whatever thread calls it.
+  /// A reply_sink that hands the reply back to this session's strand, from whatever thread calls it. dispatch:
+  /// a handler answering at once (a memory cache hit) runs send() inline; a worker or prep thread queues it.
   reply_sink make_sink() {
     return [self = shared_from_this()](reply r) {
-      net::post(self->stream_.get_executor(),
-                [self, r = std::move(r)]() mutable { self->send(std::move(r)); });
+      net::dispatch(self->stream_.get_executor(),
+                    [self, r = std::move(r)]() mutable { self->send(std::move(r)); });
     };
   }
 

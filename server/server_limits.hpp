@@ -43,7 +43,8 @@ struct server_limits {
   /// Open connections; one over it is answered 503 and closed at once.
   std::size_t max_connections = 256;
   /// Uploads being received or parsed at the same time (bounds upload memory); over it → 429 + Retry-After.
-  std::size_t max_concurrent_uploads = 16;
+  /// A lab's burst of small uploads must pass: 20 concurrent clients are well within it.
+  std::size_t max_concurrent_uploads = 64;
   /// Non-file multipart fields (parameters) and parts per upload.
   std::size_t max_form_parts = 16;
   std::size_t max_form_field_bytes = 4096;

@@ -242,6 +242,20 @@ TEST_F(ServiceTest, FullQueueAnswers429WithRetryAfterAndRecovers) {
   EXPECT_EQ(post("/jobs", atom_line(1, 2.0)).status, 202);
 }
 
+TEST_F(ServiceTest, ConcurrentUploadsBeyondTheLimitGet429) {
+  start([](server_config& c) { c.limits.max_concurrent_uploads = 1; });
+  const std::string full = upload_request("/mesh", gly_);
+  raw_connection holding(port_);
+  ASSERT_TRUE(holding.send(full.substr(0, full.size() - 10)));  // an upload still being received
+  std::this_thread::sleep_for(50ms);
+  const http_reply refused = post("/mesh", gly_);
+  expect_error(refused, 429, "queue_full");
+  EXPECT_FALSE(refused.header("retry-after").empty());
+  ASSERT_TRUE(holding.send(full.substr(full.size() - 10)));
+  EXPECT_EQ(holding.read_reply().status, 200);
+  EXPECT_EQ(post("/mesh", gly_).status, 200);  // the slot was released
+}
+
 TEST_F(ServiceTest, BadRequestsGetTheRightStatusAndTheServerKeepsServing) {
   start();
   expect_error(get("/nowhere"), 404, "not_found");
