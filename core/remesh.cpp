@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -171,7 +172,23 @@ std::size_t freeze_near(const std::vector<vec3>& points, const std::vector<vec3>
   return count;
 }
 
-/// Frozen input vertices become frozen, their other neighbours locked (see vertex_protection).
+/// Appends the triangles with a corner in `vertices` (sorted) to `triangles`, keeping it sorted and unique.
+void add_triangles_at(const triangle_list& all, const std::vector<std::uint32_t>& vertices,
+                      std::vector<std::uint32_t>& triangles) {
+  if (vertices.empty()) return;
+  for (std::uint32_t t = 0; t < all.size(); ++t) {
+    for (const std::uint32_t v : all[t]) {
+      if (std::binary_search(vertices.begin(), vertices.end(), v)) {
+        triangles.push_back(t);
+        break;
+      }
+    }
+  }
+  std::sort(triangles.begin(), triangles.end());
+  triangles.erase(std::unique(triangles.begin(), triangles.end()), triangles.end());
+}
+
+/// Sets `frozen` vertices frozen and their other neighbours locked (see vertex_protection).
 void protect(remesh_mesh& mesh, const std::vector<std::uint8_t>& frozen) {
   std::vector<std::uint32_t> ring;
   for (std::uint32_t v = 0; v < frozen.size(); ++v) {
@@ -184,46 +201,137 @@ void protect(remesh_mesh& mesh, const std::vector<std::uint8_t>& frozen) {
   }
 }
 
-struct round_output {
-  surface_mesh mesh;  ///< positions, normals and triangles
-  detail::operation_counts counts;
-};
-
-/// One full remeshing of `work` (a copy of the input with its protection set).
-result<round_output> run_round(remesh_mesh work, const gaussian_field& field, const remesh_options& options,
-                               progress_token& progress) {
-  const detail::remesh_thresholds t = thresholds_for(options);
-  detail::remesh_operations ops(work, field, t, progress);
-  const status cancelled{errc::cancelled, "remesh: cancelled"};
-  const int steps = options.iterations + options.final_relaxations;
-  for (int iteration = 0; iteration < options.iterations; ++iteration) {
-    const bool go = (iteration > 0 || ops.collapse_short_edges(t.tiny_below)) && ops.split_long_edges() &&
-                    ops.collapse_short_edges(t.collapse_below) && ops.flip_edges_for_valence() &&
-                    ops.relax_vertices();
-    if (!go) return cancelled;
-    work.compact();
-    if (work.live_face_count() > options.max_triangles) {
-      return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
-    }
-    if (!progress.report(mesh_stage::refining, static_cast<double>(iteration + 1) / (steps + 1))) return cancelled;
-  }
-  for (int sweep = 0; sweep < options.final_relaxations; ++sweep) {
-    if (!ops.relax_vertices()) return cancelled;
-    if (!progress.report(mesh_stage::refining, static_cast<double>(options.iterations + sweep + 1) / (steps + 1))) {
-      return cancelled;
-    }
-  }
-  work.compact();
-  round_output out;
-  out.mesh.positions = work.positions();
-  out.mesh.normals = work.normals();
-  out.mesh.triangles = work.triangles();
-  out.counts = ops.counts();
-  return out;
+std::vector<std::uint8_t> frozen_flags(const remesh_mesh& mesh) {
+  std::vector<std::uint8_t> frozen(mesh.vertex_slots());
+  for (std::uint32_t v = 0; v < mesh.vertex_slots(); ++v) frozen[v] = mesh.protection(v) == vertex_protection::frozen;
+  return frozen;
 }
 
-void write_mesh(surface_mesh& mesh, const gaussian_field& field, std::vector<vec3> positions,
-                std::vector<vec3> normals, triangle_list triangles) {
+/// A compacted mesh as the certificate sees it.
+surface_mesh certificate_view(const remesh_mesh& mesh) {
+  surface_mesh view;
+  view.positions = mesh.positions();
+  view.normals = mesh.normals();
+  view.triangles = mesh.triangles();
+  return view;
+}
+
+/// The part of the pass between two checks: an iteration of split/collapse/flip/relax, or the final relaxation.
+/// Returns false when cancelled.
+using stage = std::function<bool(detail::remesh_operations&)>;
+
+/// A failed check: the offending triangles and the mesh they belong to.
+struct check_failure {
+  surface_mesh mesh;
+  std::vector<std::uint32_t> offending;
+};
+
+/// Runs the stages of one round, each on a copy of the current state that is kept only when the certificate
+/// would accept it (first level of safety: a failure costs one stage, not the round).
+class verified_round {
+ public:
+  verified_round(const gaussian_field& field, const remesh_options& options, progress_token& progress)
+      : field_(field), options_(options), thresholds_(thresholds_for(options)), progress_(progress) {}
+
+  /// Remeshes `state` (the input with its protection). On success `state` is clean and settled on the surface;
+  /// returns false when even settling alone fails its check (see last_failure()).
+  result<bool> run(remesh_mesh& state) {
+    const int stages = options_.iterations + 2;
+    // Tiny edges first, as a stage of their own: a region frozen later then keeps none of them.
+    if (options_.iterations > 0) {
+      const auto tiny_edges = [&](detail::remesh_operations& ops) {
+        return ops.collapse_short_edges(thresholds_.tiny_below);
+      };
+      result<bool> done = run_verified(state, tiny_edges, false);
+      if (!done) return done;  // a failed stage simply leaves the state as it was
+      if (!progress_.report(mesh_stage::refining, 1.0 / stages)) return cancelled();
+    }
+    for (int iteration = 0; iteration < options_.iterations; ++iteration) {
+      const auto one_iteration = [&](detail::remesh_operations& ops) {
+        return ops.split_long_edges() && ops.collapse_short_edges(thresholds_.collapse_below) &&
+               ops.flip_edges_for_valence() && ops.relax_vertices();
+      };
+      result<bool> done = run_verified(state, one_iteration, false);
+      if (!done) return done;
+      if (!progress_.report(mesh_stage::refining, static_cast<double>(iteration + 2) / stages)) return cancelled();
+    }
+    const auto final_relaxation = [&](detail::remesh_operations& ops) {
+      for (int sweep = 0; sweep < options_.final_relaxations; ++sweep) {
+        if (!ops.relax_vertices()) return false;
+      }
+      return true;
+    };
+    result<bool> settled = run_verified(state, final_relaxation, true);
+    if (settled && !settled.value()) {
+      // The relaxation could not be made clean: settle the vertices where they are.
+      const auto no_operation = [](detail::remesh_operations&) { return true; };
+      settled = run_verified(state, no_operation, true);
+    }
+    return settled;
+  }
+
+  const detail::operation_counts& counts() const { return counts_; }
+  std::size_t retried_stages() const { return retried_; }
+  const check_failure& last_failure() const { return failure_; }
+
+ private:
+  static status cancelled() { return {errc::cancelled, "remesh: cancelled"}; }
+
+  /// Runs `run_stage` (then, when `settle`, projects every placed vertex) on copies of `state` until one passes the
+  /// check, freezing the vertices of `state` near the offending triangles between tries. Returns whether `state`
+  /// advanced; it stays as it was when freezing cannot help.
+  result<bool> run_verified(remesh_mesh& state, const stage& run_stage, bool settle) {
+    for (int attempt = 0;; ++attempt) {
+      remesh_mesh trial = state;
+      detail::remesh_operations ops(trial, field_, thresholds_, progress_);
+      if (!run_stage(ops)) return cancelled();
+      trial.compact();
+      if (trial.live_face_count() > options_.max_triangles) {
+        return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
+      }
+      const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
+      failure_.mesh = certificate_view(trial);
+      failure_.offending = detail::find_offending_triangles(failure_.mesh);
+      add_triangles_at(failure_.mesh.triangles, unsettled, failure_.offending);
+      if (failure_.offending.empty()) {
+        state = std::move(trial);
+        add_counts(ops.counts());
+        return true;
+      }
+      if (attempt == max_stage_retries) return false;
+      std::vector<std::uint8_t> frozen = frozen_flags(state);
+      const double radius = options_.freeze_radius * options_.target_edge * std::ldexp(1.0, attempt);
+      if (freeze_near(state.positions(), failure_.mesh.positions, failure_.mesh.triangles, failure_.offending, radius,
+                      frozen) == 0) {
+        return false;
+      }
+      protect(state, frozen);
+      ++retried_;
+    }
+  }
+
+  void add_counts(const detail::operation_counts& c) {
+    counts_.splits += c.splits;
+    counts_.collapses += c.collapses;
+    counts_.flips += c.flips;
+    counts_.relaxations += c.relaxations;
+    counts_.rejected += c.rejected;
+  }
+
+  /// Tries of one stage with growing frozen regions before it is skipped.
+  static constexpr int max_stage_retries = 4;
+
+  const gaussian_field& field_;
+  const remesh_options& options_;
+  const detail::remesh_thresholds thresholds_;
+  progress_token& progress_;
+  detail::operation_counts counts_;
+  std::size_t retried_ = 0;
+  check_failure failure_;
+};
+
+void write_mesh(surface_mesh& mesh, const gaussian_field& field, std::vector<vec3> positions, std::vector<vec3> normals,
+                triangle_list triangles) {
   std::vector<std::uint32_t> atoms(positions.size());
   parallel_over(positions.size(), [&](std::size_t v) { atoms[v] = field.dominant_atom(positions[v]); });
   mesh.positions = std::move(positions);
@@ -237,6 +345,7 @@ void write_mesh(surface_mesh& mesh, const gaussian_field& field, std::vector<vec
 result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& field, const remesh_options& options,
                                     progress_token& progress) {
   if (status s = check_options(options); !s) return s;
+  if (!progress.report(mesh_stage::refining, 0.0)) return status{errc::cancelled, "remesh: cancelled"};
   remesh_stats stats;
   std::vector<vec3> input_normals = options.trust_input_normals && mesh.normals.size() == mesh.positions.size()
                                         ? mesh.normals
@@ -255,42 +364,45 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
   }
   const std::vector<long> input_topology = component_euler_characteristics(mesh.positions.size(), mesh.triangles);
 
-  std::vector<std::uint8_t> frozen(mesh.positions.size(), 0);
-  std::size_t frozen_count = 0;
+  // Second level of safety: should a round end unclean, restart from the input with its vertices near the
+  // offending triangles frozen, until clean (at worst everything is frozen and the input comes back).
+  std::vector<std::uint8_t> frozen_input(mesh.positions.size(), 0);
   for (int round = 1; round <= options.max_rounds; ++round) {
     stats.rounds = round;
-    if (!progress.report(mesh_stage::refining, 0.0)) return status{errc::cancelled, "remesh: cancelled"};
-    remesh_mesh work = input.value();
-    protect(work, frozen);
-    result<round_output> out = run_round(std::move(work), field, options, progress);
-    if (!out) return out.error();
-
-    surface_mesh& result_mesh = out->mesh;
-    const std::vector<std::uint32_t> bad = detail::find_offending_triangles(result_mesh);
-    const bool topology_kept =
-        component_euler_characteristics(result_mesh.positions.size(), result_mesh.triangles) == input_topology &&
-        remesh_mesh::build(result_mesh.positions, result_mesh.normals, result_mesh.triangles).ok();
-    if (!topology_kept) break;  // cannot happen by construction; never hand out a broken mesh
-    if (bad.empty()) {
-      stats.splits = out->counts.splits;
-      stats.collapses = out->counts.collapses;
-      stats.flips = out->counts.flips;
-      stats.relaxations = out->counts.relaxations;
-      stats.rejected_ops = out->counts.rejected;
-      stats.frozen_vertices = frozen_count;
-      write_mesh(mesh, field, std::move(result_mesh.positions), std::move(result_mesh.normals),
-                 std::move(result_mesh.triangles));
+    remesh_mesh state = input.value();
+    protect(state, frozen_input);
+    verified_round pass(field, options, progress);
+    result<bool> clean = pass.run(state);
+    if (!clean) return clean.error();
+    stats.retried_stages += pass.retried_stages();
+    if (clean.value()) {
+      surface_mesh out = certificate_view(state);
+      // Cannot differ by construction; checked so that a bug never hands out a broken mesh.
+      if (component_euler_characteristics(out.positions.size(), out.triangles) != input_topology ||
+          !remesh_mesh::build(out.positions, out.normals, out.triangles).ok()) {
+        break;
+      }
+      const detail::operation_counts& counts = pass.counts();
+      stats.splits = counts.splits;
+      stats.collapses = counts.collapses;
+      stats.flips = counts.flips;
+      stats.relaxations = counts.relaxations;
+      stats.rejected_ops = counts.rejected;
+      const std::vector<std::uint8_t> frozen = frozen_flags(state);
+      stats.frozen_vertices = static_cast<std::size_t>(std::count(frozen.begin(), frozen.end(), 1));
+      write_mesh(mesh, field, std::move(out.positions), std::move(out.normals), std::move(out.triangles));
       return stats;
     }
+    const check_failure& failure = pass.last_failure();
     const double radius = options.freeze_radius * l * std::ldexp(1.0, round - 1);
-    const std::size_t added =
-        freeze_near(mesh.positions, result_mesh.positions, result_mesh.triangles, bad, radius, frozen);
-    frozen_count += added;
-    if (added == 0 || frozen_count == frozen.size()) break;
+    if (freeze_near(mesh.positions, failure.mesh.positions, failure.mesh.triangles, failure.offending, radius,
+                    frozen_input) == 0) {
+      break;
+    }
   }
   // No clean result: keep the (valid) input.
   stats.input_returned = true;
-  stats.frozen_vertices = frozen_count;
+  stats.frozen_vertices = static_cast<std::size_t>(std::count(frozen_input.begin(), frozen_input.end(), 1));
   write_mesh(mesh, field, mesh.positions, std::move(input_normals), mesh.triangles);
   return stats;
 }

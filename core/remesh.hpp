@@ -5,12 +5,16 @@
 /// Botsch & Kobbelt, "A remeshing approach to multiresolution modeling", 2004, made safe).
 ///
 /// Each outer iteration splits long edges, collapses short ones, flips edges towards valence 6 and moves every
-/// vertex towards the centre of its 1-ring in the tangent plane; every new or moved vertex is projected onto the
-/// surface. Every operation is checked locally (link condition, normals against the field normal, no degenerate
-/// triangle). Local checks cannot see two sheets of surface that come close, so the result is then checked for
-/// self-intersections and degenerate triangles: when any are found, the input vertices near them are frozen and
-/// the pass restarts from the input, until the result is clean (at worst everything is frozen and the input is
-/// returned). Deterministic: the same input gives the same output whatever the number of threads.
+/// vertex towards the centre of its 1-ring in the tangent plane; new and moved vertices are put back onto the
+/// surface. Every operation is checked locally (link condition, normals against the field normal, shape). Local
+/// checks cannot see two sheets of surface that come close, so validity rests on the certificate's own tests
+/// (exact self-intersection, degeneracy), at two levels:
+/// 1. each iteration (and the final relaxation) runs on a copy that is kept only if it passes; otherwise the
+///    vertices near the offending triangles are frozen (untouchable: never moved, removed, nor given or deprived
+///    of an edge) and the iteration is redone, with a growing radius, or skipped;
+/// 2. should a round still end unclean, it restarts from the input with the input vertices near the offending
+///    triangles frozen, until clean (at worst everything is frozen and the input is returned).
+/// Deterministic: the same input gives the same output whatever the number of threads.
 
 #include <cstddef>
 
@@ -23,9 +27,9 @@
 namespace tracemesh {
 
 struct remesh_options {
-  double target_edge = 1.0;  ///< L, Å. The mesher derives it from the density: L = √(2 / (√3 · density)).
-  int iterations = 5;        ///< outer iterations of split / collapse / flip / relax
-  double split_above = 4.0 / 3.0;     ///< split edges longer than this × L
+  double target_edge = 1.0;        ///< L, Å. The mesher derives it from the density: L = √(2 / (√3 · density)).
+  int iterations = 5;              ///< outer iterations of split / collapse / flip / relax
+  double split_above = 4.0 / 3.0;  ///< split edges longer than this × L
   double collapse_below = 4.0 / 5.0;  ///< collapse edges shorter than this × L (never creating one > split_above × L)
   double tiny_edge_below = 0.2;       ///< edges shorter than this × L are collapsed in a first, separate sweep
   /// Every new or moved triangle's normal must stay within this angle (degrees) of the field normal −∇φ/|∇φ|
@@ -38,27 +42,28 @@ struct remesh_options {
   double hard_quality_floor = 1e-6;
   /// Å: every new or moved vertex ends within this first-order distance |φ − t0| / |∇φ| of the surface.
   double surface_tolerance = 1e-5;
-  int final_relaxations = 2;          ///< extra tangential relaxation sweeps after the last iteration
-  /// After a failed check, input vertices within freeze_radius × L of an offending triangle are frozen; the radius
-  /// doubles with every further round.
-  double freeze_radius = 2.0;
+  int final_relaxations = 2;  ///< extra tangential relaxation sweeps after the last iteration
+  /// After a failed check, vertices within freeze_radius × L of an offending triangle are frozen; the radius doubles
+  /// with every further try.
+  double freeze_radius = 1.0;
   /// When true and mesh.normals holds one unit normal per vertex, they are taken as the field normals −∇φ/|∇φ| of
   /// the input vertices instead of evaluating the field there (the mesher's root finder may already know them).
   bool trust_input_normals = false;
-  int max_rounds = 6;  ///< rounds (pass + check) before giving up and returning the input unchanged
+  int max_rounds = 6;  ///< rounds (see level 2 above) before giving up and returning the input unchanged
   std::size_t max_triangles = mesh_limits{}.max_triangles;  ///< errc::limit_exceeded when the output would exceed it
 };
 
 struct remesh_stats {
-  // Operations applied in the final round.
+  // Operations kept in the final round.
   std::size_t splits = 0;
   std::size_t collapses = 0;
   std::size_t flips = 0;
-  std::size_t relaxations = 0;    ///< accepted vertex moves
-  std::size_t rejected_ops = 0;   ///< candidate operations refused by a local safety check
-  std::size_t frozen_vertices = 0;  ///< input vertices frozen in the final round
-  int rounds = 0;                 ///< rounds run (1 when the first result was clean)
-  bool input_returned = false;    ///< true when no round gave a clean result and the input was kept
+  std::size_t relaxations = 0;      ///< accepted vertex moves
+  std::size_t rejected_ops = 0;     ///< candidate operations refused by a local safety check
+  std::size_t frozen_vertices = 0;  ///< output vertices left frozen (or input vertices, when the input is returned)
+  std::size_t retried_stages = 0;   ///< stages redone with a frozen region after a failed check (all rounds)
+  int rounds = 0;                   ///< rounds run (1 unless a round ended unclean)
+  bool input_returned = false;      ///< true when no round gave a clean result and the input was kept
 };
 
 /// Improves `mesh` in place.

@@ -33,6 +33,21 @@ inline vec3 field_normal(const gaussian_field& field, const vec3& p) {
   return normalized(-gradient);
 }
 
+/// One Newton step along ∇φ from p, and the field normal at p: the relaxation's cheap projection (one field
+/// evaluation), exact to second order in the distance to the surface; project_onto_surface settles the vertices
+/// afterwards. Returns false, leaving both unchanged, when ∇φ vanishes or the step exceeds max_move Å.
+inline bool newton_step_to_surface(const gaussian_field& field, vec3& p, vec3& normal, double max_move) {
+  vec3 gradient;
+  const double residual = field.value_and_gradient(p, gradient) - field.t0();
+  const double g2 = squared_norm(gradient);
+  if (!(g2 > 0)) return false;
+  const vec3 step = gradient * (residual / g2);
+  if (squared_norm(step) > max_move * max_move) return false;
+  p -= step;
+  normal = -gradient / std::sqrt(g2);
+  return true;
+}
+
 /// Newton steps along ∇φ (as gaussian_field::project_to_surface) until the first-order distance |φ − t0| / |∇φ| is
 /// at most `tolerance` Å. Stopping on that distance rather than on 1e-9·t0, and taking the normal from the last
 /// evaluation, saves about half of the field evaluations of the remesher, its main cost. Returns false, leaving p

@@ -35,38 +35,50 @@ bool boxes_overlap(const box& a, const box& b) {
   return true;
 }
 
-/// Uniform grid over triangle bounding-box centres. The cell is at least as large as every box, so two boxes that
-/// overlap have their centres in the same or in adjacent cells.
+/// Cell edge relative to the mean largest extent of the triangles' boxes: a triangle overlaps a few cells.
+constexpr double cell_factor = 2.0;
+/// Grid entries allowed per triangle on average; past it the cell doubles (a few huge triangles).
+constexpr std::size_t max_entries_per_triangle = 16;
+/// Cell indices take 21 bits per axis so that a key packs into 64 bits.
+constexpr int key_bits = 21;
+constexpr std::int64_t max_cell_index = (std::int64_t{1} << key_bits) - 1;
+
+using cell_index = std::array<std::int64_t, 3>;
+
+std::uint64_t pack(const cell_index& c) {
+  return (static_cast<std::uint64_t>(c[0]) << (2 * key_bits)) | (static_cast<std::uint64_t>(c[1]) << key_bits) |
+         static_cast<std::uint64_t>(c[2]);
+}
+
+/// A sparse uniform grid: every triangle is entered in each cell its box overlaps.
 class triangle_grid {
  public:
-  static constexpr int key_bits = 21;
-
   explicit triangle_grid(const std::vector<box>& boxes) {
-    vec3 lo = boxes.front().lo, hi = boxes.front().hi;
-    double largest = 0;
+    box all = boxes.front();
+    double extent_sum = 0;
     for (const box& b : boxes) {
       for (int axis = 0; axis < 3; ++axis) {
-        lo[axis] = std::min(lo[axis], b.lo[axis]);
-        hi[axis] = std::max(hi[axis], b.hi[axis]);
-        largest = std::max(largest, b.hi[axis] - b.lo[axis]);
+        all.lo[axis] = std::min(all.lo[axis], b.lo[axis]);
+        all.hi[axis] = std::max(all.hi[axis], b.hi[axis]);
       }
+      extent_sum += std::max({b.hi.x - b.lo.x, b.hi.y - b.lo.y, b.hi.z - b.lo.z});
     }
-    const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-    const double max_cells = static_cast<double>((1 << key_bits) - 4);
-    // Slightly larger than every box, so that rounding of the centres cannot separate overlapping boxes.
-    cell_ = std::max({largest * (1 + 1e-9) + 1e-12, extent / max_cells, 1e-6});
-    origin_ = lo;
-    entries_.resize(boxes.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes.size()), [&](const auto& range) {
-      for (std::size_t t = range.begin(); t != range.end(); ++t) {
-        entries_[t] = {key_of((boxes[t].lo + boxes[t].hi) * 0.5), static_cast<std::uint32_t>(t)};
-      }
-    });
-    tbb::parallel_sort(entries_.begin(), entries_.end());
-    for (std::size_t n = 0; n < entries_.size(); ++n) {
-      if (cells_.empty() || cells_.back().key != entries_[n].key) cells_.push_back({entries_[n].key, n, n});
-      cells_.back().end = n + 1;
+    origin_ = all.lo;
+    const double span = std::max({all.hi.x - all.lo.x, all.hi.y - all.lo.y, all.hi.z - all.lo.z});
+    cell_ = std::max({cell_factor * extent_sum / static_cast<double>(boxes.size()),
+                      span / static_cast<double>(max_cell_index - 1), 1e-9});
+    while (entry_count(boxes) > max_entries_per_triangle * boxes.size() + 64) cell_ *= 2;
+    fill(boxes);
+  }
+
+  /// The cell holding point p.
+  cell_index cell_of(const vec3& p) const {
+    cell_index c;
+    for (int axis = 0; axis < 3; ++axis) {
+      c[axis] = std::clamp<std::int64_t>(static_cast<std::int64_t>(std::floor((p[axis] - origin_[axis]) / cell_)), 0,
+                                         max_cell_index);
     }
+    return c;
   }
 
   struct entry {
@@ -76,55 +88,55 @@ class triangle_grid {
       return a.key != b.key ? a.key < b.key : a.triangle < b.triangle;
     }
   };
-  struct cell {
-    std::uint64_t key;
-    std::size_t begin, end;  ///< range in entries()
-  };
-  const std::vector<cell>& cells() const { return cells_; }
+  /// Entries sorted by (cell, triangle); each cell's triangles are contiguous.
   const std::vector<entry>& entries() const { return entries_; }
-
-  /// The cells adjacent to `c` (26-neighbourhood) whose key is larger, so each pair of cells is visited once.
-  void later_neighbours(const cell& c, std::vector<const cell*>& out) const {
-    out.clear();
-    const std::uint64_t mask = (1ULL << key_bits) - 1;
-    const std::int64_t ix = static_cast<std::int64_t>(c.key >> (2 * key_bits));
-    const std::int64_t iy = static_cast<std::int64_t>((c.key >> key_bits) & mask);
-    const std::int64_t iz = static_cast<std::int64_t>(c.key & mask);
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        for (int dz = -1; dz <= 1; ++dz) {
-          if (ix + dx < 0 || iy + dy < 0 || iz + dz < 0) continue;
-          const std::uint64_t key = pack(ix + dx, iy + dy, iz + dz);
-          if (key <= c.key) continue;
-          const auto found = std::lower_bound(cells_.begin(), cells_.end(), key,
-                                              [](const cell& x, std::uint64_t k) { return x.key < k; });
-          if (found != cells_.end() && found->key == key) out.push_back(&*found);
-        }
-      }
-    }
-  }
+  /// Start of each cell's run in entries(), plus entries().size() at the end.
+  const std::vector<std::size_t>& cell_starts() const { return cell_starts_; }
 
  private:
-  static std::uint64_t pack(std::int64_t ix, std::int64_t iy, std::int64_t iz) {
-    return (static_cast<std::uint64_t>(ix) << (2 * key_bits)) | (static_cast<std::uint64_t>(iy) << key_bits) |
-           static_cast<std::uint64_t>(iz);
+  std::size_t cells_overlapped(const box& b) const {
+    const cell_index lo = cell_of(b.lo), hi = cell_of(b.hi);
+    return static_cast<std::size_t>((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1));
   }
-  std::uint64_t key_of(const vec3& p) const {
-    const auto index = [&](int axis) {
-      return static_cast<std::int64_t>(std::floor((p[axis] - origin_[axis]) / cell_)) + 1;  // +1: room for −1
-    };
-    return pack(index(0), index(1), index(2));
+  std::size_t entry_count(const std::vector<box>& boxes) const {
+    std::size_t count = 0;
+    for (const box& b : boxes) count += cells_overlapped(b);
+    return count;
+  }
+  void fill(const std::vector<box>& boxes) {
+    std::vector<std::size_t> offsets(boxes.size() + 1, 0);
+    for (std::size_t t = 0; t < boxes.size(); ++t) offsets[t + 1] = offsets[t] + cells_overlapped(boxes[t]);
+    entries_.resize(offsets.back());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes.size()), [&](const auto& range) {
+      for (std::size_t t = range.begin(); t != range.end(); ++t) {
+        const cell_index lo = cell_of(boxes[t].lo), hi = cell_of(boxes[t].hi);
+        std::size_t out = offsets[t];
+        for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
+          for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
+            for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+              entries_[out++] = {pack({x, y, z}), static_cast<std::uint32_t>(t)};
+            }
+          }
+        }
+      }
+    });
+    tbb::parallel_sort(entries_.begin(), entries_.end());
+    for (std::size_t n = 0; n < entries_.size(); ++n) {
+      if (n == 0 || entries_[n].key != entries_[n - 1].key) cell_starts_.push_back(n);
+    }
+    cell_starts_.push_back(entries_.size());
   }
 
   double cell_ = 1;
   vec3 origin_;
   std::vector<entry> entries_;
-  std::vector<cell> cells_;
+  std::vector<std::size_t> cell_starts_;
 };
 
 }  // namespace
 
-std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
+std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh,
+                                                   const std::vector<triangle_defect>& defects) {
   const std::vector<vec3>& positions = mesh.positions;
   const auto& triangles = mesh.triangles;
   if (triangles.size() < 2) return {};
@@ -133,33 +145,32 @@ std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, con
     for (std::size_t t = range.begin(); t != range.end(); ++t) boxes[t] = triangle_box(positions, triangles[t]);
   });
   const triangle_grid grid(boxes);
-  const auto& cells = grid.cells();
   const auto& entries = grid.entries();
+  const auto& starts = grid.cell_starts();
 
   tbb::enumerable_thread_specific<std::vector<triangle_pair>> found;
-  tbb::enumerable_thread_specific<std::vector<const triangle_grid::cell*>> neighbour_lists;
-  const auto test = [&](std::uint32_t s, std::uint32_t t, std::vector<triangle_pair>& out) {
-    if (defects[s] != triangle_defect::none || defects[t] != triangle_defect::none) return;
-    if (!boxes_overlap(boxes[s], boxes[t])) return;
-    if (mesh_triangles_intersect(positions, triangles[s], triangles[t])) out.push_back({std::min(s, t), std::max(s, t)});
-  };
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size()), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, starts.size() - 1), [&](const auto& range) {
     auto& out = found.local();
-    auto& neighbours = neighbour_lists.local();
     for (std::size_t c = range.begin(); c != range.end(); ++c) {
-      const auto& cell = cells[c];
-      grid.later_neighbours(cell, neighbours);
-      for (std::size_t i = cell.begin; i < cell.end; ++i) {
+      const std::uint64_t key = entries[starts[c]].key;
+      for (std::size_t i = starts[c]; i < starts[c + 1]; ++i) {
         const std::uint32_t s = entries[i].triangle;
-        for (std::size_t j = i + 1; j < cell.end; ++j) test(s, entries[j].triangle, out);
-        for (const auto* other : neighbours) {
-          for (std::size_t j = other->begin; j < other->end; ++j) test(s, entries[j].triangle, out);
+        if (defects[s] != triangle_defect::none) continue;
+        for (std::size_t j = i + 1; j < starts[c + 1]; ++j) {
+          const std::uint32_t t = entries[j].triangle;
+          if (defects[t] != triangle_defect::none || !boxes_overlap(boxes[s], boxes[t])) continue;
+          // Test each pair once: in the cell holding the lowest corner of the two boxes' intersection.
+          const vec3 corner{std::max(boxes[s].lo.x, boxes[t].lo.x), std::max(boxes[s].lo.y, boxes[t].lo.y),
+                            std::max(boxes[s].lo.z, boxes[t].lo.z)};
+          if (pack(grid.cell_of(corner)) != key) continue;
+          if (mesh_triangles_intersect(positions, triangles[s], triangles[t])) out.push_back({s, t});
         }
       }
     }
   });
   std::vector<triangle_pair> pairs;
-  found.combine_each([&](const std::vector<triangle_pair>& part) { pairs.insert(pairs.end(), part.begin(), part.end()); });
+  found.combine_each(
+      [&](const std::vector<triangle_pair>& part) { pairs.insert(pairs.end(), part.begin(), part.end()); });
   std::sort(pairs.begin(), pairs.end());
   return pairs;
 }

@@ -18,7 +18,8 @@ using triangle_pair = std::array<std::uint32_t, 2>;
 /// Every pair {i, j} (i < j, sorted) of triangles without defect that count as a self-intersection (see
 /// count_self_intersections). `defects`: classify_triangles(mesh). Grid-accelerated and parallel; the result does
 /// not depend on the thread count.
-std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects);
+std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh,
+                                                   const std::vector<triangle_defect>& defects);
 
 /// The triangles that would fail the certificate: those with a defect and both members of every intersecting
 /// pair. Sorted, without repeats.

@@ -65,6 +65,7 @@ result<remesh_mesh> remesh_mesh::build(std::vector<vec3> positions, std::vector<
   mesh.position_ = std::move(positions);
   mesh.normal_ = std::move(normals);
   mesh.protection_.assign(vertex_count, vertex_protection::free);
+  mesh.placed_.assign(vertex_count, 0);
   mesh.vertex_removed_.assign(vertex_count, 0);
   mesh.face_removed_.assign(triangles.size(), 0);
   mesh.live_faces_ = triangles.size();
@@ -116,6 +117,7 @@ std::uint32_t remesh_mesh::add_vertex(const vec3& position, const vec3& normal) 
   normal_.push_back(normal);
   outgoing_.push_back(no_index);
   protection_.push_back(vertex_protection::free);
+  placed_.push_back(1);
   vertex_removed_.push_back(0);
   ++live_vertices_;
   return vertex_slots() - 1;
@@ -176,6 +178,7 @@ void remesh_mesh::collapse_edge(std::uint32_t h, const vec3& position, const vec
   vertex_removed_[b] = 1;
   live_faces_ -= 2;
   --live_vertices_;
+  if (!(position_[a] == position)) placed_[a] = 1;
   position_[a] = position;
   normal_[a] = normal;
   outgoing_[a] = twin_ac;
@@ -213,6 +216,7 @@ std::vector<std::uint32_t> remesh_mesh::compact() {
     normal_[kept_vertices] = normal_[v];
     outgoing_[kept_vertices] = outgoing_[v];
     protection_[kept_vertices] = protection_[v];
+    placed_[kept_vertices] = placed_[v];
     ++kept_vertices;
   }
   std::vector<std::uint32_t> face_map(face_slots(), no_index);
@@ -235,6 +239,7 @@ std::vector<std::uint32_t> remesh_mesh::compact() {
   normal_.resize(kept_vertices);
   outgoing_.resize(kept_vertices);
   protection_.resize(kept_vertices);
+  placed_.resize(kept_vertices);
   vertex_removed_.assign(kept_vertices, 0);
   corner_.resize(3 * std::size_t{kept_faces});
   opposite_.resize(3 * std::size_t{kept_faces});

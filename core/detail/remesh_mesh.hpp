@@ -75,7 +75,10 @@ class remesh_mesh {
   void move_vertex(std::uint32_t v, const vec3& position, const vec3& normal) {
     position_[v] = position;
     normal_[v] = normal;
+    placed_[v] = 1;
   }
+  /// True for vertices created or moved by an edit (false for input vertices never touched).
+  bool placed(std::uint32_t v) const { return placed_[v] != 0; }
   /// New vertices are free.
   vertex_protection protection(std::uint32_t v) const { return protection_[v]; }
   void set_protection(std::uint32_t v, vertex_protection p) { protection_[v] = p; }
@@ -114,6 +117,7 @@ class remesh_mesh {
   std::vector<vec3> normal_;
   std::vector<std::uint32_t> outgoing_;
   std::vector<vertex_protection> protection_;
+  std::vector<std::uint8_t> placed_;
   std::vector<std::uint8_t> vertex_removed_;
   std::vector<std::uint32_t> corner_;    ///< vertex at each corner (= from() of the half-edge with that index)
   std::vector<std::uint32_t> opposite_;  ///< twin half-edge

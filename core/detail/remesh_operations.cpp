@@ -22,6 +22,8 @@ constexpr int target_valence = 6;
 /// Splits and collapses may leave their worst triangle at this fraction of the worst one they replace (when under
 /// the quality floor): dissolving a cluster of slivers makes some neighbouring thin triangle marginally thinner.
 constexpr double topological_quality_slack = 0.5;
+/// How much worse (in cosine) a triangle's agreement with its corner normals may get when it barely moves.
+constexpr double small_change_agreement_slack = 0.2;
 
 bool contains(const std::vector<std::uint32_t>& list, std::uint32_t value) {
   return std::find(list.begin(), list.end(), value) != list.end();
@@ -62,7 +64,8 @@ double quality(const Triangle& t) {
 
 remesh_operations::oriented_triangle remesh_operations::triangle_of(std::uint32_t h) const {
   const std::uint32_t a = mesh_.from(h), b = mesh_.to(h), c = mesh_.apex(h);
-  return {{mesh_.position(a), mesh_.position(b), mesh_.position(c)}, {mesh_.normal(a), mesh_.normal(b), mesh_.normal(c)}};
+  return {{mesh_.position(a), mesh_.position(b), mesh_.position(c)},
+          {mesh_.normal(a), mesh_.normal(b), mesh_.normal(c)}};
 }
 
 remesh_operations::replaced_triangle remesh_operations::replaced(const oriented_triangle& t,
@@ -71,12 +74,22 @@ remesh_operations::replaced_triangle remesh_operations::replaced(const oriented_
   return {worst_quality, agreement(t), meaningful ? normalized(area_vector(t.p[0], t.p[1], t.p[2])) : vec3{}};
 }
 
-bool remesh_operations::acceptable(const oriented_triangle& t, const replaced_triangle& old) const {
+bool remesh_operations::acceptable(const oriented_triangle& t, const replaced_triangle& old, bool small_change) const {
   const double q = quality(t);
   if (!(q >= thresholds_.hard_quality_floor) || q < std::min(thresholds_.quality_floor, old.quality)) return false;
   // Face the way the surface does at every corner (checked at the vertices, where the field normal is exact and
-  // known, rather than at the off-surface centroid); never worse than the triangle replaced.
-  if (agreement(t) < std::min(thresholds_.min_normal_cosine, old.agreement)) return false;
+  // known, rather than at the off-surface centroid), or at least no worse than the triangle replaced where the
+  // surface bends too much within one triangle for that; then never beyond 90°, which is how folds start. Slivers
+  // (whose normal means little) may just be no worse, and triangles that barely move a little worse: dissolving a
+  // cluster of slivers or a tiny edge in a tight fold goes through such triangles.
+  const double no_worse = std::min(thresholds_.min_normal_cosine, old.agreement);
+  double required = std::max(no_worse, 0.0);
+  if (small_change) {
+    required = no_worse - small_change_agreement_slack;
+  } else if (q < meaningful_normal_quality) {
+    required = no_worse;
+  }
+  if (agreement(t) < required) return false;
   return dot(normalized(area_vector(t.p[0], t.p[1], t.p[2])), old.normal) >= 0;
 }
 
@@ -173,12 +186,14 @@ bool remesh_operations::try_collapse(std::uint32_t h) {
     ++counts_.collapses;
     return true;
   }
-  // Neither end point will do: try the midpoint, projected (it moves both ends, so both fans are checked).
-  vec3 p = (pa + pb) * 0.5, n;
-  if (!project(p, n) || collapse_outcome(a, p, n, b, f0, f1, ring_b_) < 0 ||
-      collapse_outcome(b, p, n, a, f0, f1, ring_a_) < 0) {
-    return false;
-  }
+  // Neither end point will do: try the midpoint (it moves both ends, so both fans are checked). Its projection
+  // costs field evaluations, so first check the unprojected midpoint with the mean normal: it is within the
+  // sagitta of the projected one, and most refusals (edge length, shape) show already.
+  vec3 p = (pa + pb) * 0.5, n = normalized(na + nb);
+  const auto midpoint_acceptable = [&] {
+    return collapse_outcome(a, p, n, b, f0, f1, ring_b_) >= 0 && collapse_outcome(b, p, n, a, f0, f1, ring_a_) >= 0;
+  };
+  if (!midpoint_acceptable() || !project(p, n) || !midpoint_acceptable()) return false;
   mesh_.collapse_edge(h, p, n);
   ++counts_.collapses;
   return true;
@@ -194,6 +209,8 @@ double remesh_operations::collapse_outcome(std::uint32_t kept, const vec3& p, co
     if (squared_norm(mesh_.position(x) - mesh_.position(removed)) <= max_edge2) return -1;
   }
   // The removed vertex's faces, except the two that vanish, get the kept vertex instead.
+  const double tiny2 = thresholds_.tiny_below * thresholds_.tiny_below;
+  const bool small_change = squared_norm(p - mesh_.position(removed)) < tiny2;
   double worst = 1;
   const std::uint32_t start = mesh_.outgoing(removed);
   std::uint32_t g = start;
@@ -210,7 +227,7 @@ double remesh_operations::collapse_outcome(std::uint32_t kept, const vec3& p, co
       oriented_triangle moved = old;
       moved.p[0] = p;
       moved.n[0] = n;
-      if (!acceptable(moved, replaced(old, worst))) return -1;
+      if (!acceptable(moved, replaced(old, worst), small_change)) return -1;
       worst_new = std::min(worst_new, quality(moved));
     }
     g = mesh_.rotate(g);
@@ -296,7 +313,7 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
   move -= n * dot(n, move);  // stay in the tangent plane; the projection below follows the curvature
   if (squared_norm(move) == 0) return false;
   vec3 q = p + move, nq;
-  if (!project(q, nq)) return false;
+  if (!newton_step_to_surface(field_, q, nq, thresholds_.max_move)) return false;
 
   g = start;
   do {
@@ -336,6 +353,26 @@ bool remesh_operations::relax_vertices() {
     counts_.rejected += o == refused;
   }
   return true;
+}
+
+std::vector<std::uint32_t> remesh_operations::settle_vertices() {
+  std::vector<std::uint8_t> failed(mesh_.vertex_slots(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, mesh_.vertex_slots(), 256), [&](const auto& range) {
+    for (std::uint32_t v = range.begin(); v != range.end(); ++v) {
+      if (mesh_.vertex_removed(v) || !mesh_.placed(v)) continue;
+      vec3 p = mesh_.position(v), n;
+      if (project(p, n)) {
+        mesh_.move_vertex(v, p, n);
+      } else {
+        failed[v] = 1;
+      }
+    }
+  });
+  std::vector<std::uint32_t> unsettled;
+  for (std::uint32_t v = 0; v < failed.size(); ++v) {
+    if (failed[v]) unsettled.push_back(v);
+  }
+  return unsettled;
 }
 
 std::vector<std::vector<std::uint32_t>> colour_free_vertices(const remesh_mesh& mesh) {

@@ -20,9 +20,9 @@ namespace tracemesh::detail {
 
 /// Absolute thresholds derived from remesh_options and the target edge L.
 struct remesh_thresholds {
-  double split_above = 0;        ///< Å: split longer edges
-  double collapse_below = 0;     ///< Å: collapse shorter edges
-  double tiny_below = 0;         ///< Å: first sweep collapses edges shorter than this
+  double split_above = 0;              ///< Å: split longer edges
+  double collapse_below = 0;           ///< Å: collapse shorter edges
+  double tiny_below = 0;               ///< Å: first sweep collapses edges shorter than this
   double max_edge_after_collapse = 0;  ///< Å: a collapse may not create a longer edge
   double min_normal_cosine = 0;  ///< cosine of the largest angle between a new face's normal and its vertex normals
   double quality_floor = 0;      ///< see remesh_options::quality_floor
@@ -49,9 +49,13 @@ class remesh_operations {
   bool collapse_short_edges(double shorter_than);
   /// Flips edges whose flip brings the valences of the four vertices involved closer to 6.
   bool flip_edges_for_valence();
-  /// Moves each free vertex to the area-weighted centroid of its 1-ring within the tangent plane, then onto the
-  /// surface.
+  /// Moves each free vertex to the area-weighted centroid of its 1-ring within the tangent plane, then one Newton
+  /// step towards the surface (second-order close; settle_vertices finishes the projection).
   bool relax_vertices();
+  /// Projects every vertex the edits placed onto the surface to thresholds.surface_tolerance (a tiny move after
+  /// relaxation, whatever its protection since), refreshing its normal. Returns the vertices that could not be
+  /// projected (normally none). Parallel.
+  std::vector<std::uint32_t> settle_vertices();
 
   const operation_counts& counts() const { return counts_; }
 
@@ -82,8 +86,9 @@ class remesh_operations {
   replaced_triangle replaced(const oriented_triangle& t, double worst_quality) const;
   /// May `t` replace `old`? Its quality must reach min(quality_floor, old.quality) (and the hard floor), its normal
   /// must agree with the field normals at its corners at least as well as min(max deviation, old.agreement)
-  /// allows, and it may not flip against old.normal.
-  bool acceptable(const oriented_triangle& t, const replaced_triangle& old) const;
+  /// allows and, unless `t` is a sliver or a `small_change` (a move under tiny_below), within 90°; it may not
+  /// flip against old.normal.
+  bool acceptable(const oriented_triangle& t, const replaced_triangle& old, bool small_change = false) const;
   bool stop_requested(std::size_t step) const;
   /// A free vertex's relaxed position, or false when it should stay.
   bool relaxed_position(std::uint32_t v, vec3& position, vec3& normal) const;

@@ -66,7 +66,8 @@ class tiny_marching_tetrahedra {
   using lattice_point = std::array<int, 3>;
 
   std::size_t index(const lattice_point& p) const {
-    return static_cast<std::size_t>(p[0]) + static_cast<std::size_t>(count_[0]) * (p[1] + static_cast<std::size_t>(count_[1]) * p[2]);
+    const auto n0 = static_cast<std::size_t>(count_[0]), n1 = static_cast<std::size_t>(count_[1]);
+    return static_cast<std::size_t>(p[0]) + n0 * (static_cast<std::size_t>(p[1]) + n1 * static_cast<std::size_t>(p[2]));
   }
   vec3 point(const lattice_point& p) const { return origin_ + vec3{p[0] * h_, p[1] * h_, p[2] * h_}; }
   bool inside(const lattice_point& p) const { return values_[index(p)] >= field_.t0(); }
