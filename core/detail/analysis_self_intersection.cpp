@@ -283,6 +283,7 @@ std::vector<std::size_t> cell_starts(const std::vector<grid_entry>& entries) {
 
 struct candidate {
   bounds box;
+  std::array<std::uint32_t, 3> vertices;  ///< copied here: most overlapping pairs are neighbours, rejected by index
   std::uint32_t triangle;
   /// Bit a is set when the box starts in this cell along axis a. Both boxes of a pair in this cell start in it or
   /// before it, so their common box starts here (max of the starts, by monotonicity) exactly when, on every axis,
@@ -316,29 +317,40 @@ class cell_pair_counter {
       const cell_coordinates first = grid_.first_cell(boxes_[t]);
       std::uint8_t starts_here = 0;
       for (int axis = 0; axis < 3; ++axis) starts_here |= static_cast<std::uint8_t>((first[axis] == cell[axis]) << axis);
-      candidates_.push_back({boxes_[t], t, starts_here});
+      candidates_.push_back({boxes_[t], mesh_.triangles[t], t, starts_here});
     }
     return candidates_.size() > sweep_threshold ? count_by_sweep() : count_all_pairs();
   }
 
  private:
-  /// Counts a pair whose boxes overlap and whose common box starts in this cell, so that it is counted once.
-  /// Pairs sharing a vertex are left to the fan pass (analysis_fan_pairs.hpp).
-  std::size_t test(const candidate& a, const candidate& b) const {
-    if ((a.starts_here | b.starts_here) != all_axes || !a.box.overlaps(b.box)) return 0;
-    const std::array<std::uint32_t, 3>& t = mesh_.triangles[a.triangle];
-    const std::array<std::uint32_t, 3>& u = mesh_.triangles[b.triangle];
-    if (share_a_vertex(t, u)) return 0;
-    return triangles_intersect({mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]},
-                               {mesh_.positions[u[0]], mesh_.positions[u[1]], mesh_.positions[u[2]]})
-               ? 1
-               : 0;
+  /// Whether the pair is examined here: the boxes overlap and their common box starts in this cell (so that the
+  /// pair is examined once). Branch-free: the outcome is too random for a branch predictor.
+  static bool examined_here(const candidate& a, const candidate& b) {
+    return static_cast<int>((a.starts_here | b.starts_here) == all_axes) & static_cast<int>(a.box.overlaps(b.box));
   }
 
+  /// Pairs sharing a vertex are left to the fan pass (analysis_fan_pairs.hpp).
+  std::size_t count_if_intersecting(const candidate& a, const candidate& b) const {
+    if (share_a_vertex(a.vertices, b.vertices)) return 0;
+    const auto corners = [this](const std::array<std::uint32_t, 3>& t) {
+      return triangle_corners{mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]};
+    };
+    return triangles_intersect(corners(a.vertices), corners(b.vertices)) ? 1 : 0;
+  }
+
+  /// For each candidate, the later ones examined with it are first collected as bits of a word without branching,
+  /// then visited (cells have at most sweep_threshold ≤ 64 candidates here).
   std::size_t count_all_pairs() const {
+    static_assert(sweep_threshold <= 64);
     std::size_t count = 0;
     for (std::size_t i = 0; i < candidates_.size(); ++i) {
-      for (std::size_t j = i + 1; j < candidates_.size(); ++j) count += test(candidates_[i], candidates_[j]);
+      std::uint64_t examined = 0;
+      for (std::size_t j = i + 1; j < candidates_.size(); ++j) {
+        examined |= static_cast<std::uint64_t>(examined_here(candidates_[i], candidates_[j])) << j;
+      }
+      for (; examined != 0; examined &= examined - 1) {
+        count += count_if_intersecting(candidates_[i], candidates_[std::countr_zero(examined)]);
+      }
     }
     return count;
   }
@@ -351,7 +363,7 @@ class cell_pair_counter {
     std::size_t count = 0;
     for (std::size_t i = 0; i < candidates_.size(); ++i) {
       for (std::size_t j = i + 1; j < candidates_.size() && candidates_[j].box.lo[0] <= candidates_[i].box.hi[0]; ++j) {
-        count += test(candidates_[i], candidates_[j]);
+        if (examined_here(candidates_[i], candidates_[j])) count += count_if_intersecting(candidates_[i], candidates_[j]);
       }
     }
     return count;
