@@ -88,8 +88,7 @@ std::vector<component_sums> sum_components(const surface_mesh& mesh, const std::
     sum.area += 0.5 * norm(face_normal);
     sum.volume += dot(a, cross(b, c)) / 6.0;  // signed volume of the tetrahedron (origin, a, b, c)
     if (normals_per_vertex) {
-      const vec3 vertex_normals =
-          mesh.normals[triangle[0]] + mesh.normals[triangle[1]] + mesh.normals[triangle[2]];
+      const vec3 vertex_normals = mesh.normals[triangle[0]] + mesh.normals[triangle[1]] + mesh.normals[triangle[2]];
       sum.normal_agreement += dot(face_normal, vertex_normals);
     }
   }
@@ -114,9 +113,8 @@ component_report make_component_report(const component_sums& sum, std::size_t bo
 std::size_t count_inward_components(const surface_mesh& mesh, const std::vector<component_sums>& sums) {
   if (mesh.normals.empty()) return 0;
   if (mesh.normals.size() != mesh.positions.size()) return sums.size();
-  return static_cast<std::size_t>(std::count_if(sums.begin(), sums.end(), [](const component_sums& sum) {
-    return !(sum.normal_agreement > 0);
-  }));
+  return static_cast<std::size_t>(
+      std::count_if(sums.begin(), sums.end(), [](const component_sums& sum) { return !(sum.normal_agreement > 0); }));
 }
 
 /// Largest area first; equal areas keep label order (by first triangle). NaN areas sort last.

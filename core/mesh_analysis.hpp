@@ -39,6 +39,8 @@ struct component_report {
   std::size_t boundary_loops = 0;  ///< connected chains of boundary edges (0 for a closed component)
 };
 
+/// Triangle statistics over the well-formed triangles with finite corners (degenerate ones included: they pull
+/// the minima to 0); every field is 0 for a mesh without such triangles.
 struct quality_report {
   double edge_ratio_mean = 0;     ///< mean over triangles of shortest/longest edge
   double edge_ratio_min = 0;
@@ -49,8 +51,6 @@ struct quality_report {
   double median_edge = 0;         ///< Å; mean of the two middle lengths when the edge count is even
   double longest_edge = 0;        ///< Å
 };
-// Triangle statistics cover well-formed triangles with finite corners (degenerate ones included: they pull the
-// minima to 0); all quality fields are 0 for a mesh without such triangles.
 
 struct mesh_report {
   std::size_t vertices = 0;
@@ -76,7 +76,8 @@ struct mesh_report {
   double achieved_density = 0;          ///< vertices per Å² of area (0 when the area is 0)
   quality_report quality;
 
-  /// Closed, edge- and vertex-manifold, consistently oriented, no degenerate triangles, no self-intersections.
+  /// Closed, edge- and vertex-manifold, consistently oriented, no degenerate or invalid triangles, no unused
+  /// vertex, no self-intersections, and (when normals are supplied) faces oriented like the normals.
   bool topologically_certified() const {
     return triangles > 0 && boundary_edges == 0 && non_manifold_edges == 0 && non_manifold_vertices == 0 &&
            inconsistently_oriented_edges == 0 && degenerate_triangles == 0 && invalid_triangles == 0 &&

@@ -1,13 +1,13 @@
 #include "core/detail/analysis_fan_pairs.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
 #include <limits>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 
 #include "core/detail/analysis_predicates.hpp"
 #include "core/detail/triangle_intersection.hpp"
@@ -25,8 +25,8 @@ struct fan_scratch {
 };
 
 /// Reads the fan of `vertex` into scratch.corners; false when one of its triangles is not tested.
-bool read_tested_corners(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                         std::uint32_t vertex, std::span<const std::uint32_t> around, fan_scratch& scratch) {
+bool read_tested_corners(const surface_mesh& mesh, const std::vector<triangle_defect>& defects, std::uint32_t vertex,
+                         std::span<const std::uint32_t> around, fan_scratch& scratch) {
   for (const std::uint32_t t : around) {
     if (defects[t] != triangle_defect::none) return false;
   }
@@ -47,8 +47,8 @@ int projection_axis(const surface_mesh& mesh, std::uint32_t vertex, const std::v
   return ny >= nz ? 1 : 2;
 }
 
-bool fan_is_embedded_star(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                          std::uint32_t vertex, std::span<const std::uint32_t> around, fan_scratch& scratch) {
+bool fan_is_embedded_star(const surface_mesh& mesh, const std::vector<triangle_defect>& defects, std::uint32_t vertex,
+                          std::span<const std::uint32_t> around, fan_scratch& scratch) {
   if (around.size() < 3) return false;
   if (!read_tested_corners(mesh, defects, vertex, around, scratch) || !corners_form_one_cycle(scratch.corners)) {
     return false;
@@ -95,8 +95,8 @@ std::uint32_t smallest_shared_vertex(const std::array<std::uint32_t, 3>& t, cons
 }
 
 /// Intersecting pairs of the fan of `vertex` whose smallest shared vertex is `vertex`.
-std::size_t count_in_fan(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                         std::uint32_t vertex, std::span<const std::uint32_t> around, fan_scratch& scratch) {
+std::size_t count_in_fan(const surface_mesh& mesh, const std::vector<triangle_defect>& defects, std::uint32_t vertex,
+                         std::span<const std::uint32_t> around, fan_scratch& scratch) {
   if (fan_is_embedded_star(mesh, defects, vertex, around, scratch)) return 0;
   std::size_t count = 0;
   for (std::size_t i = 0; i < around.size(); ++i) {
@@ -114,8 +114,8 @@ std::size_t count_in_fan(const surface_mesh& mesh, const std::vector<triangle_de
 
 }  // namespace
 
-bool fan_is_embedded_star(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                          std::uint32_t vertex, std::span<const std::uint32_t> around) {
+bool fan_is_embedded_star(const surface_mesh& mesh, const std::vector<triangle_defect>& defects, std::uint32_t vertex,
+                          std::span<const std::uint32_t> around) {
   fan_scratch scratch;
   return fan_is_embedded_star(mesh, defects, vertex, around, scratch);
 }

@@ -17,8 +17,7 @@ struct triangle_shape {
 
   triangle_shape(const surface_mesh& mesh, const std::array<std::uint32_t, 3>& t)
       : corner{mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]},
-        opposite_edge{distance(corner[1], corner[2]), distance(corner[2], corner[0]),
-                      distance(corner[0], corner[1])} {}
+        opposite_edge{distance(corner[1], corner[2]), distance(corner[2], corner[0]), distance(corner[0], corner[1])} {}
 
   int corner_of_shortest_edge() const {
     if (opposite_edge[0] <= opposite_edge[1] && opposite_edge[0] <= opposite_edge[2]) return 0;

@@ -4,12 +4,12 @@
 /// thread count), chunks run in parallel under TBB, and per-chunk results are combined in chunk order. Floating-
 /// point sums therefore come out bitwise identical whatever the number of threads.
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cstddef>
 #include <utility>
 #include <vector>
-
-#include <tbb/parallel_for.h>
 
 namespace tracemesh::detail {
 

@@ -105,8 +105,7 @@ int orient3d_exact(const vec3& a, const vec3& b, const vec3& c, const vec3& p) {
                                                   {{0, 2, 1}, -1.0}, {{1, 0, 2}, -1.0}, {{2, 1, 0}, -1.0}};
   exact_sum<6 * 8 * 4> sum;
   for (const permutation& sigma : permutations) {
-    add_triple_product(sum, rows[0][sigma.column[0]], rows[1][sigma.column[1]], rows[2][sigma.column[2]],
-                       sigma.sign);
+    add_triple_product(sum, rows[0][sigma.column[0]], rows[1][sigma.column[1]], rows[2][sigma.column[2]], sigma.sign);
   }
   return sum.sign();
 }

@@ -1,5 +1,8 @@
 #include "core/detail/analysis_self_intersection.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -7,9 +10,6 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 
 #include "core/detail/analysis_parallel.hpp"
 #include "core/detail/triangle_intersection.hpp"
@@ -59,7 +59,7 @@ struct bounds {
   static float next_down(float f) {
     const auto bits = std::bit_cast<std::uint32_t>(f);
     if (bits == 0) return -std::numeric_limits<float>::denorm_min();  // +0
-    return std::bit_cast<float>(f > 0 ? bits - 1 : bits + 1);        // −0 becomes −denorm_min
+    return std::bit_cast<float>(f > 0 ? bits - 1 : bits + 1);         // −0 becomes −denorm_min
   }
 };
 
@@ -90,7 +90,9 @@ class uniform_grid {
  public:
   uniform_grid(const bounds& domain, double cell_size)
       : origin_{domain.lo[0], domain.lo[1], domain.lo[2]}, inverse_cell_size_(1.0 / cell_size) {
-    for (int axis = 0; axis < 3; ++axis) cells_[axis] = std::floor((domain.hi[axis] - origin_[axis]) * inverse_cell_size_) + 1;
+    for (int axis = 0; axis < 3; ++axis) {
+      cells_[axis] = std::floor((domain.hi[axis] - origin_[axis]) * inverse_cell_size_) + 1;
+    }
   }
 
   double cell_count() const { return cells_[0] * cells_[1] * cells_[2]; }
@@ -189,7 +191,7 @@ std::uint64_t saturating_sum(const std::vector<std::uint64_t>& values) {
   std::uint64_t total = 0;
   for (const std::uint64_t value : values) {
     total = value > std::numeric_limits<std::uint64_t>::max() - total ? std::numeric_limits<std::uint64_t>::max()
-                                                                       : total + value;
+                                                                      : total + value;
   }
   return total;
 }
@@ -262,7 +264,9 @@ std::vector<grid_entry> fill_grid(const std::vector<bounds>& boxes, const std::v
       const cell_coordinates first = grid.first_cell(boxes[t]), last = grid.last_cell(boxes[t]);
       for (std::uint32_t x = first[0]; x <= last[0]; ++x) {
         for (std::uint32_t y = first[1]; y <= last[1]; ++y) {
-          for (std::uint32_t z = first[2]; z <= last[2]; ++z) entries[next++] = (grid_entry{grid.key(x, y, z)} << 32) | t;
+          for (std::uint32_t z = first[2]; z <= last[2]; ++z) {
+            entries[next++] = (grid_entry{grid.key(x, y, z)} << 32) | t;
+          }
         }
       }
     }
@@ -316,7 +320,9 @@ class cell_pair_counter {
       const std::uint32_t t = triangle_of(entries[i]);
       const cell_coordinates first = grid_.first_cell(boxes_[t]);
       std::uint8_t starts_here = 0;
-      for (int axis = 0; axis < 3; ++axis) starts_here |= static_cast<std::uint8_t>((first[axis] == cell[axis]) << axis);
+      for (int axis = 0; axis < 3; ++axis) {
+        starts_here |= static_cast<std::uint8_t>((first[axis] == cell[axis]) << axis);
+      }
       candidates_.push_back({boxes_[t], mesh_.triangles[t], t, starts_here});
     }
     return candidates_.size() > sweep_threshold ? count_by_sweep() : count_all_pairs();
@@ -363,7 +369,8 @@ class cell_pair_counter {
     std::size_t count = 0;
     for (std::size_t i = 0; i < candidates_.size(); ++i) {
       for (std::size_t j = i + 1; j < candidates_.size() && candidates_[j].box.lo[0] <= candidates_[i].box.hi[0]; ++j) {
-        if (examined_here(candidates_[i], candidates_[j])) count += count_if_intersecting(candidates_[i], candidates_[j]);
+        if (examined_here(candidates_[i], candidates_[j]))
+          count += count_if_intersecting(candidates_[i], candidates_[j]);
       }
     }
     return count;

@@ -149,8 +149,8 @@ std::uint32_t census_general_fan(const surface_mesh& mesh, std::uint32_t v, vert
 }
 
 /// Census of the edges at their smaller end v, and the fan check of v. Returns the number of such edges.
-std::uint32_t census_vertex(const surface_mesh& mesh, const vertex_fans& fans, std::uint32_t v,
-                            vertex_scratch& scratch, census_chunk& out) {
+std::uint32_t census_vertex(const surface_mesh& mesh, const vertex_fans& fans, std::uint32_t v, vertex_scratch& scratch,
+                            census_chunk& out) {
   const std::span<const std::uint32_t> around = fans.around(v);
   if (around.empty()) return 0;
   read_fan_corners(mesh, v, around, scratch.corners);
@@ -225,8 +225,7 @@ edge_census take_edge_census(const surface_mesh& mesh, const vertex_fans& fans) 
   for_each_chunk(vertex_count, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
     vertex_scratch scratch;
     for (std::size_t v = begin; v < end; ++v) {
-      census.edges_at_smaller_end[v] =
-          census_vertex(mesh, fans, static_cast<std::uint32_t>(v), scratch, chunks[chunk]);
+      census.edges_at_smaller_end[v] = census_vertex(mesh, fans, static_cast<std::uint32_t>(v), scratch, chunks[chunk]);
     }
   });
   for (census_chunk& chunk : chunks) {

@@ -51,10 +51,10 @@ bool corners_form_one_cycle(const std::vector<fan_corner>& corners);
 using edge_key = std::array<std::uint32_t, 2>;  ///< (smaller vertex, larger vertex)
 
 struct edge_census {
-  std::size_t boundary_edges = 0;                 ///< edges of one triangle
-  std::size_t non_manifold_edges = 0;             ///< edges of three or more triangles
-  std::size_t inconsistently_oriented_edges = 0;  ///< edges of two triangles that traverse them the same way
-  std::size_t non_manifold_vertices = 0;          ///< vertices whose triangles form more than one fan
+  std::size_t boundary_edges = 0;                   ///< edges of one triangle
+  std::size_t non_manifold_edges = 0;               ///< edges of three or more triangles
+  std::size_t inconsistently_oriented_edges = 0;    ///< edges of two triangles that traverse them the same way
+  std::size_t non_manifold_vertices = 0;            ///< vertices whose triangles form more than one fan
   std::vector<std::uint32_t> edges_at_smaller_end;  ///< per vertex v: how many edges (v, w) have w > v
   std::vector<edge_key> boundary;                   ///< the boundary edges, in increasing order
   std::vector<double> lengths;  ///< Å, one per edge whose ends have usable coordinates, grouped by smaller end

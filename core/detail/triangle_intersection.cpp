@@ -23,9 +23,7 @@ int dominant_axis(const vec3& a, const vec3& b, const vec3& c) {
   return ny >= nz ? 1 : 2;
 }
 
-point2 project(const vec3& p, int dropped_axis) {
-  return {p[(dropped_axis + 1) % 3], p[(dropped_axis + 2) % 3]};
-}
+point2 project(const vec3& p, int dropped_axis) { return {p[(dropped_axis + 1) % 3], p[(dropped_axis + 2) % 3]}; }
 
 int orient(const point2& a, const point2& b, const point2& c) { return orient2d(a.x, a.y, b.x, b.y, c.x, c.y); }
 
@@ -36,9 +34,7 @@ bool signs_agree(int s0, int s1, int s2) {
   return !(any_positive && any_negative);
 }
 
-bool strictly_same_side(int s0, int s1, int s2) {
-  return (s0 > 0 && s1 > 0 && s2 > 0) || (s0 < 0 && s1 < 0 && s2 < 0);
-}
+bool strictly_same_side(int s0, int s1, int s2) { return (s0 > 0 && s1 > 0 && s2 > 0) || (s0 < 0 && s1 < 0 && s2 < 0); }
 
 /// p is collinear with segment [a, b]; true when it lies within it.
 bool within_collinear_segment(const point2& a, const point2& b, const point2& p) {

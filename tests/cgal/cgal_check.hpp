@@ -27,9 +27,9 @@ struct cgal_certificate {
   /// edge in at most two triangles traversed in opposite directions, manifold vertices). Nothing below is
   /// computed when false (indices out of range also make it false).
   bool polygon_mesh = false;
-  bool closed = false;                        ///< CGAL::is_closed: no border edges
-  std::size_t self_intersecting_pairs = 0;    ///< PMP::self_intersections (pairs of faces)
-  std::size_t components = 0;                 ///< PMP::connected_components (faces joined by edges)
+  bool closed = false;                      ///< CGAL::is_closed: no border edges
+  std::size_t self_intersecting_pairs = 0;  ///< PMP::self_intersections (pairs of faces)
+  std::size_t components = 0;               ///< PMP::connected_components (faces joined by edges)
   /// PMP::does_bound_a_volume: closed, no self-intersection, outer shells outward and nested shells alternating
   /// (a cavity of a molecule points into itself). False when it cannot be evaluated (open or self-intersecting).
   bool bounds_a_volume = false;
@@ -39,9 +39,8 @@ struct cgal_certificate {
 
   /// Every outermost shell (even nesting level) points outward and every cavity (odd level) into itself.
   bool orientation_matches_nesting() const {
-    return std::all_of(component_details.begin(), component_details.end(), [](const cgal_component& c) {
-      return c.outward_oriented == (c.nesting_level % 2 == 0);
-    });
+    return std::all_of(component_details.begin(), component_details.end(),
+                       [](const cgal_component& c) { return c.outward_oriented == (c.nesting_level % 2 == 0); });
   }
 
   /// What a molecular surface mesh must satisfy.

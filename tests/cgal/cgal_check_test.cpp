@@ -108,7 +108,9 @@ std::size_t cgal_count_intersecting_pairs_brute_force(const surface_mesh& soup) 
   }
   std::size_t count = 0;
   for (std::size_t i = 0; i < triangles.size(); ++i) {
-    for (std::size_t j = i + 1; j < triangles.size(); ++j) count += CGAL::do_intersect(triangles[i], triangles[j]) ? 1 : 0;
+    for (std::size_t j = i + 1; j < triangles.size(); ++j) {
+      count += CGAL::do_intersect(triangles[i], triangles[j]) ? 1 : 0;
+    }
   }
   return count;
 }

@@ -366,7 +366,9 @@ TEST(MeshAnalysis, GridAgreesWithBruteForceOnRandomSoups) {
       // Round 3 adds a few triangles spanning the whole box: the grid has to coarsen to fit its entry budget.
       const double size = (round == 3 && t % 100 == 0) ? 12.0 : 0.3 + 0.4 * round;
       const vec3 base{coordinate(random), coordinate(random), coordinate(random)};
-      for (int k = 0; k < 3; ++k) mesh.positions.push_back(base + size * vec3{offset(random), offset(random), offset(random)});
+      for (int k = 0; k < 3; ++k) {
+        mesh.positions.push_back(base + size * vec3{offset(random), offset(random), offset(random)});
+      }
       mesh.triangles.push_back({3 * t, 3 * t + 1, 3 * t + 2});
     }
     const std::size_t expected = count_intersections_brute_force(mesh);
@@ -409,8 +411,8 @@ TEST(MeshAnalysis, FanCertificateAcceptsStarsOnly) {
     const detail::vertex_fans fans = detail::build_vertex_fans(mesh, defects);
     return detail::fan_is_embedded_star(mesh, defects, 0, fans.around(0));
   };
-  EXPECT_TRUE(certified(fan(1, 7, 0.0)));  // a flat disk: projects one-to-one
-  EXPECT_TRUE(certified(fan(1, 7, 0.05)));  // a twisted cone: still one turn
+  EXPECT_TRUE(certified(fan(1, 7, 0.0)));       // a flat disk: projects one-to-one
+  EXPECT_TRUE(certified(fan(1, 7, 0.05)));      // a twisted cone: still one turn
   const surface_mesh spiral = fan(2, 7, 0.05);  // two turns: a screw, winding 2
   EXPECT_FALSE(certified(spiral));
   EXPECT_EQ(count_self_intersections(spiral), count_intersections_brute_force(spiral));
@@ -452,13 +454,13 @@ TEST(MeshAnalysis, TrianglePairsSharingOneVertex) {
     mesh.positions[4] = fourth;
     return count_self_intersections(mesh);
   };
-  EXPECT_EQ(count_with({1, 1, 1}, {1, 1, -1}), 1u);   // crosses the interior along x = y
-  EXPECT_EQ(count_with({1, 1, 1}, {1, 1, 2}), 0u);    // above: only the shared vertex is common
-  EXPECT_EQ(count_with({1, 0, 1}, {0, 1, 1}), 0u);    // above, leaning over the first one
+  EXPECT_EQ(count_with({1, 1, 1}, {1, 1, -1}), 1u);     // crosses the interior along x = y
+  EXPECT_EQ(count_with({1, 1, 1}, {1, 1, 2}), 0u);      // above: only the shared vertex is common
+  EXPECT_EQ(count_with({1, 0, 1}, {0, 1, 1}), 0u);      // above, leaning over the first one
   EXPECT_EQ(count_with({-1, -2, 0}, {-2, -1, 0}), 0u);  // coplanar, in the opposite sector
-  EXPECT_EQ(count_with({1, 3, 0}, {3, 1, 0}), 1u);    // coplanar, overlapping sectors
-  EXPECT_EQ(count_with({2, 0, 0}, {2, -2, 0}), 1u);   // coplanar, sharing a piece of the edge along +x
-  EXPECT_EQ(count_with({2, 0, 1}, {2, 0, -1}), 1u);   // crossing exactly along that edge
+  EXPECT_EQ(count_with({1, 3, 0}, {3, 1, 0}), 1u);      // coplanar, overlapping sectors
+  EXPECT_EQ(count_with({2, 0, 0}, {2, -2, 0}), 1u);     // coplanar, sharing a piece of the edge along +x
+  EXPECT_EQ(count_with({2, 0, 1}, {2, 0, -1}), 1u);     // crossing exactly along that edge
 }
 
 TEST(MeshAnalysis, TrianglePairsSharingAnEdge) {
@@ -480,9 +482,9 @@ TEST(MeshAnalysis, TrianglePairsSharingAnEdge) {
 TEST(MeshAnalysis, QualityOfKnownTriangles) {
   surface_mesh mesh;
   const double h = std::sqrt(3.0) / 2;
-  mesh.positions = {{0, 0, 0},  {1, 0, 0},  {0.5, h, 0},   // equilateral, edge 1
-                    {5, 0, 0},  {7, 0, 0},  {5, 2, 0},     // right isosceles, legs 2
-                    {0, 9, 0},  {10, 9, 0}, {0, 10, 0}};   // sliver: legs 10 and 1
+  mesh.positions = {{0, 0, 0}, {1, 0, 0},  {0.5, h, 0},  // equilateral, edge 1
+                    {5, 0, 0}, {7, 0, 0},  {5, 2, 0},    // right isosceles, legs 2
+                    {0, 9, 0}, {10, 9, 0}, {0, 10, 0}};  // sliver: legs 10 and 1
   mesh.triangles = {{0, 1, 2}, {3, 4, 5}, {6, 7, 8}};
   const quality_report q = analyze_mesh(mesh).quality;
   const double isosceles_ratio = 1 / std::sqrt(2.0), sliver_ratio = 1 / std::sqrt(101.0);

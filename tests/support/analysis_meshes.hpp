@@ -21,9 +21,9 @@ inline surface_mesh icosahedron(double radius = 1.0, const vec3& center = {}) {
                                      {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
   surface_mesh mesh;
   for (const vec3& corner : corners) mesh.positions.push_back(center + radius * normalized(corner));
-  mesh.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+  mesh.triangles = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
                     {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-                    {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+                    {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   return mesh;
 }
 
@@ -103,7 +103,9 @@ inline void append(surface_mesh& mesh, const surface_mesh& part) {
   const auto offset = static_cast<std::uint32_t>(mesh.positions.size());
   mesh.positions.insert(mesh.positions.end(), part.positions.begin(), part.positions.end());
   mesh.normals.insert(mesh.normals.end(), part.normals.begin(), part.normals.end());
-  for (const triangle_indices& t : part.triangles) mesh.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  for (const triangle_indices& t : part.triangles) {
+    mesh.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  }
 }
 
 inline void reverse_orientation(surface_mesh& mesh) {
@@ -158,7 +160,9 @@ inline surface_mesh uv_sphere(std::uint32_t slices, std::uint32_t stacks, double
       mesh.triangles.push_back({at(ring, j), at(ring + 1, j + 1), at(ring, j + 1)});
     }
   }
-  for (std::uint32_t j = 0; j < slices; ++j) mesh.triangles.push_back({south, at(stacks - 1, j + 1), at(stacks - 1, j)});
+  for (std::uint32_t j = 0; j < slices; ++j) {
+    mesh.triangles.push_back({south, at(stacks - 1, j + 1), at(stacks - 1, j)});
+  }
   return mesh;
 }
 
