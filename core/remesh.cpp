@@ -5,25 +5,25 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <numeric>
 #include <string>
 #include <vector>
 
 #include "core/detail/remesh_geometry.hpp"
-#include "core/detail/remesh_intersections.hpp"
 #include "core/detail/remesh_mesh.hpp"
 #include "core/detail/remesh_operations.hpp"
+#include "core/detail/remesh_stages.hpp"
 
 namespace tracemesh {
 namespace {
 
 using detail::remesh_mesh;
 using detail::triangle_list;
-using detail::vertex_protection;
 
 constexpr double pi = 3.14159265358979323846;
 constexpr int max_iterations = 100;
+/// Tries of a stage with a growing frozen region, after its first, before it is skipped.
+constexpr int max_stage_retries = 4;
 
 status invalid(const std::string& what) { return {errc::invalid_argument, "remesh: " + what}; }
 
@@ -110,225 +110,58 @@ std::vector<long> component_euler_characteristics(std::size_t vertex_count, cons
   return chi;
 }
 
-/// Marks every point within `radius` (at least; bounding boxes are used) of a listed triangle. Returns how many
-/// points became frozen.
-std::size_t freeze_near(const std::vector<vec3>& points, const std::vector<vec3>& triangle_positions,
-                        const triangle_list& triangles, const std::vector<std::uint32_t>& listed, double radius,
-                        std::vector<std::uint8_t>& frozen) {
-  struct region {
-    box3 bounds;
+/// One round (see remesh.hpp): the tiny-edge sweep, the iterations and the final relaxation, each verified.
+/// Returns whether `state` ended clean and settled on the surface (else `stages.last_failure()` says where not).
+result<bool> run_round(remesh_mesh& state, detail::verified_stages& stages, const remesh_options& options,
+                       progress_token& progress) {
+  const detail::remesh_thresholds t = thresholds_for(options);
+  const int stage_count = options.iterations + 2;
+  const auto report = [&](int done) {
+    return progress.report(mesh_stage::refining, static_cast<double>(done) / stage_count);
   };
-  std::vector<region> regions;
-  double largest = radius;
-  for (const std::uint32_t t : listed) {
-    box3 b{triangle_positions[triangles[t][0]], triangle_positions[triangles[t][0]]};
-    for (const std::uint32_t v : triangles[t]) {
-      for (int axis = 0; axis < 3; ++axis) {
-        b.lo[axis] = std::min(b.lo[axis], triangle_positions[v][axis] - radius);
-        b.hi[axis] = std::max(b.hi[axis], triangle_positions[v][axis] + radius);
-      }
-    }
-    for (int axis = 0; axis < 3; ++axis) largest = std::max(largest, b.hi[axis] - b.lo[axis]);
-    regions.push_back({b});
-  }
-  // Hash regions into cells at least as large as any region: a point only checks the regions of its own cell.
-  using cell_key = std::array<std::int64_t, 3>;
-  const auto cell_of = [&](const vec3& p) {
-    return cell_key{static_cast<std::int64_t>(std::floor(p.x / largest)),
-                    static_cast<std::int64_t>(std::floor(p.y / largest)),
-                    static_cast<std::int64_t>(std::floor(p.z / largest))};
-  };
-  std::vector<std::pair<cell_key, std::uint32_t>> cells;
-  for (std::uint32_t r = 0; r < regions.size(); ++r) {
-    const cell_key lo = cell_of(regions[r].bounds.lo), hi = cell_of(regions[r].bounds.hi);
-    for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
-      for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
-        for (std::int64_t z = lo[2]; z <= hi[2]; ++z) cells.push_back({{x, y, z}, r});
-      }
-    }
-  }
-  std::sort(cells.begin(), cells.end());
-  std::vector<std::uint8_t> newly(points.size(), 0);
-  parallel_over(points.size(), [&](std::size_t v) {
-    if (frozen[v]) return;
-    const cell_key key = cell_of(points[v]);
-    auto it = std::lower_bound(cells.begin(), cells.end(), std::pair<cell_key, std::uint32_t>{key, 0});
-    for (; it != cells.end() && it->first == key; ++it) {
-      const box3& b = regions[it->second].bounds;
-      const vec3& p = points[v];
-      if (p.x >= b.lo.x && p.x <= b.hi.x && p.y >= b.lo.y && p.y <= b.hi.y && p.z >= b.lo.z && p.z <= b.hi.z) {
-        newly[v] = 1;
-        return;
-      }
-    }
-  });
-  std::size_t count = 0;
-  for (std::size_t v = 0; v < points.size(); ++v) {
-    if (newly[v]) {
-      frozen[v] = 1;
-      ++count;
-    }
-  }
-  return count;
-}
-
-/// Appends the triangles with a corner in `vertices` (sorted) to `triangles`, keeping it sorted and unique.
-void add_triangles_at(const triangle_list& all, const std::vector<std::uint32_t>& vertices,
-                      std::vector<std::uint32_t>& triangles) {
-  if (vertices.empty()) return;
-  for (std::uint32_t t = 0; t < all.size(); ++t) {
-    for (const std::uint32_t v : all[t]) {
-      if (std::binary_search(vertices.begin(), vertices.end(), v)) {
-        triangles.push_back(t);
-        break;
-      }
-    }
-  }
-  std::sort(triangles.begin(), triangles.end());
-  triangles.erase(std::unique(triangles.begin(), triangles.end()), triangles.end());
-}
-
-/// Sets `frozen` vertices frozen and their other neighbours locked (see vertex_protection).
-void protect(remesh_mesh& mesh, const std::vector<std::uint8_t>& frozen) {
-  std::vector<std::uint32_t> ring;
-  for (std::uint32_t v = 0; v < frozen.size(); ++v) {
-    if (!frozen[v]) continue;
-    mesh.set_protection(v, vertex_protection::frozen);
-    mesh.one_ring(v, ring);
-    for (const std::uint32_t x : ring) {
-      if (!frozen[x]) mesh.set_protection(x, vertex_protection::locked);
-    }
-  }
-}
-
-std::vector<std::uint8_t> frozen_flags(const remesh_mesh& mesh) {
-  std::vector<std::uint8_t> frozen(mesh.vertex_slots());
-  for (std::uint32_t v = 0; v < mesh.vertex_slots(); ++v) frozen[v] = mesh.protection(v) == vertex_protection::frozen;
-  return frozen;
-}
-
-/// A compacted mesh as the certificate sees it.
-surface_mesh certificate_view(const remesh_mesh& mesh) {
-  surface_mesh view;
-  view.positions = mesh.positions();
-  view.normals = mesh.normals();
-  view.triangles = mesh.triangles();
-  return view;
-}
-
-/// The part of the pass between two checks: an iteration of split/collapse/flip/relax, or the final relaxation.
-/// Returns false when cancelled.
-using stage = std::function<bool(detail::remesh_operations&)>;
-
-/// A failed check: the offending triangles and the mesh they belong to.
-struct check_failure {
-  surface_mesh mesh;
-  std::vector<std::uint32_t> offending;
-};
-
-/// Runs the stages of one round, each on a copy of the current state that is kept only when the certificate
-/// would accept it (first level of safety: a failure costs one stage, not the round).
-class verified_round {
- public:
-  verified_round(const gaussian_field& field, const remesh_options& options, progress_token& progress)
-      : field_(field), options_(options), thresholds_(thresholds_for(options)), progress_(progress) {}
-
-  /// Remeshes `state` (the input with its protection). On success `state` is clean and settled on the surface;
-  /// returns false when even settling alone fails its check (see last_failure()).
-  result<bool> run(remesh_mesh& state) {
-    const int stages = options_.iterations + 2;
-    // Tiny edges first, as a stage of their own: a region frozen later then keeps none of them.
-    if (options_.iterations > 0) {
-      const auto tiny_edges = [&](detail::remesh_operations& ops) {
-        return ops.collapse_short_edges(thresholds_.tiny_below);
-      };
-      result<bool> done = run_verified(state, tiny_edges, false);
-      if (!done) return done;  // a failed stage simply leaves the state as it was
-      if (!progress_.report(mesh_stage::refining, 1.0 / stages)) return cancelled();
-    }
-    for (int iteration = 0; iteration < options_.iterations; ++iteration) {
-      const auto one_iteration = [&](detail::remesh_operations& ops) {
-        return ops.split_long_edges() && ops.collapse_short_edges(thresholds_.collapse_below) &&
-               ops.flip_edges_for_valence() && ops.relax_vertices();
-      };
-      result<bool> done = run_verified(state, one_iteration, false);
-      if (!done) return done;
-      if (!progress_.report(mesh_stage::refining, static_cast<double>(iteration + 2) / stages)) return cancelled();
-    }
-    const auto final_relaxation = [&](detail::remesh_operations& ops) {
-      for (int sweep = 0; sweep < options_.final_relaxations; ++sweep) {
-        if (!ops.relax_vertices()) return false;
-      }
-      return true;
+  const status cancelled{errc::cancelled, "remesh: cancelled"};
+  // Tiny edges first, as a stage of their own: a region frozen later then keeps none of them. A skipped stage
+  // (false) leaves the state as it was, clean.
+  if (options.iterations > 0) {
+    const auto tiny_edges = [&](remesh_mesh&, detail::remesh_operations& ops) {
+      return ops.collapse_short_edges(t.tiny_below);
     };
-    result<bool> settled = run_verified(state, final_relaxation, true);
-    if (settled && !settled.value()) {
-      // The relaxation could not be made clean: settle the vertices where they are.
-      const auto no_operation = [](detail::remesh_operations&) { return true; };
-      settled = run_verified(state, no_operation, true);
+    if (result<bool> done = stages.run(state, tiny_edges, false); !done) return done;
+    if (!report(1)) return cancelled;
+  }
+  const auto iteration = [&](remesh_mesh&, detail::remesh_operations& ops) {
+    return ops.split_long_edges() && ops.collapse_short_edges(t.collapse_below) && ops.flip_edges_for_valence() &&
+           ops.relax_vertices();
+  };
+  for (int k = 0; k < options.iterations; ++k) {
+    if (result<bool> done = stages.run(state, iteration, false); !done) return done;
+    if (!report(k + 2)) return cancelled;
+  }
+  const auto final_relaxation = [&](remesh_mesh&, detail::remesh_operations& ops) {
+    for (int sweep = 0; sweep < options.final_relaxations; ++sweep) {
+      if (!ops.relax_vertices()) return false;
     }
-    return settled;
+    return true;
+  };
+  result<bool> settled = stages.run(state, final_relaxation, true);
+  if (settled && !settled.value()) {
+    // The relaxation could not be made clean: settle the vertices where they are.
+    const auto no_operation = [](remesh_mesh&, detail::remesh_operations&) { return true; };
+    settled = stages.run(state, no_operation, true);
   }
+  return settled;
+}
 
-  const detail::operation_counts& counts() const { return counts_; }
-  std::size_t retried_stages() const { return retried_; }
-  const check_failure& last_failure() const { return failure_; }
-
- private:
-  static status cancelled() { return {errc::cancelled, "remesh: cancelled"}; }
-
-  /// Runs `run_stage` (then, when `settle`, projects every placed vertex) on copies of `state` until one passes the
-  /// check, freezing the vertices of `state` near the offending triangles between tries. Returns whether `state`
-  /// advanced; it stays as it was when freezing cannot help.
-  result<bool> run_verified(remesh_mesh& state, const stage& run_stage, bool settle) {
-    for (int attempt = 0;; ++attempt) {
-      remesh_mesh trial = state;
-      detail::remesh_operations ops(trial, field_, thresholds_, progress_);
-      if (!run_stage(ops)) return cancelled();
-      trial.compact();
-      if (trial.live_face_count() > options_.max_triangles) {
-        return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
-      }
-      const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
-      failure_.mesh = certificate_view(trial);
-      failure_.offending = detail::find_offending_triangles(failure_.mesh);
-      add_triangles_at(failure_.mesh.triangles, unsettled, failure_.offending);
-      if (failure_.offending.empty()) {
-        state = std::move(trial);
-        add_counts(ops.counts());
-        return true;
-      }
-      if (attempt == max_stage_retries) return false;
-      std::vector<std::uint8_t> frozen = frozen_flags(state);
-      const double radius = options_.freeze_radius * options_.target_edge * std::ldexp(1.0, attempt);
-      if (freeze_near(state.positions(), failure_.mesh.positions, failure_.mesh.triangles, failure_.offending, radius,
-                      frozen) == 0) {
-        return false;
-      }
-      protect(state, frozen);
-      ++retried_;
-    }
-  }
-
-  void add_counts(const detail::operation_counts& c) {
-    counts_.splits += c.splits;
-    counts_.collapses += c.collapses;
-    counts_.flips += c.flips;
-    counts_.relaxations += c.relaxations;
-    counts_.rejected += c.rejected;
-  }
-
-  /// Tries of one stage with growing frozen regions before it is skipped.
-  static constexpr int max_stage_retries = 4;
-
-  const gaussian_field& field_;
-  const remesh_options& options_;
-  const detail::remesh_thresholds thresholds_;
-  progress_token& progress_;
-  detail::operation_counts counts_;
-  std::size_t retried_ = 0;
-  check_failure failure_;
-};
+void record_operations(const detail::verified_stages& stages, const remesh_mesh& state, remesh_stats& stats) {
+  const detail::operation_counts& counts = stages.counts();
+  stats.splits = counts.splits;
+  stats.collapses = counts.collapses;
+  stats.flips = counts.flips;
+  stats.relaxations = counts.relaxations;
+  stats.rejected_ops = counts.rejected;
+  const std::vector<std::uint8_t> frozen = detail::frozen_flags(state);
+  stats.frozen_vertices = static_cast<std::size_t>(std::count(frozen.begin(), frozen.end(), 1));
+}
 
 void write_mesh(surface_mesh& mesh, const gaussian_field& field, std::vector<vec3> positions, std::vector<vec3> normals,
                 triangle_list triangles) {
@@ -370,33 +203,27 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
   for (int round = 1; round <= options.max_rounds; ++round) {
     stats.rounds = round;
     remesh_mesh state = input.value();
-    protect(state, frozen_input);
-    verified_round pass(field, options, progress);
-    result<bool> clean = pass.run(state);
+    detail::protect(state, frozen_input);
+    detail::verified_stages stages(field, thresholds_for(options),
+                                   {options.max_triangles, options.freeze_radius * l, max_stage_retries}, progress);
+    result<bool> clean = run_round(state, stages, options, progress);
     if (!clean) return clean.error();
-    stats.retried_stages += pass.retried_stages();
+    stats.retried_stages += stages.retried_stages();
     if (clean.value()) {
-      surface_mesh out = certificate_view(state);
+      surface_mesh out = detail::certificate_view(state);
       // Cannot differ by construction; checked so that a bug never hands out a broken mesh.
       if (component_euler_characteristics(out.positions.size(), out.triangles) != input_topology ||
           !remesh_mesh::build(out.positions, out.normals, out.triangles).ok()) {
         break;
       }
-      const detail::operation_counts& counts = pass.counts();
-      stats.splits = counts.splits;
-      stats.collapses = counts.collapses;
-      stats.flips = counts.flips;
-      stats.relaxations = counts.relaxations;
-      stats.rejected_ops = counts.rejected;
-      const std::vector<std::uint8_t> frozen = frozen_flags(state);
-      stats.frozen_vertices = static_cast<std::size_t>(std::count(frozen.begin(), frozen.end(), 1));
+      record_operations(stages, state, stats);
       write_mesh(mesh, field, std::move(out.positions), std::move(out.normals), std::move(out.triangles));
       return stats;
     }
-    const check_failure& failure = pass.last_failure();
+    const detail::check_failure& failure = stages.last_failure();
     const double radius = options.freeze_radius * l * std::ldexp(1.0, round - 1);
-    if (freeze_near(mesh.positions, failure.mesh.positions, failure.mesh.triangles, failure.offending, radius,
-                    frozen_input) == 0) {
+    if (detail::freeze_near(mesh.positions, failure.mesh.positions, failure.mesh.triangles, failure.offending, radius,
+                            frozen_input) == 0) {
       break;
     }
   }

@@ -17,6 +17,7 @@
 #include "core/detail/remesh_intersections.hpp"
 #include "core/detail/remesh_mesh.hpp"
 #include "core/detail/remesh_operations.hpp"
+#include "core/detail/remesh_stages.hpp"
 #include "core/mesh_analysis.hpp"
 #include "support/analysis_meshes.hpp"
 
@@ -362,6 +363,125 @@ TEST(RemeshGeometry, ProjectsOntoTheSurfaceWithItsNormal) {
   vec3 far{1 + 4.0, 2, 3}, unused;
   EXPECT_FALSE(detail::project_onto_surface(field, far, unused, 1.0, 1e-7));  // 2.5 Å away, max move 1 Å
   EXPECT_EQ(far, (vec3{5, 2, 3}));
+}
+
+// --- verified stages -----------------------------------------------------------------------------------------------
+
+/// A sphere of radius 2 around the origin, as an icosphere on the single atom's surface, in a corner table.
+struct sphere_fixture {
+  gaussian_field field{make_molecule({{{0, 0, 0}, 2.0}}), -1.0, 1.0};
+  surface_mesh mesh = testing::icosphere(3, 2.0);
+  detail::remesh_mesh state = build();
+  detail::remesh_thresholds thresholds = thresholds_for(0.5);
+  progress_token progress;
+
+  detail::remesh_mesh build() const {
+    std::vector<vec3> normals;
+    for (const vec3& p : mesh.positions) normals.push_back(normalized(p));
+    return detail::remesh_mesh::build(mesh.positions, normals, mesh.triangles).value();
+  }
+  static detail::remesh_thresholds thresholds_for(double edge) {
+    detail::remesh_thresholds t;
+    t.split_above = 4.0 / 3 * edge;
+    t.collapse_below = 0.8 * edge;
+    t.tiny_below = 0.2 * edge;
+    t.max_edge_after_collapse = t.split_above;
+    t.min_normal_cosine = std::cos(70 * 3.14159265358979 / 180);
+    t.quality_floor = 0.25;
+    t.hard_quality_floor = 1e-6;
+    t.max_move = edge;
+    t.surface_tolerance = 1e-7;
+    return t;
+  }
+};
+
+/// A destructive stage: slides every vertex within 0.1 Å of `target` 0.8 Å sideways along the sphere, past its
+/// neighbours (about 0.3 Å away), folding its fan over theirs; a careful one spares vertices that are not free.
+detail::remesh_stage fold_at(const vec3& target, bool careful = true) {
+  return [target, careful](detail::remesh_mesh& mesh, detail::remesh_operations&) {
+    for (std::uint32_t v = 0; v < mesh.vertex_slots(); ++v) {
+      if (careful && mesh.protection(v) != detail::vertex_protection::free) continue;
+      if (distance(mesh.position(v), target) > 0.1) continue;
+      const vec3 p = mesh.position(v);
+      const vec3 sideways = normalized(cross(p, vec3{0.3, 0.5, 0.8}));
+      mesh.move_vertex(v, normalized(p + sideways * 0.8) * norm(p), mesh.normal(v));
+    }
+    return true;
+  };
+}
+
+TEST(RemeshStages, FreezesAroundAFailureAndRedoesTheStage) {
+  sphere_fixture f;
+  const vec3 target = f.mesh.positions[0];
+  detail::verified_stages stages(f.field, f.thresholds, {1'000'000, 0.5, 4}, f.progress);
+  const result<bool> advanced = stages.run(f.state, fold_at(target), false);
+  ASSERT_TRUE(advanced.ok());
+  EXPECT_TRUE(advanced.value());  // a retry succeeded once the region was frozen
+  EXPECT_GE(stages.retried_stages(), 1U);
+  EXPECT_EQ(f.state.protection(0), detail::vertex_protection::frozen);
+  EXPECT_EQ(f.state.position(0), target);  // never moved
+  const surface_mesh view = detail::certificate_view(f.state);
+  EXPECT_TRUE(analyze_mesh(view).topologically_certified());
+  // Far from the failure nothing is frozen.
+  std::size_t frozen = 0;
+  for (std::uint32_t v = 0; v < f.state.vertex_slots(); ++v) {
+    const bool is_frozen = f.state.protection(v) == detail::vertex_protection::frozen;
+    frozen += is_frozen;
+    if (dot(f.state.position(v), target) < 0) {
+      EXPECT_FALSE(is_frozen) << v;
+    }
+  }
+  EXPECT_LT(frozen, f.state.vertex_slots() / 2);
+}
+
+TEST(RemeshStages, SkipsAStageThatCannotBeMadeClean) {
+  sphere_fixture f;
+  const std::vector<vec3> before = f.state.positions();
+  const detail::remesh_stage reckless = fold_at(f.mesh.positions[0], false);  // every try fails
+  detail::verified_stages stages(f.field, f.thresholds, {1'000'000, 0.5, 2}, f.progress);
+  const result<bool> advanced = stages.run(f.state, reckless, false);
+  ASSERT_TRUE(advanced.ok());
+  EXPECT_FALSE(advanced.value());
+  EXPECT_EQ(f.state.positions(), before);  // the state is the clean one it was
+  EXPECT_FALSE(stages.last_failure().offending.empty());
+  EXPECT_LE(stages.retried_stages(), 2U);
+}
+
+TEST(RemeshStages, SettlesPlacedVerticesAndStopsOnCancellation) {
+  sphere_fixture f;
+  // Lift vertex 5 slightly off the sphere (a placed vertex): settling puts it back.
+  const detail::remesh_stage lift = [](detail::remesh_mesh& mesh, detail::remesh_operations&) {
+    mesh.move_vertex(5, mesh.position(5) * 1.01, mesh.normal(5));
+    return true;
+  };
+  detail::verified_stages stages(f.field, f.thresholds, {1'000'000, 0.5, 2}, f.progress);
+  ASSERT_TRUE(stages.run(f.state, lift, true).value());
+  EXPECT_NEAR(norm(f.state.position(5)), 2.0, 1e-6);
+  EXPECT_LE(f.field.surface_distance(f.state.position(5)), 1e-7);
+
+  const detail::remesh_stage cancelled = [](detail::remesh_mesh&, detail::remesh_operations&) { return false; };
+  EXPECT_EQ(stages.run(f.state, cancelled, false).error().code(), errc::cancelled);
+  detail::verified_stages tight(f.field, f.thresholds, {10, 0.5, 2}, f.progress);
+  EXPECT_EQ(tight.run(f.state, lift, false).error().code(), errc::limit_exceeded);
+}
+
+TEST(RemeshStages, FreezeNearMarksPointsAroundListedTriangles) {
+  const surface_mesh mesh = testing::icosphere(2, 1.0);
+  std::vector<std::uint8_t> frozen(mesh.positions.size(), 0);
+  frozen[3] = 1;  // already frozen: not counted again
+  const std::size_t added = detail::freeze_near(mesh.positions, mesh.positions, mesh.triangles, {0}, 0.3, frozen);
+  const auto& t = mesh.triangles[0];
+  for (const std::uint32_t v : t) EXPECT_TRUE(frozen[v]);
+  std::size_t count = 0;
+  for (std::uint32_t v = 0; v < frozen.size(); ++v) {
+    const vec3 centre = (mesh.positions[t[0]] + mesh.positions[t[1]] + mesh.positions[t[2]]) / 3;
+    if (v != 3 && distance(mesh.positions[v], centre) > 1.0) {
+      EXPECT_FALSE(frozen[v]) << v;
+    }
+    count += frozen[v];
+  }
+  EXPECT_EQ(count, added + 1);  // vertex 3 was frozen before
+  EXPECT_GT(added, 3U);
 }
 
 // --- remesh_surface ---------------------------------------------------------------------------------------------
