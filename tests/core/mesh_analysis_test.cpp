@@ -9,6 +9,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -331,6 +333,37 @@ TEST(MeshAnalysis, UnreferencedVertexIsCounted) {
   EXPECT_EQ(report.components.size(), 1u);
   EXPECT_EQ(report.euler_characteristic, 2);  // χ counts the vertices of components only
   EXPECT_FALSE(report.topologically_certified());
+}
+
+TEST(MeshAnalysis, SurvivesGarbage) {
+  // Random indices (some out of range, some repeated), non-finite and huge coordinates, duplicated faces: the
+  // analysis must neither crash nor lose its invariants.
+  std::mt19937_64 random(99);
+  const double special[] = {std::nan(""), std::numeric_limits<double>::infinity(), 1e29, -1e29, 1e31, 0.0, -0.0};
+  for (int round = 0; round < 20; ++round) {
+    surface_mesh mesh;
+    const std::size_t vertex_count = 1 + random() % 40;
+    for (std::size_t v = 0; v < vertex_count; ++v) {
+      vec3 p{double(random() % 5), double(random() % 5), double(random() % 5)};
+      if (random() % 8 == 0) p[static_cast<int>(random() % 3)] = special[random() % std::size(special)];
+      mesh.positions.push_back(p);
+    }
+    for (std::size_t t = 0; t < 60; ++t) {
+      const auto index = [&] { return static_cast<std::uint32_t>(random() % (vertex_count + 2)); };
+      mesh.triangles.push_back({index(), index(), index()});
+      if (random() % 10 == 0) mesh.triangles.push_back(mesh.triangles.back());
+    }
+    if (round % 2 == 0) set_radial_normals(mesh, {});
+    const mesh_report report = analyze_mesh(mesh);
+    EXPECT_EQ(report.triangles, mesh.triangles.size());
+    EXPECT_LE(report.invalid_triangles + report.degenerate_triangles, report.triangles);
+    EXPECT_LE(report.unreferenced_vertices, report.vertices);
+    EXPECT_TRUE(std::isfinite(report.area)) << "round " << round;
+    EXPECT_EQ(report.self_intersections, count_self_intersections(mesh));
+    std::size_t component_triangles = 0;
+    for (const component_report& c : report.components) component_triangles += c.triangles;
+    EXPECT_LE(component_triangles, report.triangles);
+  }
 }
 
 TEST(MeshAnalysis, EmptyMeshGivesEmptyReport) {
