@@ -36,11 +36,14 @@ constexpr double pi = std::numbers::pi;
 
 double relative_error(double value, double expected) { return std::abs(value - expected) / std::abs(expected); }
 
-/// Brute force over all pairs with the same exact pair test: the reference for the grid broad phase.
+/// Brute force over all pairs of tested (non-degenerate) triangles with the exact pair test: the reference for the
+/// grid broad phase and the per-fan certificates.
 std::size_t count_intersections_brute_force(const surface_mesh& mesh) {
+  const std::vector<detail::triangle_defect> defects = detail::classify_triangles(mesh);
   std::size_t count = 0;
   for (std::size_t i = 0; i < mesh.triangles.size(); ++i) {
     for (std::size_t j = i + 1; j < mesh.triangles.size(); ++j) {
+      if (defects[i] != detail::triangle_defect::none || defects[j] != detail::triangle_defect::none) continue;
       if (detail::mesh_triangles_intersect(mesh.positions, mesh.triangles[i], mesh.triangles[j])) ++count;
     }
   }

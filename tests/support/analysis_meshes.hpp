@@ -138,32 +138,4 @@ inline void translate(surface_mesh& mesh, const vec3& offset) {
   for (vec3& p : mesh.positions) p += offset;
 }
 
-/// Latitude–longitude sphere: slices around z, stacks from pole to pole; 2·slices·(stacks − 1) triangles.
-inline surface_mesh uv_sphere(std::uint32_t slices, std::uint32_t stacks, double radius = 1.0) {
-  surface_mesh mesh;
-  mesh.positions.push_back({0, 0, radius});
-  for (std::uint32_t i = 1; i < stacks; ++i) {
-    const double polar = std::numbers::pi * i / stacks;
-    for (std::uint32_t j = 0; j < slices; ++j) {
-      const double azimuth = 2 * std::numbers::pi * j / slices;
-      mesh.positions.push_back({radius * std::sin(polar) * std::cos(azimuth),
-                                radius * std::sin(polar) * std::sin(azimuth), radius * std::cos(polar)});
-    }
-  }
-  const auto south = static_cast<std::uint32_t>(mesh.positions.size());
-  mesh.positions.push_back({0, 0, -radius});
-  const auto at = [&](std::uint32_t ring, std::uint32_t j) { return 1 + (ring - 1) * slices + (j % slices); };
-  for (std::uint32_t j = 0; j < slices; ++j) mesh.triangles.push_back({0, at(1, j), at(1, j + 1)});
-  for (std::uint32_t ring = 1; ring + 1 < stacks; ++ring) {
-    for (std::uint32_t j = 0; j < slices; ++j) {
-      mesh.triangles.push_back({at(ring, j), at(ring + 1, j), at(ring + 1, j + 1)});
-      mesh.triangles.push_back({at(ring, j), at(ring + 1, j + 1), at(ring, j + 1)});
-    }
-  }
-  for (std::uint32_t j = 0; j < slices; ++j) {
-    mesh.triangles.push_back({south, at(stacks - 1, j + 1), at(stacks - 1, j)});
-  }
-  return mesh;
-}
-
 }  // namespace tracemesh::testing
