@@ -13,8 +13,9 @@
 ///   finite corners count in area, volume and quality; none of them is tested for self-intersection.
 /// - components connect triangles through shared vertices (so two cones touching at their tips form one).
 ///
-/// Cost: O(triangles) memory; time dominated by the self-intersection test (about a second per million
-/// triangles on 2 cores). Both functions run in parallel under the caller's TBB arena and are deterministic: the
+/// Cost: O(triangles) memory (about 100 bytes per triangle at the peak, on top of the mesh). Measured on a
+/// 5.2 M-triangle icosphere: count_self_intersections ≈ 0.55 µs and analyze_mesh ≈ 0.8 µs of CPU time per
+/// triangle, spread over the threads of the caller's TBB arena (a few parts are sequential). Deterministic: the
 /// same mesh gives the bitwise same report whatever the thread count. Never throw on bad input (only
 /// std::bad_alloc when memory runs out). Precondition: fewer than 2³² − 1 triangles (a larger mesh is reported as
 /// all-invalid).
@@ -107,7 +108,8 @@ mesh_report analyze_mesh(const surface_mesh& mesh, const analysis_options& optio
 /// - pairs sharing exactly one vertex: a common point other than that vertex;
 /// - pairs sharing an edge: folding onto each other (coplanar, on the same side of the edge);
 /// - pairs sharing all three vertices (duplicated faces): always.
-/// Grid-accelerated over triangle bounding boxes; about 0.3 µs per triangle on 2 cores for mesher output.
+/// Pairs that share no vertex are found through a uniform grid over the triangles' bounding boxes; pairs that
+/// share vertices are examined vertex by vertex, where most fans are proved intersection-free as a whole.
 std::size_t count_self_intersections(const surface_mesh& mesh);
 
 }  // namespace tracemesh
