@@ -1,7 +1,9 @@
 #include "core/detail/analysis_topology.hpp"
 
 #include <algorithm>
+#include <iterator>
 #include <numeric>
+#include <utility>
 
 #include "core/detail/analysis_parallel.hpp"
 
@@ -164,6 +166,22 @@ void append_and_release(std::vector<T>& destination, std::vector<T>& source) {
   std::vector<T>().swap(source);
 }
 
+/// Fans up to this size are walked by scanning all corners at each step (quadratic, allocation-free); larger ones
+/// (rare: poles of latitude–longitude meshes, pathological inputs) look the next corner up in a sorted copy.
+constexpr std::size_t small_fan = 16;
+
+/// The corner whose prev is `next`, if exactly one has it; corners.size() otherwise.
+std::size_t unique_corner_with_prev(const std::vector<fan_corner>& corners, std::uint32_t next) {
+  std::size_t found = corners.size(), matches = 0;
+  for (std::size_t j = 0; j < corners.size(); ++j) {
+    if (corners[j].prev == next) {
+      found = j;
+      ++matches;
+    }
+  }
+  return matches == 1 ? found : corners.size();
+}
+
 }  // namespace
 
 void read_fan_corners(const surface_mesh& mesh, std::uint32_t vertex, std::span<const std::uint32_t> around,
@@ -181,17 +199,23 @@ void read_fan_corners(const surface_mesh& mesh, std::uint32_t vertex, std::span<
 // k distinct corners, i.e. all of them: the function is then one k-cycle, so nexts and prevs are all distinct and
 // every neighbour x is the next of one triangle and the prev of one other.
 bool corners_form_one_cycle(const std::vector<fan_corner>& corners) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> by_prev;  // (prev, corner), for large fans only
+  if (corners.size() > small_fan) {
+    for (std::uint32_t i = 0; i < corners.size(); ++i) by_prev.push_back({corners[i].prev, i});
+    std::sort(by_prev.begin(), by_prev.end());
+  }
+  const auto following = [&](std::uint32_t next) -> std::size_t {
+    if (by_prev.empty()) return unique_corner_with_prev(corners, next);
+    const auto first =
+        std::lower_bound(by_prev.begin(), by_prev.end(), std::pair<std::uint32_t, std::uint32_t>{next, 0});
+    const bool unique = first != by_prev.end() && first->first == next &&
+                        (std::next(first) == by_prev.end() || std::next(first)->first != next);
+    return unique ? first->second : corners.size();
+  };
   std::size_t current = 0;
   for (std::size_t step = 1; step <= corners.size(); ++step) {
-    std::size_t following = corners.size(), matches = 0;
-    for (std::size_t j = 0; j < corners.size(); ++j) {
-      if (corners[j].prev == corners[current].next) {
-        following = j;
-        ++matches;
-      }
-    }
-    if (matches != 1) return false;
-    current = following;
+    current = following(corners[current].next);
+    if (current == corners.size()) return false;
     if (current == 0) return step == corners.size();
   }
   return false;

@@ -45,7 +45,7 @@ void read_fan_corners(const surface_mesh& mesh, std::uint32_t vertex, std::span<
 
 /// True when the triangles form one closed cycle around their vertex, each edge (vertex, x) shared by exactly two
 /// of them in opposite directions: a closed, manifold, consistently oriented fan (a disk around an interior
-/// vertex). Quadratic in the fan size (fans are small); allocates nothing.
+/// vertex). Allocation-free scans for the usual small fans, O(k log k) for fans of k > 16 triangles.
 bool corners_form_one_cycle(const std::vector<fan_corner>& corners);
 
 using edge_key = std::array<std::uint32_t, 2>;  ///< (smaller vertex, larger vertex)

@@ -454,6 +454,12 @@ TEST(MeshAnalysis, FanCertificateAcceptsStarsOnly) {
   EXPECT_EQ(count_self_intersections(spiral), count_intersections_brute_force(spiral));
   EXPECT_GT(count_self_intersections(spiral), 0u);  // the last triangle closes the screw through the first turn
 
+  EXPECT_TRUE(certified(fan(1, 40, 0.01)));  // large fans take the sorted path of the cycle check
+  EXPECT_FALSE(certified(fan(2, 20, 0.01)));
+  const mesh_report large = analyze_mesh(fan(1, 40, 0.01));
+  EXPECT_EQ(large.non_manifold_vertices, 0u);
+  EXPECT_EQ(large.boundary_edges, 40u);
+
   surface_mesh flipped = fan(1, 7, 0.0);
   std::swap(flipped.triangles[3][1], flipped.triangles[3][2]);
   EXPECT_FALSE(certified(flipped));  // not one consistently oriented cycle
