@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <ostream>
 #include <string>
 
 #include "cgal/cgal_check.hpp"
@@ -18,6 +19,8 @@ struct molecule_case {
   std::string file;
   double density;
 };
+
+void PrintTo(const molecule_case& c, std::ostream* os) { *os << c.file << " at density " << c.density; }
 
 class cgal_molecule_certificate : public ::testing::TestWithParam<molecule_case> {};
 

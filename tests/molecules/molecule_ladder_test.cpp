@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <ostream>
 #include <string>
 
 #include "core/mesher.hpp"
@@ -16,6 +17,8 @@ struct ladder_case {
   std::string file;
   double density;
 };
+
+void PrintTo(const ladder_case& c, std::ostream* os) { *os << c.file << " at density " << c.density; }
 
 std::string case_name(const ::testing::TestParamInfo<ladder_case>& info) {
   std::string name = info.param.file.substr(0, info.param.file.find('.'));
