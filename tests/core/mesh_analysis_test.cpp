@@ -627,20 +627,5 @@ TEST(AnalysisPredicates, Orient3dSignFollowsPermutations) {
 // ---------------------------------------------------------------------------------------------------------------
 // Performance probe (not part of the suite): --gtest_also_run_disabled_tests --gtest_filter=*Probe*
 
-TEST(MeshAnalysis, DISABLED_PerformanceProbe) {
-  for (const int levels : {8, 9}) {
-    const surface_mesh mesh = icosphere(levels, 50.0);
-    const auto start = std::chrono::steady_clock::now();
-    const std::size_t intersections = count_self_intersections(mesh);
-    const auto middle = std::chrono::steady_clock::now();
-    const mesh_report report = analyze_mesh(mesh);
-    const auto end = std::chrono::steady_clock::now();
-    std::printf("icosphere level %d: %zu triangles; count_self_intersections %.3f s (%zu); analyze_mesh %.3f s\n",
-                levels, mesh.triangles.size(), std::chrono::duration<double>(middle - start).count(), intersections,
-                std::chrono::duration<double>(end - middle).count());
-    EXPECT_TRUE(report.topologically_certified());
-  }
-}
-
 }  // namespace
 }  // namespace tracemesh
