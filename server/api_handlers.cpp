@@ -180,8 +180,10 @@ std::string etag_for(const std::string& id, proto::mesh_format format) {
   return "\"" + id + "-" + std::string(proto::format_name(format)) + "\"";
 }
 
+/// The mesh bytes with their headers. `immutable`: the URL always names these bytes (a long Cache-Control);
+/// otherwise caches must revalidate with the ETag.
 reply mesh_reply(const std::string& id, proto::mesh_format format, std::shared_ptr<const std::string> bytes,
-                 bool cache_hit, std::string route) {
+                 bool cache_hit, std::string route, bool immutable = true) {
   reply r;
   r.route = std::move(route);
   r.content_type = std::string(proto::content_type(format));
@@ -192,7 +194,7 @@ reply mesh_reply(const std::string& id, proto::mesh_format format, std::shared_p
   // A generated name: the upload's filename is never echoed.
   r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + id.substr(0, 12) +
                                                     std::string(proto::file_extension(format)) + "\"");
-  r.headers.emplace_back("Cache-Control", "public, max-age=31536000, immutable");
+  r.headers.emplace_back("Cache-Control", immutable ? "public, max-age=31536000, immutable" : "no-cache");
   return r;
 }
 
@@ -213,8 +215,11 @@ bool etag_matches(const request_head& head, const std::string& etag) {
   return wanted.find(etag) != std::string_view::npos;
 }
 
-nlohmann::json job_links(const std::string& id) {
-  return {{"self", "/jobs/" + id}, {"mesh", "/jobs/" + id + "/mesh"}};
+/// The job's URLs; the mesh link names the format explicitly, so following it never depends on what the server
+/// still remembers about the job.
+nlohmann::json job_links(const std::string& id, proto::mesh_format format) {
+  return {{"self", "/jobs/" + id},
+          {"mesh", "/jobs/" + id + "/mesh?format=" + std::string(proto::format_name(format))}};
 }
 
 /// The Job document of openapi.json; the report (JSON text) is spliced in without re-parsing it.
@@ -229,7 +234,7 @@ std::string job_document(const job_snapshot& job) {
   doc["error"] = job.error_code.empty()
                      ? nlohmann::json(nullptr)
                      : nlohmann::json{{"code", job.error_code}, {"message", job.error.message()}};
-  doc["links"] = job_links(job.id);
+  doc["links"] = job_links(job.id, job.format);
   std::string text = doc.dump();
   text.pop_back();  // the closing brace
   text += ",\"report\":";
@@ -248,11 +253,25 @@ job_snapshot done_from_cache(const std::string& id, std::shared_ptr<const std::s
   return job;
 }
 
-/// A final job that did not produce a mesh, as the error reply of a synchronous request.
-reply job_failure_reply(const job_snapshot& job, std::string route) {
-  unsigned code = static_cast<unsigned>(proto::http_status(job.error.code()));
-  if (job.error_code == "cancelled") code = 409;
-  return error_reply(code, job.error_code.empty() ? "internal_error" : job.error_code, job.error.message(),
+/// A final job that did not produce a mesh, as the error reply of a synchronous request: 409 cancelled by a
+/// DELETE; 504 past the per-job deadline (the request waited its whole time budget; retrying the same input would
+/// time out again, so no Retry-After); 503 + Retry-After at shutdown; else the status of the job's error.
+reply job_failure_reply(const job_snapshot& job, std::string route, unsigned retry_after_seconds) {
+  const std::string code = job.error_code.empty() ? std::string(errc_name(errc::internal_error)) : job.error_code;
+  if (code == job_error::cancelled) return error_reply(409, code, job.error.message(), std::move(route));
+  if (code == job_error::timeout) return error_reply(504, code, job.error.message(), std::move(route));
+  if (code == job_error::shutdown) {
+    return with_retry_after(error_reply(503, code, job.error.message(), std::move(route)), retry_after_seconds);
+  }
+  return error_reply(static_cast<unsigned>(proto::http_status(job.error.code())), code, job.error.message(),
+                     std::move(route));
+}
+
+/// DELETE of a job that already finished: nothing to cancel.
+reply already_finished_reply(job_state state, std::string route) {
+  return error_reply(409, "conflict",
+                     "the job already finished (" + std::string(proto::job_state_name(state)) +
+                         "); there is nothing to cancel",
                      std::move(route));
 }
 
@@ -261,13 +280,6 @@ const std::string* find_param(const parameter_map& params, std::string_view name
   return it == params.end() ? nullptr : &it->second;
 }
 
-struct upload_slot {
-  explicit upload_slot(std::shared_ptr<std::atomic<std::size_t>> counter) : counter_(std::move(counter)) {}
-  ~upload_slot() { counter_->fetch_sub(1); }
-  upload_slot(const upload_slot&) = delete;
-  upload_slot& operator=(const upload_slot&) = delete;
-  std::shared_ptr<std::atomic<std::size_t>> counter_;
-};
 
 }  // namespace
 
@@ -277,13 +289,14 @@ struct api_handlers::upload_request {
   route_id route;
   proto::mesh_request request;
   std::string pqr;
-  std::shared_ptr<void> slot;  // released when the upload has been parsed and queued
+  std::shared_ptr<upload_ticket> ticket;  // released when the upload has been parsed and queued
   reply_sink done;
   clock::time_point received;
 };
 
 api_handlers::api_handlers(api_dependencies deps)
-    : deps_(deps), uploads_in_flight_(std::make_shared<std::atomic<std::size_t>>(0)) {}
+    : deps_(deps),
+      uploads_(deps.config.limits.max_concurrent_uploads, deps.config.limits.max_upload_bytes_in_flight) {}
 
 std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
   const auto target = split_target(to_std(head.target()));
@@ -341,8 +354,8 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
   result<std::string> boundary = multipart_boundary(content_type);
   if (!boundary.ok()) return error_reply(400, "invalid_input", boundary.error().message(), route.name);
 
-  if (uploads_in_flight_->fetch_add(1) >= limits.max_concurrent_uploads) {
-    uploads_in_flight_->fetch_sub(1);
+  std::shared_ptr<upload_ticket> ticket = uploads_.admit(has_length ? length : 0);
+  if (!ticket) {
     return with_retry_after(error_reply(429, "queue_full", "too many uploads in progress", route.name),
                             limits.retry_after_seconds);
   }
@@ -354,7 +367,7 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
   plan.part_limits.max_parts = limits.max_form_parts;
   plan.part_limits.max_field_bytes = limits.max_form_field_bytes;
   plan.part_limits.max_file_bytes = limits.max_upload_bytes;
-  plan.upload_slot = std::make_shared<upload_slot>(uploads_in_flight_);
+  plan.ticket = std::move(ticket);
   return plan;
 }
 
@@ -391,7 +404,7 @@ void api_handlers::handle(const request_head& head, const body_plan&, std::strin
   if (const status known = only_known(*query, {"format"}, "query parameter"); !known.ok()) {
     return done(error_reply(400, "invalid_argument", known.message(), route));
   }
-  proto::mesh_format format = proto::mesh_format::off;
+  std::optional<proto::mesh_format> format;
   if (const std::string* name = find_param(*query, "format")) {
     result<proto::mesh_format> parsed = proto::parse_mesh_format(*name);
     if (!parsed.ok()) return done(error_reply(400, "invalid_argument", parsed.error().message(), route));
@@ -444,7 +457,7 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   upload->route = match.id;
   upload->request = *request;
   upload->pqr = std::move(pqr->body);
-  upload->slot = std::move(plan.upload_slot);
+  upload->ticket = std::move(plan.ticket);
   upload->done = std::move(done);
   upload->received = clock::now();
   boost::asio::post(deps_.prep, [this, upload] { prepare_upload(upload); });
@@ -475,7 +488,7 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
     }
   } else if (auto report = deps_.cache.get(report_key(id))) {
     deps_.stats.count_cache_response();
-    nlohmann::json accepted = {{"id", id}, {"status", "done"}, {"links", job_links(id)}};
+    nlohmann::json accepted = {{"id", id}, {"status", "done"}, {"links", job_links(id, upload->request.format)}};
     reply r = json_reply(200, accepted.dump(), route);
     r.headers.emplace_back("Location", "/jobs/" + id);
     return upload->done(std::move(r));
@@ -484,11 +497,13 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   auto input = std::make_shared<job_input>();
   input->mol = std::move(*mol);
   input->params = upload->request.params;
+  input->format = upload->request.format;
   job_listener listener;
   if (upload->route == route_id::mesh) {
-    listener = [done = upload->done, id, format = upload->request.format](const job_snapshot& final_state,
-                                                                          const job_output* output) {
-      if (!output) return done(job_failure_reply(final_state, "/mesh"));
+    listener = [done = upload->done, id, format = upload->request.format,
+                retry = deps_.config.limits.retry_after_seconds](const job_snapshot& final_state,
+                                                                 const job_output* output) {
+      if (!output) return done(job_failure_reply(final_state, "/mesh", retry));
       auto bytes = format == proto::mesh_format::off ? output->off : output->draco;
       done(mesh_reply(id, format, std::move(bytes), output->from_cache, "/mesh"));
     };
@@ -519,7 +534,7 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   if (upload->route == route_id::mesh) return;  // the listener answers
   nlohmann::json accepted = {{"id", id},
                              {"status", std::string(proto::job_state_name(submitted.snapshot.state))},
-                             {"links", job_links(id)}};
+                             {"links", job_links(id, upload->request.format)}};
   reply r = json_reply(202, accepted.dump(), route);
   r.headers.emplace_back("Location", "/jobs/" + id);
   upload->done(std::move(r));
@@ -538,40 +553,55 @@ void api_handlers::job_status(const std::string& id, reply_sink done) {
 }
 
 void api_handlers::cancel_job(const std::string& id, reply_sink done) {
+  const std::string route = "/jobs/{id}";
   const cancel_outcome outcome = deps_.jobs.cancel(id);
-  if (outcome != cancel_outcome::not_found) {
-    if (auto job = deps_.jobs.find(id)) {
-      log_event(deps_.log, spdlog::level::info, "job_cancel",
-                {{"job", id}, {"status", std::string(proto::job_state_name(job->state))}});
-      return done(json_reply(200, job_document(*job), "/jobs/{id}"));
-    }
+  const std::optional<job_snapshot> job = deps_.jobs.find(id);
+  if (outcome == cancel_outcome::not_found || !job) {
+    // Unknown to the queue: a done job may still be known to the cache, and a done job cannot be cancelled.
+    boost::asio::post(deps_.prep, [this, id, route, done = std::move(done)] {
+      if (deps_.cache.get(report_key(id))) return done(already_finished_reply(job_state::done, route));
+      done(error_reply(404, "not_found", "no such job", route));
+    });
+    return;
   }
-  job_status(id, std::move(done));  // a done job known only to the cache is left as it is
+  if (job->state == job_state::done || job->state == job_state::failed) {
+    return done(already_finished_reply(job->state, route));
+  }
+  log_event(deps_.log, spdlog::level::info, "job_cancel",
+            {{"job", id}, {"status", std::string(proto::job_state_name(job->state))}});
+  done(json_reply(200, job_document(*job), route));  // cancelled, or running until the pipeline sees the token
 }
 
-void api_handlers::job_mesh(const request_head& head, const std::string& id, proto::mesh_format format,
-                            reply_sink done) {
+void api_handlers::job_mesh(const request_head& head, const std::string& id,
+                            std::optional<proto::mesh_format> requested, reply_sink done) {
   const std::string route = "/jobs/{id}/mesh";
+  std::optional<job_snapshot> job;
+  if (!requested) job = deps_.jobs.find(id);
+  // Without ?format: the format of the job's first submission while the queue remembers the job, else OFF.
+  const proto::mesh_format format = requested ? *requested : job ? job->format : proto::mesh_format::off;
+  // Only a URL naming its format always names the same bytes.
+  const bool immutable = requested.has_value();
   const std::string key = id + "." + std::string(proto::file_extension(format)).substr(1);
   const bool if_none_match = etag_matches(head, etag_for(id, format));
   // The hot path: a memory hit is answered from the I/O thread, no hop.
   if (auto bytes = deps_.cache.get_from_memory(key)) {
     deps_.stats.count_cache_response();
     return done(if_none_match ? not_modified(id, format, route)
-                              : mesh_reply(id, format, std::move(bytes), true, route));
+                              : mesh_reply(id, format, std::move(bytes), true, route, immutable));
   }
-  if (auto job = deps_.jobs.find(id); job && job->state != job_state::done) {
+  if (requested) job = deps_.jobs.find(id);
+  if (job && job->state != job_state::done) {
     const std::string message =
         job->state == job_state::queued || job->state == job_state::running
             ? "the job is " + std::string(proto::job_state_name(job->state)) + "; poll /jobs/" + id
             : "the job " + std::string(proto::job_state_name(job->state)) + ": " + job->error.message();
     return done(error_reply(409, "conflict", message, route));
   }
-  boost::asio::post(deps_.prep, [this, id, key, format, if_none_match, route, done = std::move(done)] {
+  boost::asio::post(deps_.prep, [this, id, key, format, if_none_match, immutable, route, done = std::move(done)] {
     if (auto bytes = deps_.cache.get(key)) {
       deps_.stats.count_cache_response();
       return done(if_none_match ? not_modified(id, format, route)
-                                : mesh_reply(id, format, std::move(bytes), true, route));
+                                : mesh_reply(id, format, std::move(bytes), true, route, immutable));
     }
     done(error_reply(404, "not_found", "no mesh for this job", route));
   });

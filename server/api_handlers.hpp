@@ -3,14 +3,15 @@
 /// The routes of tracemeshd (proto/openapi.json) on top of the HTTP transport:
 ///   POST /mesh                 upload → mesh bytes (waits for the job without holding an I/O thread)
 ///   POST /jobs                 upload → 202 {id, status, links} (200 when the result is already cached)
-///   GET|HEAD|DELETE /jobs/{id} job status JSON / cancel
-///   GET|HEAD /jobs/{id}/mesh   ?format=off|draco, ETag / If-None-Match → 304
+///   GET|HEAD|DELETE /jobs/{id} job status JSON / cancel (409 when the job already finished)
+///   GET|HEAD /jobs/{id}/mesh   ?format=off|draco (default: the job's submitted format, else off), ETag /
+///                              If-None-Match → 304, 409 while the job has no mesh
 ///   GET|HEAD /healthz /readyz /metrics /openapi.json; OPTIONS on every route (CORS preflight)
 /// Threads: plan() and the cheap handlers run on I/O threads; PQR decompression and parsing, job-id hashing and
 /// every disk cache read run on the prep pool; meshing runs on the job queue's workers.
 
-#include <atomic>
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "server/metrics.hpp"
 #include "server/result_cache.hpp"
 #include "server/server_limits.hpp"
+#include "server/upload_admission.hpp"
 
 namespace tracemesh::server {
 
@@ -48,8 +50,9 @@ class api_handlers final : public request_handler {
   void handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
                      reply_sink done) override;
 
-  /// Uploads being received or prepared now (bounded by max_concurrent_uploads).
-  std::size_t uploads_in_flight() const { return uploads_in_flight_->load(); }
+  /// Uploads being received or prepared now, and the body bytes they hold (bounded by max_concurrent_uploads
+  /// and max_upload_bytes_in_flight).
+  const upload_admission& uploads() const { return uploads_; }
 
  private:
   struct upload_request;
@@ -58,12 +61,13 @@ class api_handlers final : public request_handler {
   reply readiness_reply() const;
   void job_status(const std::string& id, reply_sink done);
   void cancel_job(const std::string& id, reply_sink done);
-  void job_mesh(const request_head& head, const std::string& id, proto::mesh_format format, reply_sink done);
+  void job_mesh(const request_head& head, const std::string& id, std::optional<proto::mesh_format> format,
+                reply_sink done);
   void prepare_upload(std::shared_ptr<upload_request> upload);  // on the prep pool
   void submit_job(std::shared_ptr<upload_request> upload, const std::string& id, std::size_t atoms);
 
   api_dependencies deps_;
-  std::shared_ptr<std::atomic<std::size_t>> uploads_in_flight_;
+  upload_admission uploads_;
 };
 
 }  // namespace tracemesh::server

@@ -9,7 +9,8 @@
 /// 2. request_handler::plan() decides from the header alone: an immediate reply (errors, 413 from
 ///    Content-Length, 415...) or how to read the body; only then is "100 Continue" sent to an Expect: 100-continue;
 /// 3. an upload body is streamed chunk by chunk into the multipart parser (never buffered whole; chunked bodies
-///    are counted against the limit while streaming → 413) under the whole-request deadline request_timeout;
+///    are counted against the limit while streaming → 413, and grow their upload_ticket's memory reservation →
+///    429 when the uploads in flight hold too many bytes) under the whole-request deadline request_timeout;
 /// 4. the handler answers through a reply_sink, possibly much later from another thread: the reply is posted
 ///    back to the session's strand, so no I/O thread ever waits for a job;
 /// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection.
@@ -36,6 +37,7 @@
 #include "server/metrics.hpp"
 #include "server/multipart_parser.hpp"
 #include "server/server_limits.hpp"
+#include "server/upload_admission.hpp"
 
 namespace tracemesh::server {
 
@@ -72,7 +74,8 @@ struct body_plan {
   std::uint64_t max_bytes = 0;    ///< body limit (Content-Length was already checked against it)
   std::string boundary;           ///< upload only
   multipart_limits part_limits;   ///< upload only
-  std::shared_ptr<void> upload_slot;  ///< upload only: released when the last owner drops it
+  /// Upload only: the admission ticket (count and bytes in flight), released when the last owner drops it.
+  std::shared_ptr<upload_ticket> ticket;
 };
 
 /// The application: routes and handlers (api_handlers.hpp). plan() runs on an I/O thread and must be cheap.

@@ -112,7 +112,7 @@ cancel_outcome job_queue::cancel(const std::string& id) {
   }
   queue_.erase(std::find(queue_.begin(), queue_.end(), target));
   target->state = job_state::cancelled;
-  target->error_code = "cancelled";
+  target->error_code = job_error::cancelled;
   target->error = status(errc::cancelled, "cancelled by request");
   remember_finished(target);
   std::vector<job_listener> listeners = std::move(target->listeners);
@@ -135,7 +135,7 @@ void job_queue::shutdown(std::chrono::milliseconds grace) {
   std::vector<std::pair<std::vector<job_listener>, job_snapshot>> dropped;
   for (const auto& waiting : queue_) {
     waiting->state = job_state::failed;
-    waiting->error_code = "shutdown";
+    waiting->error_code = job_error::shutdown;
     waiting->error = status(errc::cancelled, "the server shut down before the job started");
     remember_finished(waiting);
     dropped.emplace_back(std::move(waiting->listeners), snapshot_of(*waiting));
@@ -217,16 +217,16 @@ void job_queue::finish(const std::shared_ptr<job>& j, result<job_output> outcome
     j->report = outcome->report;
   } else if (outcome.error().code() == errc::cancelled && j->stop == stop_reason::user) {
     j->state = job_state::cancelled;
-    j->error_code = "cancelled";
+    j->error_code = job_error::cancelled;
     j->error = status(errc::cancelled, "cancelled by request");
   } else if (outcome.error().code() == errc::cancelled && j->stop == stop_reason::timeout) {
     j->state = job_state::failed;
-    j->error_code = "timeout";
+    j->error_code = job_error::timeout;
     j->error = status(errc::cancelled, "the job exceeded its time limit of " +
                                            std::to_string(options_.job_timeout.count()) + " ms");
   } else if (outcome.error().code() == errc::cancelled && j->stop == stop_reason::shutdown) {
     j->state = job_state::failed;
-    j->error_code = "shutdown";
+    j->error_code = job_error::shutdown;
     j->error = status(errc::cancelled, "the server shut down while the job was running");
   } else {
     j->state = job_state::failed;
@@ -274,6 +274,7 @@ job_snapshot job_queue::snapshot_of(const job& j) const {
   job_snapshot snapshot;
   snapshot.id = j.id;
   snapshot.state = j.state;
+  snapshot.format = j.input ? j.input->format : proto::mesh_format::off;
   snapshot.stage = static_cast<mesh_stage>(j.stage.load(std::memory_order_relaxed));
   snapshot.progress = j.state == job_state::done
                           ? 1.0

@@ -40,7 +40,17 @@ using proto::job_state;  // queued → running → done | failed | cancelled, na
 struct job_input {
   molecule mol;
   mesh_params params;
+  /// The format asked for by the submission that created the job: GET /jobs/{id}/mesh serves it when the
+  /// request names no format. Not part of the job id (one job produces every encoding).
+  proto::mesh_format format = proto::mesh_format::off;
 };
+
+/// job_snapshot::error_code values set by the queue itself (other failures carry the errc_name of their status).
+namespace job_error {
+inline constexpr const char* cancelled = "cancelled";  ///< DELETE /jobs/{id}; the job ends as cancelled
+inline constexpr const char* timeout = "timeout";      ///< ran past job_timeout; the job ends as failed
+inline constexpr const char* shutdown = "shutdown";    ///< not finished at the end of the shutdown grace period
+}  // namespace job_error
 
 /// What a done job produced: the encodings and the report (JSON text), shared with the responses that send them.
 struct job_output {
@@ -57,7 +67,8 @@ struct job_snapshot {
   double progress = 0;                    ///< 0..1 over the whole pipeline
   mesh_stage stage = mesh_stage::reading;
   std::size_t queue_position = 0;         ///< jobs ahead of this one (queued jobs only; 0 = next)
-  std::string error_code;                 ///< failed/cancelled: "timeout", "shutdown", "cancelled" or an errc_name
+  proto::mesh_format format = proto::mesh_format::off;  ///< job_input::format
+  std::string error_code;                 ///< failed/cancelled: a job_error value or an errc_name
   status error;                           ///< failed/cancelled: the reason in words
   std::shared_ptr<const std::string> report;  ///< done jobs: the report JSON text
   double seconds = 0;                     ///< run time so far (running) or in total (final states)

@@ -63,6 +63,9 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   app.add_option("--max-concurrent-uploads", limits.max_concurrent_uploads,
                  "Uploads received or parsed at the same time; more get 429")
       ->capture_default_str();
+  app.add_option("--max-upload-bytes-in-flight", limits.max_upload_bytes_in_flight,
+                 "Body bytes of all uploads received or parsed at the same time; more get 429")
+      ->capture_default_str();
   app.add_option("--job-timeout", job_timeout, "Seconds a job may run before it fails with \"timeout\"")
       ->capture_default_str();
   app.add_option("--header-timeout", header_timeout,

@@ -44,6 +44,7 @@ nlohmann::json config_to_json(const server_config& config) {
       {"max_header_bytes", limits.max_header_bytes},
       {"max_connections", limits.max_connections},
       {"max_concurrent_uploads", limits.max_concurrent_uploads},
+      {"max_upload_bytes_in_flight", limits.max_upload_bytes_in_flight},
       {"max_form_parts", limits.max_form_parts},
       {"max_form_field_bytes", limits.max_form_field_bytes},
       {"max_queue", limits.max_queue},

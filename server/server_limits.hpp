@@ -45,6 +45,11 @@ struct server_limits {
   /// Uploads being received or parsed at the same time (bounds upload memory); over it → 429 + Retry-After.
   /// A lab's burst of small uploads must pass: 20 concurrent clients are well within it.
   std::size_t max_concurrent_uploads = 64;
+  /// Body bytes held by all uploads in flight together (their Content-Length, or what a chunked body has sent so
+  /// far); over it → 429 + Retry-After. Bounds upload memory where max_concurrent_uploads alone would allow
+  /// 64 × max_upload_bytes. One upload is always admitted when none is in flight, so a value below
+  /// max_upload_bytes serialises large uploads instead of refusing them.
+  std::uint64_t max_upload_bytes_in_flight = 1ull << 30;
   /// Non-file multipart fields (parameters) and parts per upload.
   std::size_t max_form_parts = 16;
   std::size_t max_form_field_bytes = 4096;

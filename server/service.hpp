@@ -45,6 +45,10 @@ class service {
   metrics& stats() { return metrics_; }
   job_queue& jobs() { return jobs_; }
   result_cache& cache() { return cache_; }
+  /// Uploads in flight and the body bytes they hold.
+  const upload_admission& uploads() const { return api_.uploads(); }
+  /// Open connections and requests being served.
+  const http_server_state& http_state() const { return state_; }
 
  private:
   server_config config_;

@@ -1,143 +1,27 @@
-// Tests of server/service.hpp (and through it http_server.hpp, api_handlers.hpp, mesh_job.hpp, cors.hpp): a real
-// service on a loopback port with a fake mesher behind a gate, talked to over raw sockets. Covers HTTP framing and
-// limits, slow clients, the API's errors, single-flight, back-pressure, cancellation, timeouts and shutdown
-// (service-test-list A, B, E, G, J). The real mesher and curl are exercised in tests/integration/.
+// Tests of server/service.hpp and the API it serves (api_handlers.hpp, mesh_job.hpp, job_queue.hpp, cors.hpp through
+// a running service): routes, errors, single-flight, back-pressure, cancellation, timeouts, formats, the cache and
+// shutdown (service-test-list E, G, J), with a fake mesher behind a gate. The HTTP transport (framing, limits, slow
+// and misbehaving clients) is tested in http_server_test.cpp; the real mesher and curl in tests/integration/.
 #include "server/service.hpp"
 
 #include <gtest/gtest.h>
 
-#include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <filesystem>
-#include <fstream>
-#include <mutex>
+#include <map>
+#include <set>
 #include <sstream>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "server/content_hash.hpp"
-#include "server/logging.hpp"
-#include "server/test_http_client.hpp"
-#include "support/test_paths.hpp"
+#include "server/service_fixture.hpp"
 
-namespace tracemesh::server {
+namespace tracemesh::server::test {
 namespace {
 
-using namespace std::chrono_literals;
-using testing::round_trip;
-using testing::get_request;
-using testing::http_reply;
-using testing::raw_connection;
-using testing::upload_request;
-
-/// Stands in for mesh_molecule: a tetrahedron, after a gate the test may hold closed (polling the token).
-class fake_mesher {
- public:
-  mesher_function function() {
-    return [this](const molecule& mol, const mesh_params&, const mesh_limits&,
-                  progress_token& token) -> result<mesh_output> {
-      runs_.fetch_add(1);
-      std::unique_lock lock(mutex_);
-      while (!open_) {
-        if (!token.report(mesh_stage::sampling, 0.25)) return status(errc::cancelled, "cancelled");
-        changed_.wait_for(lock, 2ms);
-      }
-      mesh_output out;
-      const double r = mol.atoms.empty() ? 1.0 : mol.atoms.front().radius;
-      out.mesh.positions = {{r, r, r}, {r, -r, -r}, {-r, r, -r}, {-r, -r, r}};
-      out.mesh.triangles = {{{0, 1, 2}}, {{0, 3, 1}}, {{0, 2, 3}}, {{1, 3, 2}}};
-      out.report.vertices = 4;
-      out.report.triangles = 4;
-      out.atoms_meshed = mol.atoms.size();
-      out.certified = true;
-      return out;
-    };
-  }
-  void set_open(bool open) {
-    std::lock_guard lock(mutex_);
-    open_ = open;
-    changed_.notify_all();
-  }
-  int runs() const { return runs_.load(); }
-
- private:
-  std::mutex mutex_;
-  std::condition_variable changed_;
-  bool open_ = true;
-  std::atomic<int> runs_{0};
-};
-
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::string atom_line(int serial, double x, double radius = 1.5) {
-  std::ostringstream line;
-  line << "ATOM " << serial << " C ALA 1 " << x << " 0.0 0.0 0.0 " << radius << "\n";
-  return line.str();
-}
-
-class ServiceTest : public ::testing::Test {
- protected:
-  void start(const std::function<void(server_config&)>& adjust = {}) {
-    config_.listen_port = 0;
-    config_.workers = 1;
-    config_.limits.max_upload_bytes = 256 * 1024;
-    config_.limits.max_queue = 4;
-    config_.limits.header_timeout = 2s;
-    config_.limits.request_timeout = 3s;
-    config_.limits.write_timeout = 3s;
-    config_.limits.shutdown_grace = 200ms;
-    config_.limits.job_timeout = 10s;
-    if (adjust) adjust(config_);
-    service_ = std::make_unique<service>(config_, make_null_logger(), mesher_.function());
-    const status started = service_->start();
-    ASSERT_TRUE(started.ok()) << started.message();
-    port_ = service_->port();
-  }
-  void TearDown() override {
-    mesher_.set_open(true);
-    if (service_) service_->shutdown();
-  }
-
-  http_reply post(const std::string& target, const std::string& pqr,
-                  const std::vector<std::pair<std::string, std::string>>& fields = {}) {
-    return round_trip(port_, upload_request(target, pqr, fields));
-  }
-  http_reply get(const std::string& target, const std::string& headers = {}) {
-    return round_trip(port_, get_request(target, headers));
-  }
-  /// Polls GET /jobs/{id} until the job is final.
-  nlohmann::json wait_job(const std::string& id) {
-    for (int i = 0; i < 500; ++i) {
-      const http_reply r = get("/jobs/" + id);
-      if (r.status != 200) return nlohmann::json{{"http", r.status}};
-      const auto doc = nlohmann::json::parse(r.body);
-      const std::string state = doc.at("status");
-      if (state == "done" || state == "failed" || state == "cancelled") return doc;
-      std::this_thread::sleep_for(10ms);
-    }
-    return nlohmann::json{{"timeout", true}};
-  }
-  void expect_error(const http_reply& r, int status, const std::string& code) {
-    EXPECT_EQ(r.status, status) << r.body;
-    if (r.status == 0) return;
-    const auto doc = nlohmann::json::parse(r.body, nullptr, false);
-    ASSERT_FALSE(doc.is_discarded()) << r.body;
-    EXPECT_EQ(doc["error"]["code"], code) << r.body;
-    EXPECT_FALSE(doc["error"]["message"].get<std::string>().empty());
-  }
-
-  const std::string gly_ = read_file(tracemesh::testing::molecule_path("gly.pqr"));
-  fake_mesher mesher_;
-  server_config config_;
-  std::unique_ptr<service> service_;
-  unsigned short port_ = 0;
-};
+class ServiceTest : public service_fixture {};
 
 TEST_F(ServiceTest, MeshesSynchronouslyThenServesTheCachedResult) {
   start();
@@ -179,6 +63,7 @@ TEST_F(ServiceTest, AsynchronousJobsReportStatusAndKeepTheirId) {
   const std::string id = doc.at("id");
   EXPECT_TRUE(is_valid_job_id(id));
   EXPECT_EQ(doc.at("links").at("self"), "/jobs/" + id);
+  EXPECT_EQ(doc.at("links").at("mesh"), "/jobs/" + id + "/mesh?format=draco") << "the link names the format";
   EXPECT_EQ(accepted.header("location"), "/jobs/" + id);
 
   const http_reply pending = get("/jobs/" + id + "/mesh");
@@ -198,7 +83,27 @@ TEST_F(ServiceTest, AsynchronousJobsReportStatusAndKeepTheirId) {
   EXPECT_EQ(nlohmann::json::parse(again.body).at("id"), id);
   EXPECT_EQ(nlohmann::json::parse(again.body).at("status"), "done");
   EXPECT_EQ(mesher_.runs(), 1);
-  EXPECT_EQ(get("/jobs/" + id + "/mesh").status, 200);
+
+  // Without ?format the job's submitted format is served, and caches must revalidate (the URL is not pinned to
+  // one encoding); with ?format the bytes are immutable.
+  const http_reply submitted = get("/jobs/" + id + "/mesh");
+  ASSERT_EQ(submitted.status, 200);
+  EXPECT_EQ(submitted.header("content-type"), "application/vnd.google.draco");
+  EXPECT_EQ(submitted.body.substr(0, 5), "DRACO");
+  EXPECT_EQ(submitted.header("cache-control"), "no-cache");
+  const http_reply off = get("/jobs/" + id + "/mesh?format=off");
+  ASSERT_EQ(off.status, 200);
+  EXPECT_EQ(off.body.rfind("OFF\n", 0), 0u);
+  EXPECT_NE(off.header("cache-control").find("immutable"), std::string::npos);
+  EXPECT_NE(off.header("etag"), submitted.header("etag"));
+
+  // A job submitted without a format defaults to OFF.
+  const http_reply plain = post("/jobs", gly_, {{"density", "3"}});
+  ASSERT_EQ(plain.status, 202) << plain.body;
+  const std::string plain_id = nlohmann::json::parse(plain.body).at("id");
+  EXPECT_EQ(nlohmann::json::parse(plain.body).at("links").at("mesh"), "/jobs/" + plain_id + "/mesh?format=off");
+  EXPECT_EQ(wait_job(plain_id).at("status"), "done");
+  EXPECT_EQ(get("/jobs/" + plain_id + "/mesh").header("content-type"), "model/vnd.off");
 }
 
 TEST_F(ServiceTest, IdenticalConcurrentUploadsRunTheMesherOnce) {
@@ -301,141 +206,6 @@ TEST_F(ServiceTest, BadRequestsGetTheRightStatusAndTheServerKeepsServing) {
   EXPECT_EQ(mesher_.runs(), 0);
 }
 
-TEST_F(ServiceTest, OversizedUploadsAre413BeforeTheBodyAndWithoutContinue) {
-  start();
-  raw_connection connection(port_);
-  ASSERT_TRUE(connection.send("POST /mesh HTTP/1.1\r\nHost: t\r\nContent-Type: multipart/form-data; boundary=b\r\n"
-                              "Content-Length: 1000000000\r\nExpect: 100-continue\r\n\r\n"));
-  const http_reply r = connection.read_reply();
-  expect_error(r, 413, "limit_exceeded");
-  EXPECT_EQ(r.header("connection"), "close");
-  EXPECT_TRUE(connection.closed_by_peer(2s));
-
-  // Chunked: no length up front, counted while streaming.
-  raw_connection chunked(port_);
-  ASSERT_TRUE(chunked.send("POST /mesh HTTP/1.1\r\nHost: t\r\nContent-Type: multipart/form-data; boundary=b\r\n"
-                           "Transfer-Encoding: chunked\r\n\r\n"));
-  const std::string piece(64 * 1024, 'x');
-  bool refused = false;
-  for (int i = 0; i < 8 && !refused; ++i) {
-    std::ostringstream chunk;
-    chunk << std::hex << piece.size() << "\r\n" << piece << "\r\n";
-    refused = !chunked.send(chunk.str());
-  }
-  expect_error(chunked.read_reply(), 413, "limit_exceeded");
-  EXPECT_EQ(get("/healthz").status, 200);
-}
-
-TEST_F(ServiceTest, ExpectContinueIsAnsweredAfterTheHeaderIsAccepted) {
-  start();
-  const std::string full = upload_request("/mesh", gly_, {}, "Expect: 100-continue\r\n");
-  const auto split = full.find("\r\n\r\n") + 4;
-  raw_connection connection(port_);
-  ASSERT_TRUE(connection.send(full.substr(0, split)));
-  EXPECT_EQ(connection.read_reply().status, 100);
-  ASSERT_TRUE(connection.send(full.substr(split)));
-  const http_reply r = connection.read_reply();
-  EXPECT_EQ(r.status, 200) << r.body;
-}
-
-TEST_F(ServiceTest, ChunkedUploadsAndTinyWritesParseTheSame) {
-  start();
-  const http_reply whole = post("/mesh", gly_);
-  ASSERT_EQ(whole.status, 200);
-  for (std::size_t chunk : {1u, 3u, 7u}) {
-    raw_connection connection(port_);
-    ASSERT_TRUE(connection.send_in_chunks(upload_request("/mesh", gly_), chunk, 20us));
-    const http_reply r = connection.read_reply();
-    EXPECT_EQ(r.status, 200) << "chunk " << chunk << ": " << r.body;
-    EXPECT_EQ(r.header("x-job-id"), whole.header("x-job-id")) << chunk;
-    EXPECT_EQ(r.body, whole.body);
-  }
-  const std::string boundary = "----tracemesh-test-boundary";
-  const std::string body = testing::multipart_body(boundary, gly_);
-  std::string request = "POST /mesh HTTP/1.1\r\nHost: t\r\nContent-Type: multipart/form-data; boundary=" + boundary +
-                        "\r\nTransfer-Encoding: chunked\r\n\r\n";
-  for (std::size_t at = 0; at < body.size(); at += 100) {
-    const std::string piece = body.substr(at, 100);
-    std::ostringstream size;
-    size << std::hex << piece.size();
-    request += size.str() + "\r\n" + piece + "\r\n";
-  }
-  request += "0\r\n\r\n";
-  const http_reply chunked = round_trip(port_, request);
-  EXPECT_EQ(chunked.status, 200) << chunked.body;
-  EXPECT_EQ(chunked.header("x-job-id"), whole.header("x-job-id"));
-  EXPECT_EQ(mesher_.runs(), 1);
-}
-
-TEST_F(ServiceTest, HeaderLimitGives431AndClosesTheConnection) {
-  start();
-  const std::string big_header = "X-Filler: " + std::string(9000, 'a') + "\r\n";
-  raw_connection connection(port_);
-  ASSERT_TRUE(connection.send(get_request("/healthz", big_header)));
-  const http_reply r = connection.read_reply();
-  expect_error(r, 431, "header_too_large");
-  EXPECT_TRUE(connection.closed_by_peer(2s));
-  // Just under the limit is fine.
-  EXPECT_EQ(get("/healthz", "X-Filler: " + std::string(7000, 'a') + "\r\n").status, 200);
-}
-
-TEST_F(ServiceTest, SlowClientsAreCutAtTheirDeadlinesWhileOthersAreServed) {
-  start([](server_config& c) {
-    c.limits.header_timeout = 300ms;
-    c.limits.request_timeout = 600ms;
-  });
-  raw_connection slow_header(port_);
-  ASSERT_TRUE(slow_header.send("GET /healthz HTTP/1.1\r\nHost: t\r\n"));  // never finished
-  const std::string full = upload_request("/mesh", gly_);
-  raw_connection slow_body(port_);
-  ASSERT_TRUE(slow_body.send(full.substr(0, full.size() - 20)));  // body never finished
-  EXPECT_EQ(get("/healthz").status, 200);
-  const auto started = std::chrono::steady_clock::now();
-  EXPECT_TRUE(slow_header.closed_by_peer(3s));
-  EXPECT_TRUE(slow_body.closed_by_peer(3s));
-  EXPECT_LT(std::chrono::steady_clock::now() - started, 2s);
-  // An idle keep-alive connection is closed at the header timeout too.
-  raw_connection idle(port_);
-  ASSERT_TRUE(idle.send(get_request("/healthz")));
-  EXPECT_EQ(idle.read_reply().status, 200);
-  EXPECT_TRUE(idle.closed_by_peer(3s));
-  EXPECT_EQ(mesher_.runs(), 0);
-}
-
-TEST_F(ServiceTest, KeepAliveServesSeveralRequestsInOrder) {
-  start();
-  raw_connection connection(port_);
-  ASSERT_TRUE(connection.send(get_request("/healthz") + get_request("/readyz") + get_request("/nowhere")));
-  EXPECT_EQ(connection.read_reply().status, 200);
-  const http_reply ready = connection.read_reply();
-  EXPECT_EQ(ready.status, 200);
-  EXPECT_NE(ready.body.find("ready"), std::string::npos);
-  EXPECT_EQ(connection.read_reply().status, 404);
-  ASSERT_TRUE(connection.send("HEAD /openapi.json HTTP/1.1\r\nHost: t\r\n\r\n"));
-  const http_reply head = connection.read_reply(/*head_request=*/true);
-  EXPECT_EQ(head.status, 200);
-  EXPECT_GT(std::stoul(head.header("content-length")), 100u);
-  ASSERT_TRUE(connection.send(get_request("/openapi.json")));
-  const http_reply openapi = connection.read_reply();
-  EXPECT_EQ(openapi.body.size(), std::stoul(head.header("content-length")));
-  EXPECT_FALSE(nlohmann::json::parse(openapi.body, nullptr, false).is_discarded());
-}
-
-TEST_F(ServiceTest, ConnectionsOverTheLimitGet503) {
-  start([](server_config& c) { c.limits.max_connections = 2; });
-  raw_connection first(port_);
-  raw_connection second(port_);
-  ASSERT_TRUE(first.send(get_request("/healthz")));
-  ASSERT_TRUE(second.send(get_request("/healthz")));
-  EXPECT_EQ(first.read_reply().status, 200);
-  EXPECT_EQ(second.read_reply().status, 200);
-  raw_connection third(port_);
-  expect_error(third.read_reply(), 503, "unavailable");
-  EXPECT_TRUE(third.closed_by_peer(2s));
-  ASSERT_TRUE(first.send(get_request("/healthz")));
-  EXPECT_EQ(first.read_reply().status, 200);  // existing connections are unaffected
-}
-
 TEST_F(ServiceTest, DeleteCancelsARunningJob) {
   start();
   mesher_.set_open(false);
@@ -456,7 +226,8 @@ TEST_F(ServiceTest, JobsOverTheirTimeoutFailAndAreNotCached) {
   start([](server_config& c) { c.limits.job_timeout = 100ms; });
   mesher_.set_open(false);
   const http_reply sync = post("/mesh", gly_);
-  expect_error(sync, 503, "timeout");
+  expect_error(sync, 504, "timeout");
+  EXPECT_TRUE(sync.header("retry-after").empty()) << "the same input would time out again";
   const http_reply accepted = post("/jobs", gly_);
   ASSERT_EQ(accepted.status, 202);
   const auto failed = wait_job(nlohmann::json::parse(accepted.body).at("id"));
@@ -512,6 +283,8 @@ TEST_F(ServiceTest, ShutdownAnswersWaitingClientsAndStopsAccepting) {
   EXPECT_LT(std::chrono::steady_clock::now() - started, 3s);
   client.join();
   expect_error(waiting, 503, "shutdown");
+  EXPECT_EQ(waiting.header("retry-after"), "5");
+  EXPECT_EQ(waiting.header("connection"), "close");
   raw_connection after(port_);
   EXPECT_FALSE(after.connected() && after.send(get_request("/healthz")) && after.read_reply().status == 200);
 }
@@ -531,10 +304,198 @@ TEST_F(ServiceTest, DiskCacheSurvivesARestart) {
   EXPECT_EQ(second.body, first.body);
   const auto status_doc = nlohmann::json::parse(get("/jobs/" + first.header("x-job-id")).body);
   EXPECT_EQ(status_doc.at("status"), "done");
+  EXPECT_EQ(status_doc.at("links").at("mesh"), "/jobs/" + first.header("x-job-id") + "/mesh?format=off")
+      << "the submitted format is forgotten with the process: the default applies";
+  expect_error(request("DELETE", "/jobs/" + first.header("x-job-id")), 409, "conflict");
   EXPECT_EQ(mesher_.runs(), 1);
   service_->shutdown();
   std::filesystem::remove_all(dir);
 }
 
+TEST_F(ServiceTest, DeletingAFinishedJobIsAConflictAndCancellingTwiceIsHarmless) {
+  start();
+  const http_reply accepted = post("/jobs", gly_);
+  ASSERT_EQ(accepted.status, 202);
+  const std::string id = nlohmann::json::parse(accepted.body).at("id");
+  ASSERT_EQ(wait_job(id).at("status"), "done");
+  const http_reply finished = request("DELETE", "/jobs/" + id);
+  expect_error(finished, 409, "conflict");
+  EXPECT_NE(finished.body.find("done"), std::string::npos) << finished.body;
+  EXPECT_EQ(wait_job(id).at("status"), "done") << "left as it was";
+
+  mesher_.set_open(false);
+  const http_reply other = post("/jobs", atom_line(1, 0.0));
+  ASSERT_EQ(other.status, 202);
+  const std::string other_id = nlohmann::json::parse(other.body).at("id");
+  ASSERT_TRUE(eventually([&] { return mesher_.runs() == 2; }));
+  EXPECT_EQ(request("DELETE", "/jobs/" + other_id).status, 200);
+  EXPECT_EQ(wait_job(other_id).at("status"), "cancelled");
+  const http_reply again = request("DELETE", "/jobs/" + other_id);
+  EXPECT_EQ(again.status, 200) << again.body;
+  EXPECT_EQ(nlohmann::json::parse(again.body).at("status"), "cancelled");
+  expect_error(request("DELETE", "/jobs/" + std::string(64, 'e')), 404, "not_found");
+}
+
+TEST_F(ServiceTest, JobIdsThatAreNotSha256HexNeverReachTheCache) {
+  const auto dir = std::filesystem::temp_directory_path() / ("tracemesh-ids-test-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  start([&](server_config& c) { c.cache_dir = dir; });
+  const std::string hex64(64, 'a');
+  const std::vector<std::string> ids = {
+      "..%2f..%2fetc%2fpasswd", "..%5c..%5cwindows%5cwin.ini", "%2e%2e%2f", "%2e%2e", "..", "%2fetc%2fpasswd",
+      "ABCDEF", "0123", "%00", hex64 + "%00", hex64.substr(1), hex64 + "a", std::string(64, 'A'),
+      hex64.substr(3) + "%EF%BC%90",  // a fullwidth digit zero: a look-alike of '0'
+      hex64.substr(1) + "%D0%B0",     // a Cyrillic 'а'
+      hex64 + "%20", "%20" + hex64, "0x" + hex64.substr(2), std::string(5000, 'a')};
+  for (const std::string& id : ids) {
+    expect_error(get("/jobs/" + id), 400, "invalid_argument");
+    expect_error(get("/jobs/" + id + "/mesh"), 400, "invalid_argument");
+    expect_error(request("DELETE", "/jobs/" + id), 400, "invalid_argument");
+  }
+  for (const char* target : {"/jobs/../../etc/passwd", "/jobs//etc/passwd", "/jobs/a/b/mesh", "/jobs/"}) {
+    expect_error(get(target), 404, "not_found");
+  }
+  expect_error(get("/jobs/" + hex64), 404, "not_found");
+  std::size_t files = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) files += entry.is_regular_file();
+  EXPECT_EQ(files, 0u) << "no request above may create anything in the cache";
+  EXPECT_EQ(service_->cache().stats().misses, 1u) << "only the valid id was looked up";
+  service_->shutdown();
+  std::filesystem::remove_all(dir);
+}
+
+TEST_F(ServiceTest, AClientLeavingASynchronousRequestDoesNotCancelItsJob) {
+  start();
+  mesher_.set_open(false);
+  {
+    raw_connection leaving(port_);
+    ASSERT_TRUE(leaving.send(upload_request("/mesh", gly_)));
+    ASSERT_TRUE(eventually([&] { return mesher_.runs() == 1; }));
+    leaving.close(/*reset=*/true);
+  }
+  std::this_thread::sleep_for(20ms);
+  mesher_.set_open(true);
+  ASSERT_TRUE(jobs_settled());
+  const http_reply later = post("/mesh", gly_);
+  ASSERT_EQ(later.status, 200);
+  EXPECT_EQ(later.header("x-cache"), "hit") << "the abandoned job finished and was cached";
+  EXPECT_EQ(mesher_.runs(), 1);
+  EXPECT_TRUE(eventually([&] { return service_->http_state().open_connections.load() == 0; }));
+}
+
+TEST_F(ServiceTest, UploadBytesInFlightAreBoundedTogether) {
+  const std::string full = upload_request("/mesh", gly_);
+  const std::size_t body_bytes = full.size() - (full.find("\r\n\r\n") + 4);
+  start([&](server_config& c) { c.limits.max_upload_bytes_in_flight = body_bytes + body_bytes / 2; });
+
+  // One upload holds its whole Content-Length while its body is still arriving.
+  raw_connection holding(port_);
+  ASSERT_TRUE(holding.send(full.substr(0, full.size() - 10)));
+  ASSERT_TRUE(eventually([&] { return service_->uploads().bytes_in_flight() == body_bytes; }));
+
+  // A second upload of the same size does not fit next to it: 429 before its body, without 100 Continue.
+  raw_connection second(port_);
+  ASSERT_TRUE(second.send(full.substr(0, full.find("\r\n\r\n")) + "\r\nExpect: 100-continue\r\n\r\n"));
+  const http_reply refused = second.read_reply();
+  expect_error(refused, 429, "queue_full");
+  EXPECT_EQ(refused.header("retry-after"), "5");
+
+  // A chunked upload is admitted (its size is unknown), then refused once what it sent no longer fits.
+  raw_connection chunked(port_);
+  const std::string boundary = "----tracemesh-test-boundary";
+  ASSERT_TRUE(chunked.send("POST /mesh HTTP/1.1\r\nHost: t\r\nContent-Type: multipart/form-data; boundary=" +
+                           boundary + "\r\nTransfer-Encoding: chunked\r\n\r\n"));
+  const std::string body = testing::multipart_body(boundary, gly_);
+  std::ostringstream chunk;
+  chunk << std::hex << body.size() << "\r\n" << body << "\r\n";
+  chunked.send(chunk.str());
+  const http_reply cut = chunked.read_reply();
+  expect_error(cut, 429, "queue_full");
+  EXPECT_EQ(cut.header("connection"), "close");
+  EXPECT_TRUE(chunked.closed_by_peer(2s));
+
+  ASSERT_TRUE(holding.send(full.substr(full.size() - 10)));
+  EXPECT_EQ(holding.read_reply().status, 200);
+  EXPECT_TRUE(eventually([&] { return service_->uploads().bytes_in_flight() == 0; }));
+  EXPECT_EQ(service_->uploads().uploads_in_flight(), 0u);
+  EXPECT_EQ(post("/mesh", gly_).status, 200) << "the bytes were released";
+}
+
+TEST_F(ServiceTest, MetricsParseAsPrometheusTextAfterRealTraffic) {
+  start();
+  ASSERT_EQ(post("/mesh", gly_).status, 200);
+  ASSERT_EQ(post("/mesh", gly_).status, 200);
+  mesher_.set_open(false);
+  const http_reply accepted = post("/jobs", atom_line(1, 0.0));
+  const std::string id = nlohmann::json::parse(accepted.body).at("id");
+  ASSERT_TRUE(eventually([&] { return mesher_.runs() == 2; }));
+  request("DELETE", "/jobs/" + id);
+  ASSERT_EQ(wait_job(id).at("status"), "cancelled");
+  get("/nowhere");
+  const http_reply r = get("/metrics");
+  ASSERT_EQ(r.status, 200);
+
+  // The exposition format: # HELP/# TYPE before a family's samples, counters named *_total, histogram buckets
+  // cumulative and ending with le="+Inf" equal to _count, every value a number.
+  std::map<std::string, std::string> type_of;
+  std::map<std::string, std::vector<std::pair<std::string, double>>> buckets;
+  std::map<std::string, double> counts;
+  std::istringstream lines(r.body);
+  std::string line;
+  while (std::getline(lines, line)) {
+    ASSERT_FALSE(line.empty());
+    if (line.rfind("# HELP ", 0) == 0) continue;
+    if (line.rfind("# TYPE ", 0) == 0) {
+      std::istringstream words(line.substr(7));
+      std::string name, type;
+      words >> name >> type;
+      EXPECT_TRUE(type == "counter" || type == "gauge" || type == "histogram") << line;
+      EXPECT_TRUE(type_of.emplace(name, type).second) << "family typed twice: " << line;
+      if (type == "counter") {
+        EXPECT_EQ(name.substr(name.size() - 6), "_total") << line;
+      }
+      continue;
+    }
+    const std::size_t space = line.rfind(' ');
+    const std::string series = line.substr(0, space);
+    std::size_t parsed = 0;
+    const double value = std::stod(line.substr(space + 1), &parsed);
+    EXPECT_EQ(parsed, line.size() - space - 1) << line;
+    const std::string name = series.substr(0, series.find('{'));
+    std::string family = name;
+    for (const std::string suffix : {"_bucket", "_sum", "_count"}) {
+      const std::string base = name.size() > suffix.size() ? name.substr(0, name.size() - suffix.size()) : "";
+      if (name.size() > suffix.size() && name.compare(base.size(), suffix.size(), suffix) == 0 &&
+          type_of.count(base) && type_of[base] == "histogram") {
+        family = base;
+      }
+    }
+    ASSERT_TRUE(type_of.count(family)) << "sample before its # TYPE: " << line;
+    if (name == family + "_bucket") {
+      const std::size_t le = series.find("le=\"") + 4;
+      buckets[family].emplace_back(series.substr(le, series.find('"', le) - le), value);
+    }
+    if (name == family + "_count") counts[family] = value;
+  }
+  ASSERT_TRUE(buckets.count("tracemesh_job_seconds"));
+  for (const auto& [family, series] : buckets) {
+    for (std::size_t i = 1; i < series.size(); ++i) EXPECT_GE(series[i].second, series[i - 1].second) << family;
+    EXPECT_EQ(series.back().first, "+Inf") << family;
+    EXPECT_EQ(series.back().second, counts.at(family)) << family;
+  }
+  EXPECT_EQ(counts.at("tracemesh_job_seconds"), 2) << "one done, one cancelled";
+}
+
+TEST_F(ServiceTest, EveryCoreErrorCodeIsDocumented) {
+  const std::set<std::string> documented = documented_error_codes();
+  for (const errc code : {errc::invalid_input, errc::nothing_to_mesh, errc::invalid_argument, errc::limit_exceeded,
+                          errc::cancelled, errc::io_error, errc::internal_error}) {
+    EXPECT_EQ(documented.count(errc_name(code)), 1u) << errc_name(code);
+  }
+  for (const char* code : {job_error::cancelled, job_error::timeout, job_error::shutdown}) {
+    EXPECT_EQ(documented.count(code), 1u) << code;
+  }
+}
+
 }  // namespace
-}  // namespace tracemesh::server
+}  // namespace tracemesh::server::test

@@ -1,6 +1,7 @@
 #pragma once
-// A deliberately small HTTP/1.1 client over POSIX sockets for the service tests: it sends exactly the bytes it is
-// given (so tests can send malformed, slow or chunked requests) and parses one response at a time.
+// A deliberately small HTTP/1.1 client over POSIX sockets for the service tests (tests/server, tests/integration):
+// it sends exactly the bytes it is given (so tests can send malformed, slow, pipelined or chunked requests) and
+// parses one response at a time.
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -33,9 +34,15 @@ struct http_reply {
 
 class raw_connection {
  public:
-  explicit raw_connection(unsigned short port, std::chrono::milliseconds timeout = std::chrono::seconds(20))
+  /// Connects to 127.0.0.1:`port`. `timeout`: how long each read waits. `receive_buffer_bytes` > 0 shrinks the
+  /// socket's receive buffer (set before connecting), so that a client that does not read stalls the server soon.
+  explicit raw_connection(unsigned short port, std::chrono::milliseconds timeout = std::chrono::seconds(20),
+                          int receive_buffer_bytes = 0)
       : timeout_(timeout) {
     fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (receive_buffer_bytes > 0) {
+      ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &receive_buffer_bytes, sizeof receive_buffer_bytes);
+    }
     sockaddr_in address{};
     address.sin_family = AF_INET;
     address.sin_port = htons(port);
@@ -51,6 +58,20 @@ class raw_connection {
   raw_connection& operator=(const raw_connection&) = delete;
 
   bool connected() const { return connected_; }
+
+  /// Closes the connection now (a client that goes away mid-request); with `reset`, with a TCP RST.
+  void close(bool reset = false) {
+    if (fd_ < 0) return;
+    if (reset) {
+      const linger abort_on_close{1, 0};
+      ::setsockopt(fd_, SOL_SOCKET, SO_LINGER, &abort_on_close, sizeof abort_on_close);
+    }
+    ::close(fd_);
+    fd_ = -1;
+  }
+
+  /// Bytes received but not yet consumed by read_reply() (e.g. gathered by closed_by_peer()).
+  const std::string& unread() const { return buffer_; }
 
   /// Sends all bytes; false when the peer closed or reset the connection.
   bool send(std::string_view bytes) {

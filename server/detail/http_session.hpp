@@ -1,0 +1,364 @@
+#pragma once
+/// @file detail/http_session.hpp
+/// One HTTP connection of tracemeshd (see http_server.hpp for the request life cycle), as a template over its
+/// byte stream: beast::tcp_stream in the server, a Beast test stream in the request fuzzer
+/// (tests/fuzz/http_request_fuzzer.cpp). A stream type plugs in through a stream_transport specialisation that
+/// arms and disarms deadlines and closes the connection.
+
+#include <chrono>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include <boost/asio/dispatch.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/range/iterator_range.hpp>
+
+#include "server/http_server.hpp"
+#include "server/logging.hpp"
+
+namespace tracemesh::server::detail {
+
+namespace beast = boost::beast;
+
+/// Deadlines and closing for a stream type: expire_after(stream, duration), expire_at(stream, time_point),
+/// expire_never(stream), close(stream). Specialised below for beast::tcp_stream.
+template <class Stream>
+struct stream_transport;
+
+template <>
+struct stream_transport<beast::tcp_stream> {
+  static void expire_after(beast::tcp_stream& s, std::chrono::steady_clock::duration d) { s.expires_after(d); }
+  static void expire_at(beast::tcp_stream& s, std::chrono::steady_clock::time_point t) { s.expires_at(t); }
+  static void expire_never(beast::tcp_stream& s) { s.expires_never(); }
+  static void close(beast::tcp_stream& s) {
+    beast::error_code ignored;
+    s.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
+    s.close();
+  }
+};
+
+/// Bytes read from the stream per body read: the multipart parser sees the upload in pieces of at most this.
+inline constexpr std::size_t body_chunk_bytes = 64 * 1024;
+
+/// The route label used for requests rejected before routing.
+inline constexpr const char* unrouted_route = "(unrouted)";
+
+inline bool expects_continue(const request_head& head) {
+  return beast::iequals(head[http::field::expect], "100-continue");
+}
+
+/// True when the request has no Transfer-Encoding or exactly the one coding "chunked". Anything else makes the
+/// body length undecidable or needs a decoder we do not have (RFC 9112 §6.1, §6.3): such requests are refused
+/// and the connection closed. Beast 1.74 alone would ignore a coding list not ending in "chunked", and accept
+/// "Transfer-Encoding: gzip" followed by a Content-Length — both classic request-smuggling shapes.
+inline bool transfer_encoding_acceptable(const request_head& head) {
+  std::size_t codings = 0;
+  bool chunked = false;
+  for (const auto& field : boost::make_iterator_range(head.equal_range(http::field::transfer_encoding))) {
+    for (const auto& coding : http::token_list{field.value()}) {
+      ++codings;
+      chunked = beast::iequals(coding, "chunked");
+    }
+  }
+  const bool present = head.find(http::field::transfer_encoding) != head.end();
+  return !present || (codings == 1 && chunked && head.find(http::field::content_length) == head.end());
+}
+
+/// One connection. Lives as long as an operation or a pending reply holds a shared_ptr to it.
+template <class Stream>
+class http_session : public std::enable_shared_from_this<http_session<Stream>> {
+  using transport = stream_transport<Stream>;
+  using clock = std::chrono::steady_clock;
+
+ public:
+  http_session(Stream&& stream, http_context& context) : stream_(std::move(stream)), context_(context) {
+    context_.state.open_connections.fetch_add(1, std::memory_order_relaxed);
+  }
+  ~http_session() { context_.state.open_connections.fetch_sub(1, std::memory_order_relaxed); }
+  http_session(const http_session&) = delete;
+  http_session& operator=(const http_session&) = delete;
+
+  void run() {
+    net::dispatch(stream_.get_executor(), [self = this->shared_from_this()] { self->read_header(); });
+  }
+
+  /// Over the connection limit: answer 503 and close without reading.
+  void refuse() {
+    net::dispatch(stream_.get_executor(), [self = this->shared_from_this()] {
+      reply busy = error_reply(503, "unavailable", "too many connections", unrouted_route);
+      busy.headers.emplace_back("Retry-After", std::to_string(self->context_.limits.retry_after_seconds));
+      busy.close = true;
+      self->head_.version(11);
+      self->send(std::move(busy));
+    });
+  }
+
+ private:
+  // ---- reading the header ------------------------------------------------------------------------------------
+
+  void read_header() {
+    header_parser_.emplace();
+    header_parser_->header_limit(context_.limits.max_header_bytes);
+    // The real limit is set per route once plan() has seen the header. Not boost::none: Beast 1.74 compares
+    // Content-Length against the optional, and any length is "greater" than an empty optional.
+    header_parser_->body_limit(std::numeric_limits<std::uint64_t>::max());
+    body_parser_.reset();
+    small_parser_.reset();
+    multipart_.reset();
+    plan_ = body_plan{};
+    upload_bytes_ = 0;
+    transport::expire_after(stream_, context_.limits.header_timeout);
+    http::async_read_header(stream_, buffer_, *header_parser_,
+                            beast::bind_front_handler(&http_session::on_header, this->shared_from_this()));
+  }
+
+  void on_header(beast::error_code ec, std::size_t header_bytes) {
+    // Beast's header_limit does not count the request line: the documented limit (request line and fields) is
+    // checked here, on the bytes the header really took.
+    if (!ec && header_bytes > context_.limits.max_header_bytes) ec = http::error::header_limit;
+    if (ec) return on_header_error(ec);
+    begin_request();
+    head_ = header_parser_->get().base();
+    keep_alive_ = header_parser_->keep_alive();
+    if (!transfer_encoding_acceptable(head_)) {
+      return send(error_reply(400, "bad_request",
+                              "Transfer-Encoding must be the single coding \"chunked\", without Content-Length",
+                              unrouted_route),
+                  /*force_close=*/true);
+    }
+    std::variant<reply, body_plan> decision = context_.handler.plan(head_);
+    if (auto* immediate = std::get_if<reply>(&decision)) {
+      // The body (if any) is left unread: the connection cannot be reused.
+      if (!header_parser_->is_done()) immediate->close = true;
+      return send(std::move(*immediate));
+    }
+    plan_ = std::move(std::get<body_plan>(decision));
+    if (header_parser_->is_done()) return body_complete_without_bytes();
+    if (expects_continue(head_)) return send_continue();
+    read_body();
+  }
+
+  void on_header_error(beast::error_code ec) {
+    if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == net::error::eof ||
+        ec == net::error::connection_reset || ec == net::error::operation_aborted) {
+      return close();  // idle keep-alive expired, client gone, or a slow header cut at the deadline
+    }
+    begin_request();
+    head_ = request_head{};
+    head_.version(11);
+    if (ec == http::error::header_limit) {
+      return send(error_reply(431, "header_too_large",
+                              "the request header exceeds " + std::to_string(context_.limits.max_header_bytes) +
+                                  " bytes",
+                              unrouted_route),
+                  /*force_close=*/true);
+    }
+    if (ec == http::error::partial_message) return close();
+    send(error_reply(400, "bad_request", "malformed HTTP request: " + ec.message(), unrouted_route), true);
+  }
+
+  void begin_request() {
+    if (!busy_) context_.state.busy_requests.fetch_add(1, std::memory_order_relaxed);
+    busy_ = true;
+    request_started_ = clock::now();
+  }
+
+  void send_continue() {
+    continue_ = http::response<http::empty_body>{http::status::continue_, head_.version()};
+    transport::expire_after(stream_, context_.limits.write_timeout);
+    http::async_write(stream_, continue_, [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) return self->close();
+      self->read_body();
+    });
+  }
+
+  // ---- reading the body --------------------------------------------------------------------------------------
+
+  void read_body() {
+    header_parser_->body_limit(plan_.max_bytes);
+    if (plan_.upload) {
+      const boost::optional<std::uint64_t> length = header_parser_->content_length();
+      body_parser_.emplace(std::move(*header_parser_));
+      multipart_.emplace(plan_.boundary, plan_.part_limits);
+      // plan() checked the length against the upload limit, so the file part may reserve it at once.
+      if (length) multipart_->set_body_size_hint(static_cast<std::size_t>(*length));
+      chunk_.resize(body_chunk_bytes);
+      return read_upload_chunk();
+    }
+    small_parser_.emplace(std::move(*header_parser_));
+    transport::expire_at(stream_, request_started_ + context_.limits.request_timeout);
+    http::async_read(stream_, buffer_, *small_parser_,
+                     beast::bind_front_handler(&http_session::on_small_body, this->shared_from_this()));
+  }
+
+  void on_small_body(beast::error_code ec, std::size_t) {
+    if (ec) return on_body_error(ec);
+    transport::expire_never(stream_);
+    context_.handler.handle(head_, plan_, std::move(small_parser_->get().body()), make_sink());
+  }
+
+  void read_upload_chunk() {
+    auto& body = body_parser_->get().body();
+    body.data = chunk_.data();
+    body.size = chunk_.size();
+    transport::expire_at(stream_, request_started_ + context_.limits.request_timeout);
+    http::async_read_some(stream_, buffer_, *body_parser_,
+                          beast::bind_front_handler(&http_session::on_upload_chunk, this->shared_from_this()));
+  }
+
+  void on_upload_chunk(beast::error_code ec, std::size_t) {
+    if (ec == http::error::need_buffer) ec = {};
+    if (ec) return on_body_error(ec);
+    const std::size_t received = chunk_.size() - body_parser_->get().body().size;
+    upload_bytes_ += received;
+    // A chunked body declared no size: its memory reservation grows with what has arrived.
+    if (plan_.ticket && !plan_.ticket->reserve_total(upload_bytes_)) return refuse_upload_bytes();
+    const status fed = multipart_->feed(std::string_view(chunk_.data(), received));
+    if (!fed.ok()) return reject_upload(fed);
+    if (!body_parser_->is_done()) return read_upload_chunk();
+    const status finished = multipart_->finish();
+    if (!finished.ok()) return reject_upload(finished);
+    transport::expire_never(stream_);
+    std::vector<multipart_part> parts = std::move(multipart_->parts());
+    multipart_.reset();
+    chunk_ = {};
+    context_.handler.handle_upload(head_, std::move(plan_), std::move(parts), make_sink());
+  }
+
+  void body_complete_without_bytes() {
+    transport::expire_never(stream_);
+    if (!plan_.upload) return context_.handler.handle(head_, plan_, std::string(), make_sink());
+    reject_upload(status(errc::invalid_input, "the request has no body: expected a multipart/form-data upload"));
+  }
+
+  void reject_upload(const status& error) {
+    const bool too_large = error.code() == errc::limit_exceeded;
+    send(error_reply(too_large ? 413 : 400, errc_name(error.code()), error.message(), plan_.route),
+         /*force_close=*/!parser_done());
+  }
+
+  void refuse_upload_bytes() {
+    reply busy = error_reply(429, "queue_full", "too many upload bytes in progress; retry later", plan_.route);
+    busy.headers.emplace_back("Retry-After", std::to_string(context_.limits.retry_after_seconds));
+    send(std::move(busy), /*force_close=*/true);
+  }
+
+  void on_body_error(beast::error_code ec) {
+    if (ec == http::error::body_limit) {
+      return send(error_reply(413, "limit_exceeded",
+                              "the request body exceeds " + std::to_string(plan_.max_bytes) + " bytes",
+                              plan_.route),
+                  true);
+    }
+    if (ec == beast::error::timeout || ec == http::error::partial_message || ec == net::error::eof ||
+        ec == net::error::connection_reset || ec == http::error::end_of_stream) {
+      log_event(context_.log, spdlog::level::info, "request_aborted",
+                {{"route", plan_.route}, {"reason", ec.message()}});
+      return close();
+    }
+    send(error_reply(400, "bad_request", "malformed request body: " + ec.message(), plan_.route), true);
+  }
+
+  bool parser_done() const {
+    if (body_parser_) return body_parser_->is_done();
+    if (small_parser_) return small_parser_->is_done();
+    return header_parser_ && header_parser_->is_done();
+  }
+
+  // ---- writing the response ----------------------------------------------------------------------------------
+
+  /// A reply_sink that hands the reply back to this session's executor, from whatever thread calls it.
+  /// dispatch: a handler answering at once (a memory cache hit) runs send() inline; other threads queue it.
+  reply_sink make_sink() {
+    return [self = this->shared_from_this()](reply r) {
+      net::dispatch(self->stream_.get_executor(), [self, r = std::move(r)]() mutable { self->send(std::move(r)); });
+    };
+  }
+
+  void send(reply r, bool force_close = false) {
+    // The request's resources (upload reservation, parsers) are no longer needed once its answer is known.
+    plan_.ticket.reset();
+    multipart_.reset();
+    const bool head_request = head_.method() == http::verb::head;
+    const bool keep_alive =
+        !force_close && !r.close && keep_alive_ && !context_.state.draining.load(std::memory_order_relaxed);
+    response_body_ = r.body ? r.body : std::make_shared<const std::string>();
+    response_.emplace(static_cast<http::status>(r.status), head_.version() == 10 ? 10 : 11);
+    response_->set(http::field::server, "tracemeshd");
+    const bool bodiless_status = r.status == 204 || r.status == 304;
+    if (!bodiless_status) response_->set(http::field::content_type, r.content_type);
+    const std::string origin(head_[http::field::origin]);
+    context_.cors.add_response_headers(origin, r.headers);
+    for (const auto& [name, value] : r.headers) response_->insert(name, value);
+    if (head_request || bodiless_status) {
+      response_->body() = {};
+    } else {
+      response_->body() = http::span_body<const char>::value_type(response_body_->data(), response_body_->size());
+    }
+    response_->keep_alive(keep_alive);
+    if (!bodiless_status) response_->content_length(response_body_->size());
+    context_.stats.count_request(r.route, r.status);
+    if (r.status >= 400) log_failed_request(r);
+    transport::expire_after(stream_, context_.limits.write_timeout);
+    http::async_write(stream_, *response_,
+                      [self = this->shared_from_this(), keep_alive](beast::error_code ec, std::size_t) {
+                        self->on_write(ec, keep_alive);
+                      });
+  }
+
+  void log_failed_request(const reply& r) {
+    log_event(context_.log, spdlog::level::info, "request",
+              {{"method", std::string(head_.method_string())},
+               {"route", r.route},
+               {"status", r.status},
+               {"bytes", response_body_->size()},
+               {"ms", std::chrono::duration<double, std::milli>(clock::now() - request_started_).count()}});
+  }
+
+  void on_write(beast::error_code ec, bool keep_alive) {
+    end_request();
+    response_.reset();
+    response_body_.reset();
+    if (ec || !keep_alive) return close();
+    read_header();
+  }
+
+  void end_request() {
+    if (busy_) context_.state.busy_requests.fetch_sub(1, std::memory_order_relaxed);
+    busy_ = false;
+  }
+
+  void close() {
+    end_request();
+    plan_.ticket.reset();
+    transport::close(stream_);
+  }
+
+  Stream stream_;
+  http_context& context_;
+  beast::flat_buffer buffer_;
+  std::optional<http::request_parser<http::empty_body>> header_parser_;
+  std::optional<http::request_parser<http::buffer_body>> body_parser_;
+  std::optional<http::request_parser<http::string_body>> small_parser_;
+  std::optional<multipart_parser> multipart_;
+  std::vector<char> chunk_;
+  std::uint64_t upload_bytes_ = 0;  // body bytes of the current upload received so far
+  request_head head_;
+  body_plan plan_;
+  clock::time_point request_started_{};
+  bool busy_ = false;
+  bool keep_alive_ = false;  // what the request asked for (HTTP/1.1 default or Connection: keep-alive)
+  http::response<http::empty_body> continue_;
+  std::optional<http::response<http::span_body<const char>>> response_;
+  std::shared_ptr<const std::string> response_body_;
+};
+
+}  // namespace tracemesh::server::detail

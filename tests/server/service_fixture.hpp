@@ -1,0 +1,212 @@
+#pragma once
+// The fixture shared by service_test.cpp (the API through a running service) and http_server_test.cpp (the HTTP
+// transport): a real service on a loopback port with a fake mesher behind a gate, talked to over raw sockets.
+// Every error reply is checked against proto/openapi.json (its code is one the document lists), and at the end of
+// each test every status the service answered on a documented path must be documented for that path.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "proto/openapi.hpp"
+#include "server/logging.hpp"
+#include "server/service.hpp"
+#include "support/test_http_client.hpp"
+#include "support/test_paths.hpp"
+
+namespace tracemesh::server::test {
+
+using namespace std::chrono_literals;
+using tracemesh::testing::get_request;
+using tracemesh::testing::http_reply;
+using tracemesh::testing::raw_connection;
+using tracemesh::testing::round_trip;
+using tracemesh::testing::upload_request;
+
+/// Stands in for mesh_molecule: a tetrahedron, after a gate the test may hold closed (polling the token).
+class fake_mesher {
+ public:
+  mesher_function function() {
+    return [this](const molecule& mol, const mesh_params&, const mesh_limits&,
+                  progress_token& token) -> result<mesh_output> {
+      runs_.fetch_add(1);
+      std::unique_lock lock(mutex_);
+      while (!open_) {
+        if (!token.report(mesh_stage::sampling, 0.25)) return status(errc::cancelled, "cancelled");
+        changed_.wait_for(lock, 2ms);
+      }
+      mesh_output out;
+      const double r = mol.atoms.empty() ? 1.0 : mol.atoms.front().radius;
+      out.mesh.positions = {{r, r, r}, {r, -r, -r}, {-r, r, -r}, {-r, -r, r}};
+      out.mesh.triangles = {{{0, 1, 2}}, {{0, 3, 1}}, {{0, 2, 3}}, {{1, 3, 2}}};
+      out.report.vertices = 4;
+      out.report.triangles = 4;
+      out.atoms_meshed = mol.atoms.size();
+      out.certified = true;
+      return out;
+    };
+  }
+  void set_open(bool open) {
+    std::lock_guard lock(mutex_);
+    open_ = open;
+    changed_.notify_all();
+  }
+  int runs() const { return runs_.load(); }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool open_ = true;
+  std::atomic<int> runs_{0};
+};
+
+inline std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+inline std::string atom_line(int serial, double x, double radius = 1.5) {
+  std::ostringstream line;
+  line << "ATOM " << serial << " C ALA 1 " << x << " 0.0 0.0 0.0 " << radius << "\n";
+  return line.str();
+}
+
+/// Polls `condition` every millisecond for up to `within`; its last value.
+inline bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds within = 5s) {
+  const auto deadline = std::chrono::steady_clock::now() + within;
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() >= deadline) return condition();
+    std::this_thread::sleep_for(1ms);
+  }
+  return true;
+}
+
+inline const nlohmann::json& openapi() {
+  static const nlohmann::json document = nlohmann::json::parse(proto::openapi_document());
+  return document;
+}
+
+/// The error codes proto/openapi.json lists (the enum of Error.error.code).
+inline std::set<std::string> documented_error_codes() {
+  std::set<std::string> codes;
+  const auto& code = openapi().at("components").at("schemas").at("Error").at("properties").at("error").at(
+      "properties").at("code");
+  for (const auto& value : code.at("enum")) codes.insert(value.get<std::string>());
+  return codes;
+}
+
+/// Every status documented for any operation of `path` ("/jobs/{id}").
+inline std::set<unsigned> documented_statuses(const std::string& path) {
+  std::set<unsigned> statuses;
+  for (const auto& [method, operation] : openapi().at("paths").at(path).items()) {
+    if (!operation.is_object() || !operation.contains("responses")) continue;
+    for (const auto& [code, response] : operation.at("responses").items()) {
+      statuses.insert(static_cast<unsigned>(std::stoul(code)));
+    }
+  }
+  return statuses;
+}
+
+class service_fixture : public ::testing::Test {
+ protected:
+  void start(const std::function<void(server_config&)>& adjust = {}) {
+    config_.listen_port = 0;
+    config_.workers = 1;
+    config_.limits.max_upload_bytes = 256 * 1024;
+    config_.limits.max_queue = 4;
+    config_.limits.header_timeout = 2s;
+    config_.limits.request_timeout = 3s;
+    config_.limits.write_timeout = 3s;
+    config_.limits.shutdown_grace = 200ms;
+    config_.limits.job_timeout = 10s;
+    if (adjust) adjust(config_);
+    service_ = std::make_unique<service>(config_, make_null_logger(), mesher_.function());
+    const status started = service_->start();
+    ASSERT_TRUE(started.ok()) << started.message();
+    port_ = service_->port();
+  }
+  void TearDown() override {
+    mesher_.set_open(true);
+    if (!service_) return;
+    service_->shutdown();
+    expect_answered_statuses_documented();
+  }
+
+  http_reply post(const std::string& target, const std::string& pqr,
+                  const std::vector<std::pair<std::string, std::string>>& fields = {}) {
+    return round_trip(port_, upload_request(target, pqr, fields));
+  }
+  http_reply get(const std::string& target, const std::string& headers = {}) {
+    return round_trip(port_, get_request(target, headers));
+  }
+  http_reply request(const std::string& method, const std::string& target) {
+    return round_trip(port_, method + " " + target + " HTTP/1.1\r\nHost: test\r\n\r\n", method == "HEAD");
+  }
+  /// Polls GET /jobs/{id} until the job is final.
+  nlohmann::json wait_job(const std::string& id) {
+    for (int i = 0; i < 500; ++i) {
+      const http_reply r = get("/jobs/" + id);
+      if (r.status != 200) return nlohmann::json{{"http", r.status}};
+      const auto doc = nlohmann::json::parse(r.body);
+      const std::string state = doc.at("status");
+      if (state == "done" || state == "failed" || state == "cancelled") return doc;
+      std::this_thread::sleep_for(10ms);
+    }
+    return nlohmann::json{{"timeout", true}};
+  }
+  /// Waits until no job is queued or running.
+  bool jobs_settled() {
+    return eventually([&] { return service_->jobs().queue_depth() == 0 && service_->jobs().running_jobs() == 0; });
+  }
+  void expect_error(const http_reply& r, int status, const std::string& code) {
+    EXPECT_EQ(r.status, status) << r.body;
+    if (r.status == 0) return;
+    const auto doc = nlohmann::json::parse(r.body, nullptr, false);
+    ASSERT_FALSE(doc.is_discarded()) << r.body;
+    EXPECT_EQ(doc["error"]["code"], code) << r.body;
+    EXPECT_EQ(documented_error_codes().count(code), 1u) << "error code missing from openapi.json: " << code;
+    EXPECT_FALSE(doc["error"]["message"].get<std::string>().empty());
+  }
+
+  /// Every (route, status) counted by the metrics on a path of openapi.json is documented for that path.
+  /// 204 (CORS preflight answers to OPTIONS) is transport, not API, and is not documented per path.
+  void expect_answered_statuses_documented() {
+    std::istringstream lines(service_->stats().render({}));
+    const std::string prefix = "tracemesh_http_requests_total{route=\"";
+    std::string line;
+    while (std::getline(lines, line)) {
+      if (line.rfind(prefix, 0) != 0) continue;
+      const std::size_t route_end = line.find('"', prefix.size());
+      const std::string route = line.substr(prefix.size(), route_end - prefix.size());
+      const std::size_t status_at = line.find("status=\"", route_end) + 8;
+      const unsigned status = static_cast<unsigned>(std::stoul(line.substr(status_at, 3)));
+      if (!openapi().at("paths").contains(route) || status == 204) continue;
+      EXPECT_EQ(documented_statuses(route).count(status), 1u)
+          << "openapi.json does not document " << status << " for " << route;
+    }
+  }
+
+  const std::string gly_ = read_file(tracemesh::testing::molecule_path("gly.pqr"));
+  fake_mesher mesher_;
+  server_config config_;
+  std::unique_ptr<service> service_;
+  unsigned short port_ = 0;
+};
+
+}  // namespace tracemesh::server::test
