@@ -1,0 +1,218 @@
+// Fuzz target for tracemeshd's HTTP request handling (service-test-list item 54): whole request bytes into one
+// connection (server/detail/http_session.hpp) over a Beast test stream, with the real request planning, API
+// handlers, job queue and memory cache behind it and a fake mesher (a tetrahedron, at once).
+//
+// Input: the first byte picks how many bytes each read of the server returns (1..256, so the HTTP and multipart
+// parsers see every split); the rest is everything the client sends before closing its side.
+// Checks: the connection ends (no hang), and what the server wrote is a sequence of well-formed HTTP/1.1
+// responses: known status codes, framed by Content-Length (none for 204/304, no body for HEAD), nothing after a
+// "Connection: close", every error a JSON {"error":{"code","message"}} body, never more final responses than
+// requests the server planned (plus one for a request refused before planning).
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/thread_pool.hpp>
+#include <boost/beast/_experimental/test/stream.hpp>
+#include <boost/beast/http.hpp>
+#include <nlohmann/json.hpp>
+
+#include "server/api_handlers.hpp"
+#include "server/detail/http_session.hpp"
+#include "server/job_queue.hpp"
+#include "server/logging.hpp"
+#include "server/mesh_job.hpp"
+#include "server/result_cache.hpp"
+
+namespace tracemesh::server::detail {
+
+/// The test stream has no timers (a fuzz input cannot wait for a deadline) and closes both directions at once.
+template <>
+struct stream_transport<boost::beast::test::stream> {
+  static void expire_after(boost::beast::test::stream&, std::chrono::steady_clock::duration) {}
+  static void expire_at(boost::beast::test::stream&, std::chrono::steady_clock::time_point) {}
+  static void expire_never(boost::beast::test::stream&) {}
+  static void close(boost::beast::test::stream& s) { s.close(); }
+};
+
+}  // namespace tracemesh::server::detail
+
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using namespace tracemesh;
+using namespace tracemesh::server;
+
+/// Longest a single input may keep the connection open before the harness calls it a hang.
+constexpr std::chrono::seconds hang_limit{20};
+
+void require(bool condition, const char* what, std::string_view context = {}) {
+  if (condition) return;
+  std::fprintf(stderr, "http_request_fuzzer: %s\n%.*s\n", what, static_cast<int>(context.size()), context.data());
+  std::abort();
+}
+
+result<mesh_output> tetrahedron(const molecule&, const mesh_params&, const mesh_limits&, progress_token& token) {
+  if (!token.report(mesh_stage::sampling, 0.5)) return status(errc::cancelled, "cancelled");
+  mesh_output out;
+  out.mesh.positions = {{1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1}};
+  out.mesh.triangles = {{{0, 1, 2}}, {{0, 3, 1}}, {{0, 2, 3}}, {{1, 3, 2}}};
+  out.report.vertices = 4;
+  out.report.triangles = 4;
+  out.certified = true;
+  return out;
+}
+
+/// Small limits, so that short inputs reach every limit.
+server_config fuzz_config() {
+  server_config config;
+  config.workers = 1;
+  config.limits.max_upload_bytes = 64 * 1024;
+  config.limits.max_upload_bytes_in_flight = 128 * 1024;
+  config.limits.max_pqr_bytes = 256 * 1024;
+  config.limits.max_small_body_bytes = 1024;
+  config.limits.max_header_bytes = 2048;
+  config.limits.max_form_parts = 6;
+  config.limits.max_form_field_bytes = 64;
+  config.limits.max_queue = 2;
+  config.limits.mesh.max_atoms = 200;
+  config.limits.job_timeout = std::chrono::seconds(10);
+  return config;
+}
+
+/// Remembers the method of every request the server planned, in order: response i answers request i.
+class recording_handler final : public request_handler {
+ public:
+  explicit recording_handler(request_handler& inner) : inner_(inner) {}
+  std::variant<reply, body_plan> plan(const request_head& head) override {
+    std::lock_guard lock(mutex_);
+    methods_.push_back(head.method());
+    return inner_.plan(head);
+  }
+  void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) override {
+    inner_.handle(head, plan, std::move(body), std::move(done));
+  }
+  void handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
+                     reply_sink done) override {
+    inner_.handle_upload(head, std::move(plan), std::move(parts), std::move(done));
+  }
+  std::vector<http::verb> methods() const {
+    std::lock_guard lock(mutex_);
+    return methods_;
+  }
+
+ private:
+  request_handler& inner_;
+  mutable std::mutex mutex_;
+  std::vector<http::verb> methods_;
+};
+
+/// The service's parts as service.cpp wires them, without the listener (fresh per input: no state carries over).
+struct fuzz_service {
+  server_config config = fuzz_config();
+  std::shared_ptr<spdlog::logger> log = make_null_logger();
+  metrics stats;
+  http_server_state state;
+  cors_policy cors{{"*"}};
+  result_cache cache{{}, cache_limits{1u << 20, 0}};
+  mesh_job_context mesh_context{cache, stats, *log, config.limits.mesh, 1, tetrahedron};
+  job_queue jobs{job_queue_options{1, config.limits.max_queue, 64, config.limits.job_timeout},
+                 [this](const std::string& id, const job_input& input, progress_token& token) {
+                   return run_mesh_job(mesh_context, id, input, token);
+                 },
+                 stats};
+  net::thread_pool prep{1};
+  api_handlers api{api_dependencies{config, jobs, cache, stats, *log, state, cors, prep}};
+  recording_handler recorder{api};
+  http_context context{config.limits, recorder, state, stats, *log, cors};
+
+  ~fuzz_service() {
+    jobs.shutdown(std::chrono::milliseconds(0));
+    prep.join();
+  }
+};
+
+/// Runs one connection fed `input` (then EOF) with reads of at most `read_size` bytes; what the server wrote.
+std::string serve(fuzz_service& service, std::string_view input, std::size_t read_size) {
+  net::io_context io;
+  beast::test::stream server_side(io);
+  beast::test::stream client_side(io);
+  server_side.connect(client_side);
+  server_side.read_size(read_size);
+  server_side.append(beast::string_view(input.data(), input.size()));
+  server_side.close_remote();  // the client sent everything it will send
+  std::make_shared<detail::http_session<beast::test::stream>>(std::move(server_side), service.context)->run();
+  auto work = net::make_work_guard(io);  // replies arrive from the prep pool and the job worker
+  const auto give_up = std::chrono::steady_clock::now() + hang_limit;
+  while (service.state.open_connections.load() > 0) {
+    io.run_one_for(std::chrono::milliseconds(5));
+    require(std::chrono::steady_clock::now() < give_up, "the connection did not end", input);
+  }
+  work.reset();
+  io.poll();
+  return std::string(client_side.str());
+}
+
+const std::set<unsigned> known_statuses{100, 200, 202, 204, 304, 400, 404, 405, 409,
+                                        413, 415, 422, 429, 431, 500, 503, 504};
+
+void check_error_body(const std::string& body, std::string_view context) {
+  const nlohmann::json doc = nlohmann::json::parse(body, nullptr, false);
+  require(!doc.is_discarded() && doc.is_object() && doc.contains("error"), "error body is not JSON", context);
+  const nlohmann::json& error = doc["error"];
+  require(error.contains("code") && error["code"].is_string() && !error["code"].get<std::string>().empty(),
+          "error body without a code", context);
+  require(error.contains("message") && error["message"].is_string(), "error body without a message", context);
+}
+
+/// Parses the server's output as consecutive responses; `methods` are the planned requests, in order.
+void check_responses(std::string_view output, const std::vector<http::verb>& methods, std::string_view input) {
+  std::size_t finals = 0;
+  bool closed = false;
+  while (!output.empty()) {
+    require(!closed, "bytes after a Connection: close response", input);
+    const bool head_request = finals < methods.size() && methods[finals] == http::verb::head;
+    http::response_parser<http::string_body> parser;
+    parser.eager(true);
+    parser.body_limit(16u << 20);
+    parser.skip(head_request);  // the answer to HEAD announces a length but carries no body
+    beast::error_code ec;
+    const std::size_t used = parser.put(net::buffer(output.data(), output.size()), ec);
+    require(!ec && parser.is_done(), "malformed or truncated response", input);
+    output.remove_prefix(used);
+    const auto& response = parser.get();
+    const unsigned code = response.result_int();
+    require(known_statuses.count(code) == 1, "unexpected status code", input);
+    if (code == 100) continue;
+    ++finals;
+    if (code != 204 && code != 304) require(response.has_content_length(), "no Content-Length", input);
+    if (code >= 400 && !head_request) check_error_body(response.body(), input);
+    closed = !parser.keep_alive();
+  }
+  // A request refused before planning (malformed header: 400 or 431) gets one response of its own.
+  require(finals <= methods.size() + 1, "more responses than requests", input);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size == 0) return 0;
+  const std::size_t read_size = std::size_t{data[0]} + 1;
+  const std::string_view input(reinterpret_cast<const char*>(data + 1), size - 1);
+  fuzz_service service;
+  const std::string output = serve(service, input, read_size);
+  check_responses(output, service.recorder.methods(), input);
+  return 0;
+}
