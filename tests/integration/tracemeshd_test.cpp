@@ -199,6 +199,15 @@ class TracemeshdTest : public ::testing::Test {
     return {vertices, triangles};
   }
 
+  /// Temporary files (the cache's ".tmp-" prefix) anywhere under `dir`.
+  static std::vector<std::string> temporary_files(const fs::path& dir) {
+    std::vector<std::string> found;
+    for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+      if (entry.path().filename().string().rfind(".tmp-", 0) == 0) found.push_back(entry.path().string());
+    }
+    return found;
+  }
+
   fs::path write(const std::string& name, const std::string& content) {
     const fs::path path = work_.path() / name;
     std::ofstream(path, std::ios::binary) << content;
@@ -408,7 +417,8 @@ TEST_F(TracemeshdTest, KillDuringCacheWritesLeavesAUsableCache) {
 }
 
 TEST_F(TracemeshdTest, SigtermFinishesRunningWorkThenExitsZero) {
-  server_process server(work_.path(), {"--shutdown-grace", "120"});  // generous: sanitizer builds are slow
+  // Generous grace: sanitizer builds are slow.
+  server_process server(work_.path(), {"--shutdown-grace", "120", "--cache-dir", cache_.path().string()});
   curl_reply waiting;
   std::thread client([&] { waiting = upload(server, molecule_path("villin_1vii.pqr")); });
   for (int i = 0; i < 200 && metric(server, "tracemesh_running_jobs") < 1; ++i) std::this_thread::sleep_for(5ms);
@@ -417,14 +427,17 @@ TEST_F(TracemeshdTest, SigtermFinishesRunningWorkThenExitsZero) {
   client.join();
   EXPECT_LT(std::chrono::steady_clock::now() - started, 120s);
   EXPECT_EQ(waiting.status, 200) << "the running job finishes within the grace period";
+  EXPECT_EQ(waiting.headers["connection"], "close") << "in-flight responses close their connection";
   EXPECT_EQ(off_counts(waiting.body).first > 0, true);
+  EXPECT_TRUE(temporary_files(cache_.path()).empty()) << temporary_files(cache_.path()).front();
+  EXPECT_FALSE(fs::is_empty(cache_.path())) << "the finished job was cached before the exit";
   const std::string log = server.log();
   EXPECT_NE(log.find("\"event\":\"shutdown_done\""), std::string::npos) << log;
   EXPECT_EQ(log.find("ATOM"), std::string::npos) << "no PQR content in logs";
 }
 
 TEST_F(TracemeshdTest, SigtermCancelsWorkStillRunningAtTheGraceDeadline) {
-  server_process server(work_.path(), {"--shutdown-grace", "0.05"});
+  server_process server(work_.path(), {"--shutdown-grace", "0.05", "--cache-dir", cache_.path().string()});
   curl_reply waiting;
   std::thread client([&] { waiting = upload(server, molecule_path("fas2.pqr"), "-F density=4"); });
   for (int i = 0; i < 200 && metric(server, "tracemesh_running_jobs") < 1; ++i) std::this_thread::sleep_for(5ms);
@@ -433,6 +446,17 @@ TEST_F(TracemeshdTest, SigtermCancelsWorkStillRunningAtTheGraceDeadline) {
   client.join();
   EXPECT_LT(std::chrono::steady_clock::now() - started, 5s);
   expect_error(waiting, 503, "shutdown", "job cancelled at the grace deadline");
+  EXPECT_EQ(waiting.headers["retry-after"], "5");
+  EXPECT_TRUE(temporary_files(cache_.path()).empty()) << temporary_files(cache_.path()).front();
+}
+
+TEST_F(TracemeshdTest, AJobPastItsDeadlineAnswers504AndIsNotCached) {
+  server_process server(work_.path(), {"--job-timeout", "0.01", "--cache-dir", cache_.path().string()});
+  curl_reply late = upload(server, molecule_path("fas2.pqr"));
+  expect_error(late, 504, "timeout", "synchronous job past --job-timeout");
+  EXPECT_TRUE(late.headers["retry-after"].empty());
+  EXPECT_EQ(metric(server, "tracemesh_cache_entries"), 0) << "a failed job is not cached";
+  EXPECT_EQ(curl("", server.url("/healthz")).status, 200);
 }
 
 }  // namespace
