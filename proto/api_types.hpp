@@ -53,8 +53,9 @@ nlohmann::json error_body(std::string_view code, std::string_view message);
 nlohmann::json error_body(const status& error);
 
 /// The HTTP status for a failed job or request: invalid_input, invalid_argument → 400; nothing_to_mesh → 422;
-/// limit_exceeded → 413; cancelled → 503 (the server gave up on the job: shutdown or per-job deadline);
-/// io_error, internal_error → 500. errc::ok → 200.
+/// limit_exceeded → 413; cancelled → 503 (a generic fallback: the server answers a cancelled job by its reason,
+/// 409 for DELETE, 504 past the per-job deadline, 503 at shutdown); io_error, internal_error → 500.
+/// errc::ok → 200.
 int http_status(errc code) noexcept;
 
 /// Job lifecycle in GET /jobs/{id}: queued → running → done | failed | cancelled.
