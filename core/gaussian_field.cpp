@@ -8,6 +8,13 @@
 namespace tracemesh {
 namespace {
 
+using simd::f64x4;
+using simd::i64x4;
+using simd::any_lane;
+using simd::keep_lanes;
+using simd::lane_sum;
+using simd::load;
+
 /// ∫_U^∞ u² e^(−a u²) du for a > 0 (integration by parts + erfc).
 double gaussian_moment_tail(double a, double u) {
   return u * std::exp(-a * u * u) / (2 * a) + std::sqrt(M_PI) / (4 * a * std::sqrt(a)) * std::erfc(std::sqrt(a) * u);
@@ -20,8 +27,34 @@ double tail_bound(double d, double max_radius, double u) {
          gaussian_moment_tail(a, u);
 }
 
-// Cell edge = half the largest cutoff, so a point's neighbours lie within ±2 cells.
-constexpr int cell_reach = 2;
+/// Cell edge = largest cutoff / cell_reach. A query visits the cell rows within the cutoff sphere, trimmed to it:
+/// smaller cells check fewer atoms that turn out to be beyond their cutoff, but visit more rows.
+constexpr int cell_reach = 3;
+/// The dense cell table is used while the atoms' bounding box holds at most this many cells per atom plus
+/// dense_cells_floor (4 bytes each: memory stays O(atoms)); sparser inputs use hashed rows.
+constexpr double dense_cells_per_atom = 4;
+constexpr double dense_cells_floor = 1 << 22;
+
+/// Relative slack on cutoffs when selecting cells or boxes, so that rounding never drops an atom the exact per-atom
+/// test (r² < cutoff²) would keep. Selecting a few extra atoms changes nothing: they fail that test.
+constexpr double selection_slack = 1e-9;
+
+/// splitmix64 finaliser: spreads packed row keys over the hash table.
+std::uint64_t mix(std::uint64_t key) {
+  key ^= key >> 30;
+  key *= 0xbf58476d1ce4e5b9ULL;
+  key ^= key >> 27;
+  key *= 0x94d049bb133111ebULL;
+  return key ^ (key >> 31);
+}
+
+/// Per-lane running sums of one point evaluation, and the best kernel so far for the dominant atom.
+struct lane_sums {
+  f64x4 value{};
+  f64x4 gx{}, gy{}, gz{};
+  f64x4 best_kernel{-1.0, -1.0, -1.0, -1.0};
+  i64x4 best_index{-1, -1, -1, -1};
+};
 
 }  // namespace
 
@@ -45,144 +78,277 @@ gaussian_field::gaussian_field(const molecule& mol, double d, double t0) : d_(d)
       max_radius_ = std::max(max_radius_, mol.atoms[i].radius);
     }
   }
-  if (contributing.empty()) return;
-
+  if (contributing.empty()) {
+    store_atoms(mol, contributing, contributing, 0);
+    return;
+  }
   const double u = cutoff_factor(d, t0, max_radius_);
   cutoff_error_bound_ = tail_bound(d, max_radius_, u);
   max_cutoff_ = u * max_radius_;
   cell_size_ = max_cutoff_ / cell_reach;
+  inverse_cell_size_ = 1 / cell_size_;
 
   atom_bounds_.lo = atom_bounds_.hi = mol.atoms[contributing.front()].center;
-  data_.reserve(contributing.size());
   for (const std::uint32_t i : contributing) {
-    const atom& a = mol.atoms[i];
-    const double cutoff = u * a.radius;
-    data_.push_back({a.center.x, a.center.y, a.center.z, 1.0 / (a.radius * a.radius), cutoff * cutoff, i});
     for (int axis = 0; axis < 3; ++axis) {
-      atom_bounds_.lo[axis] = std::min(atom_bounds_.lo[axis], a.center[axis]);
-      atom_bounds_.hi[axis] = std::max(atom_bounds_.hi[axis], a.center[axis]);
+      atom_bounds_.lo[axis] = std::min(atom_bounds_.lo[axis], mol.atoms[i].center[axis]);
+      atom_bounds_.hi[axis] = std::max(atom_bounds_.hi[axis], mol.atoms[i].center[axis]);
     }
   }
+  sort_atoms(mol, contributing, u);
+}
 
-  // Sort atoms by (cell x, cell y, cell z, original index): each (x, y) row of cells is one contiguous range.
-  struct keyed {
-    std::int64_t cx, cy, cz;
-    std::uint32_t k;
-  };
-  std::vector<keyed> keys(data_.size());
-  for (std::uint32_t k = 0; k < data_.size(); ++k) {
-    keys[k] = {cell_of(data_[k].x), cell_of(data_[k].y), cell_of(data_[k].z), k};
+void gaussian_field::sort_atoms(const molecule& mol, const std::vector<std::uint32_t>& contributing, double u) {
+  // Cell coordinates of every atom, three per atom.
+  std::vector<std::int64_t> cells(3 * contributing.size());
+  for (std::size_t n = 0; n < contributing.size(); ++n) {
+    const vec3& c = mol.atoms[contributing[n]].center;
+    for (int axis = 0; axis < 3; ++axis) cells[3 * n + axis] = cell_of(c[axis]);
   }
-  std::sort(keys.begin(), keys.end(), [&](const keyed& a, const keyed& b) {
-    if (a.cx != b.cx) return a.cx < b.cx;
-    if (a.cy != b.cy) return a.cy < b.cy;
-    if (a.cz != b.cz) return a.cz < b.cz;
-    return data_[a.k].original_index < data_[b.k].original_index;
+  double cell_total = 1;
+  for (int axis = 0; axis < 3; ++axis) {
+    cell_lo_[axis] = cell_of(atom_bounds_.lo[axis]);
+    cell_count_[axis] = cell_of(atom_bounds_.hi[axis]) - cell_lo_[axis] + 1;
+    cell_total *= static_cast<double>(cell_count_[axis]);
+  }
+  dense_ = cell_total <= dense_cells_per_atom * static_cast<double>(contributing.size()) + dense_cells_floor;
+  std::vector<std::uint32_t> order;  // positions in `contributing`, in internal order
+  if (dense_) {
+    build_dense_index(cells, order);
+  } else {
+    build_sparse_index(cells, order);
+  }
+  store_atoms(mol, contributing, order, u);
+}
+
+void gaussian_field::build_dense_index(std::vector<std::int64_t>& cells, std::vector<std::uint32_t>& order) {
+  // Counting sort by linear cell id; stable, so atoms within a cell keep their original order.
+  const std::size_t count = cells.size() / 3;
+  const auto [nx, ny, nz] = cell_count_;
+  std::vector<std::uint32_t> cell_of_atom(count);
+  cell_start_.assign(static_cast<std::size_t>(nx * ny * nz) + 1, 0);
+  for (std::size_t n = 0; n < count; ++n) {
+    const std::int64_t x = cells[3 * n] - cell_lo_[0], y = cells[3 * n + 1] - cell_lo_[1];
+    const std::int64_t z = cells[3 * n + 2] - cell_lo_[2];
+    cell_of_atom[n] = static_cast<std::uint32_t>((x * ny + y) * nz + z);
+    ++cell_start_[cell_of_atom[n] + 1];
+  }
+  std::partial_sum(cell_start_.begin(), cell_start_.end(), cell_start_.begin());
+  std::vector<std::uint32_t> next(cell_start_.begin(), cell_start_.end() - 1);
+  order.resize(count);
+  for (std::size_t n = 0; n < count; ++n) order[next[cell_of_atom[n]]++] = static_cast<std::uint32_t>(n);
+}
+
+void gaussian_field::build_sparse_index(std::vector<std::int64_t>& cells, std::vector<std::uint32_t>& order) {
+  const std::size_t count = cells.size() / 3;
+  order.resize(count);
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return std::lexicographical_compare(&cells[3 * a], &cells[3 * a + 3], &cells[3 * b], &cells[3 * b + 3]);
   });
-  std::vector<atom_data> sorted(data_.size());
-  cell_z_.resize(data_.size());
-  rows_.reserve(data_.size() / 4 + 1);
-  for (std::uint32_t n = 0; n < keys.size(); ++n) {
-    sorted[n] = data_[keys[n].k];
-    cell_z_[n] = static_cast<std::int32_t>(keys[n].cz);
-    const std::uint64_t key = row_key(keys[n].cx, keys[n].cy);
-    auto [it, inserted] = rows_.try_emplace(key, row_span{n, n + 1});
-    if (!inserted) it->second.end = n + 1;
+  cell_z_.resize(count);
+  std::size_t capacity = 16;
+  while (capacity < 2 * count) capacity *= 2;
+  rows_.assign(capacity, sparse_row{});
+  for (std::uint32_t k = 0; k < count;) {
+    const std::int64_t cx = cells[3 * order[k]], cy = cells[3 * order[k] + 1];
+    std::uint32_t end = k;
+    while (end < count && cells[3 * order[end]] == cx && cells[3 * order[end] + 1] == cy) {
+      cell_z_[end] = cells[3 * order[end] + 2];
+      ++end;
+    }
+    const std::uint64_t key = row_key(cx, cy);
+    std::size_t slot = mix(key) & (capacity - 1);
+    while (rows_[slot].key != empty_row) slot = (slot + 1) & (capacity - 1);
+    rows_[slot] = {key, {k, end}};
+    k = end;
   }
-  data_ = std::move(sorted);
+}
+
+void gaussian_field::store_atoms(const molecule& mol, const std::vector<std::uint32_t>& contributing,
+                                 const std::vector<std::uint32_t>& order, double u) {
+  const std::size_t padded = order.size() + simd::lanes - 1;
+  for (auto* array : {&x_, &y_, &z_, &inv_r2_, &cutoff2_}) array->assign(padded, 0.0);
+  original_index_.resize(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::uint32_t i = contributing[order[k]];
+    const atom& a = mol.atoms[i];
+    const double cutoff = u * a.radius;
+    x_[k] = a.center.x;
+    y_[k] = a.center.y;
+    z_[k] = a.center.z;
+    inv_r2_[k] = 1.0 / (a.radius * a.radius);
+    cutoff2_[k] = cutoff * cutoff;
+    original_index_[k] = i;
+  }
 }
 
 std::int64_t gaussian_field::cell_of(double coordinate) const {
-  return static_cast<std::int64_t>(std::floor(coordinate / cell_size_));
+  return static_cast<std::int64_t>(std::floor(coordinate * inverse_cell_size_));
 }
 
 std::uint64_t gaussian_field::row_key(std::int64_t cx, std::int64_t cy) {
   return (static_cast<std::uint64_t>(cx + (1LL << 31)) << 32) ^ static_cast<std::uint64_t>(cy + (1LL << 31));
 }
 
+[[gnu::always_inline]] inline gaussian_field::atom_range gaussian_field::row_atoms(std::int64_t cx, std::int64_t cy,
+                                                                                  std::int64_t z0,
+                                                                                  std::int64_t z1) const {
+  if (dense_) {
+    const std::int64_t x = cx - cell_lo_[0], y = cy - cell_lo_[1];
+    if (x < 0 || x >= cell_count_[0] || y < 0 || y >= cell_count_[1]) return {};
+    z0 = std::max<std::int64_t>(z0 - cell_lo_[2], 0);
+    z1 = std::min<std::int64_t>(z1 - cell_lo_[2], cell_count_[2] - 1);
+    if (z0 > z1) return {};
+    const std::size_t row = static_cast<std::size_t>((x * cell_count_[1] + y) * cell_count_[2]);
+    return {cell_start_[row + static_cast<std::size_t>(z0)], cell_start_[row + static_cast<std::size_t>(z1) + 1]};
+  }
+  if (rows_.empty()) return {};
+  const std::uint64_t key = row_key(cx, cy);
+  const std::size_t mask = rows_.size() - 1;
+  for (std::size_t slot = mix(key) & mask;; slot = (slot + 1) & mask) {
+    const sparse_row& row = rows_[slot];
+    if (row.key == empty_row) return {};
+    if (row.key != key) continue;
+    const auto first = cell_z_.begin() + row.atoms.begin, last = cell_z_.begin() + row.atoms.end;
+    const auto lo = std::lower_bound(first, last, z0);
+    const auto hi = std::upper_bound(lo, last, z1);
+    return {static_cast<std::uint32_t>(lo - cell_z_.begin()), static_cast<std::uint32_t>(hi - cell_z_.begin())};
+  }
+}
+
 template <class Visitor>
-void gaussian_field::visit_near(const vec3& p, Visitor&& visit) const {
-  const std::int64_t cx = cell_of(p.x), cy = cell_of(p.y);
-  const std::int64_t cz = cell_of(p.z);
-  for (std::int64_t ix = cx - cell_reach; ix <= cx + cell_reach; ++ix) {
-    for (std::int64_t iy = cy - cell_reach; iy <= cy + cell_reach; ++iy) {
-      const auto row = rows_.find(row_key(ix, iy));
-      if (row == rows_.end()) continue;
-      const auto first = cell_z_.begin() + row->second.begin;
-      const auto last = cell_z_.begin() + row->second.end;
-      auto it = std::lower_bound(first, last, cz - cell_reach);
-      for (; it != last && *it <= cz + cell_reach; ++it) {
-        const atom_data& a = data_[static_cast<std::size_t>(it - cell_z_.begin())];
-        const double dx = p.x - a.x, dy = p.y - a.y, dz = p.z - a.z;
-        const double r2 = dx * dx + dy * dy + dz * dz;
-        if (r2 < a.cutoff2) visit(a, dx, dy, dz, r2);
-      }
+[[gnu::always_inline]] inline void gaussian_field::for_each_nearby_range(const vec3& p, Visitor&& visit) const {
+  const double reach = max_cutoff_ * (1 + selection_slack) + selection_slack * (std::abs(p.x) + std::abs(p.y) + std::abs(p.z));
+  const double reach2 = reach * reach;
+  const double c = cell_size_;
+  std::int64_t x0 = cell_of(p.x - reach), x1 = cell_of(p.x + reach);
+  std::int64_t y0 = cell_of(p.y - reach), y1 = cell_of(p.y + reach);
+  if (dense_) {  // rows outside the table hold nothing
+    x0 = std::max(x0, cell_lo_[0]);
+    x1 = std::min(x1, cell_lo_[0] + cell_count_[0] - 1);
+    y0 = std::max(y0, cell_lo_[1]);
+    y1 = std::min(y1, cell_lo_[1] + cell_count_[1] - 1);
+  }
+  for (std::int64_t cx = x0; cx <= x1; ++cx) {
+    // Distance from p to the slab of cells cx along x (0 inside it).
+    const double gap_x = std::max({0.0, static_cast<double>(cx) * c - p.x, p.x - static_cast<double>(cx + 1) * c});
+    for (std::int64_t cy = y0; cy <= y1; ++cy) {
+      const double gap_y = std::max({0.0, static_cast<double>(cy) * c - p.y, p.y - static_cast<double>(cy + 1) * c});
+      const double left = reach2 - gap_x * gap_x - gap_y * gap_y;
+      if (left <= 0) continue;
+      const double half_height = std::sqrt(left);
+      const atom_range range = row_atoms(cx, cy, cell_of(p.z - half_height), cell_of(p.z + half_height));
+      if (range.begin < range.end) visit(range);
     }
   }
 }
 
-double gaussian_field::value(const vec3& p) const {
-  double phi = 0;
-  visit_near(p, [&](const atom_data& a, double, double, double, double r2) {
-    phi += std::exp(d_ * (r2 * a.inv_r2 - 1));
-  });
-  return phi;
-}
+namespace {
 
-double gaussian_field::value_and_gradient(const vec3& p, vec3& gradient) const {
-  double phi = 0;
-  vec3 g{};
-  visit_near(p, [&](const atom_data& a, double dx, double dy, double dz, double r2) {
-    const double k = std::exp(d_ * (r2 * a.inv_r2 - 1));
-    phi += k;
-    const double s = 2 * d_ * a.inv_r2 * k;  // ∂/∂x of exp(d(|x−c|²/r² − 1)) = 2d(x−c)/r² · kernel
-    g.x += s * dx;
-    g.y += s * dy;
-    g.z += s * dz;
-  });
-  gradient = g;
-  return phi;
-}
-
-std::uint32_t gaussian_field::dominant_atom(const vec3& p) const {
-  double best = -1;
-  std::uint32_t best_index = std::numeric_limits<std::uint32_t>::max();
-  visit_near(p, [&](const atom_data& a, double, double, double, double r2) {
-    const double k = std::exp(d_ * (r2 * a.inv_r2 - 1));
-    if (k > best || (k == best && a.original_index < best_index)) {
-      best = k;
-      best_index = a.original_index;
+/// Adds the kernels of atoms [begin, end) at p to `sums`, four atoms at a time. Atoms beyond their cutoff add
+/// nothing. Lane j of `sums` receives atoms begin + j, begin + j + 4, …: the order is fixed by the range.
+template <bool with_gradient, bool with_dominant>
+[[gnu::always_inline]] inline void accumulate(const gaussian_field::atom_arrays& atoms, std::uint32_t begin,
+                                              std::uint32_t end, const vec3& p, double d, lane_sums& sums) {
+  for (std::uint32_t k = begin; k < end; k += simd::lanes) {
+    f64x4 dx, dy, dz, cutoff2, inv_r2;
+    load(dx, atoms.x + k);
+    load(dy, atoms.y + k);
+    load(dz, atoms.z + k);
+    load(cutoff2, atoms.cutoff2 + k);
+    load(inv_r2, atoms.inv_r2 + k);
+    dx = p.x - dx;
+    dy = p.y - dy;
+    dz = p.z - dz;
+    const f64x4 r2 = dx * dx + dy * dy + dz * dz;
+    i64x4 inside = r2 < cutoff2;
+    simd::clear_lanes_from(inside, k, end);
+    if (!any_lane(inside)) continue;  // common at the rim of the cutoff sphere: skip the exponentials
+    f64x4 kernel = d * (r2 * inv_r2 - 1);
+    simd::exp_in_place(kernel);
+    keep_lanes(kernel, inside);
+    sums.value += kernel;
+    if constexpr (with_gradient) {
+      const f64x4 s = 2 * d * inv_r2 * kernel;  // ∂/∂x of exp(d(|x−c|²/r² − 1)) = 2d(x−c)/r² · kernel
+      sums.gx += s * dx;
+      sums.gy += s * dy;
+      sums.gz += s * dz;
     }
-  });
-  if (best_index == std::numeric_limits<std::uint32_t>::max() && !data_.empty()) {
-    // Beyond every cutoff (cannot happen on the surface); fall back to the nearest centre.
-    double nearest = std::numeric_limits<double>::infinity();
-    for (const atom_data& a : data_) {
-      const double r2 = squared_norm(p - vec3{a.x, a.y, a.z});
-      if (r2 < nearest || (r2 == nearest && a.original_index < best_index)) {
-        nearest = r2;
-        best_index = a.original_index;
-      }
+    if constexpr (with_dominant) {
+      i64x4 index;
+      for (int j = 0; j < simd::lanes; ++j) index[j] = atoms.original_index[std::min(k + j, end - 1)];
+      const i64x4 better = inside & ((kernel > sums.best_kernel) | ((kernel == sums.best_kernel) & (index < sums.best_index)));
+      sums.best_kernel = reinterpret_cast<f64x4>((reinterpret_cast<i64x4>(kernel) & better) |
+                                                 (reinterpret_cast<i64x4>(sums.best_kernel) & ~better));
+      sums.best_index = (index & better) | (sums.best_index & ~better);
+    }
+  }
+}
+
+/// The best (kernel, index) over the lanes; index −1 when no lane saw an atom within its cutoff.
+std::int64_t best_lane_index(const lane_sums& sums) {
+  double best = -1;
+  std::int64_t index = -1;
+  for (int j = 0; j < simd::lanes; ++j) {
+    if (sums.best_index[j] < 0) continue;
+    if (sums.best_kernel[j] > best || (sums.best_kernel[j] == best && sums.best_index[j] < index)) {
+      best = sums.best_kernel[j];
+      index = sums.best_index[j];
+    }
+  }
+  return index;
+}
+
+}  // namespace
+
+__attribute__((target_clones("avx2", "default"))) double gaussian_field::value(const vec3& p) const {
+  lane_sums sums;
+  const atom_arrays a = atoms();
+  for_each_nearby_range(p, [&](atom_range r) { accumulate<false, false>(a, r.begin, r.end, p, d_, sums); });
+  return lane_sum(sums.value);
+}
+
+__attribute__((target_clones("avx2", "default"))) double gaussian_field::value_and_gradient(const vec3& p,
+                                                                                            vec3& gradient) const {
+  lane_sums sums;
+  const atom_arrays a = atoms();
+  for_each_nearby_range(p, [&](atom_range r) { accumulate<true, false>(a, r.begin, r.end, p, d_, sums); });
+  gradient = {lane_sum(sums.gx), lane_sum(sums.gy), lane_sum(sums.gz)};
+  return lane_sum(sums.value);
+}
+
+__attribute__((target_clones("avx2", "default"))) std::uint32_t gaussian_field::dominant_atom(const vec3& p) const {
+  lane_sums sums;
+  const atom_arrays a = atoms();
+  for_each_nearby_range(p, [&](atom_range r) { accumulate<false, true>(a, r.begin, r.end, p, d_, sums); });
+  const std::int64_t best = best_lane_index(sums);
+  return best >= 0 ? static_cast<std::uint32_t>(best) : nearest_atom(p);
+}
+
+__attribute__((target_clones("avx2", "default"))) gaussian_field::point_probe gaussian_field::probe(
+    const vec3& p) const {
+  lane_sums sums;
+  const atom_arrays a = atoms();
+  for_each_nearby_range(p, [&](atom_range r) { accumulate<true, true>(a, r.begin, r.end, p, d_, sums); });
+  const std::int64_t best = best_lane_index(sums);
+  return {lane_sum(sums.value),
+          {lane_sum(sums.gx), lane_sum(sums.gy), lane_sum(sums.gz)},
+          best >= 0 ? static_cast<std::uint32_t>(best) : nearest_atom(p)};
+}
+
+std::uint32_t gaussian_field::nearest_atom(const vec3& p) const {
+  // Beyond every cutoff (cannot happen on the surface): the nearest centre, ties to the lower index.
+  std::uint32_t best_index = std::numeric_limits<std::uint32_t>::max();
+  double nearest = std::numeric_limits<double>::infinity();
+  for (std::uint32_t k = 0; k < atom_count(); ++k) {
+    const double r2 = squared_norm(p - vec3{x_[k], y_[k], z_[k]});
+    if (r2 < nearest || (r2 == nearest && original_index_[k] < best_index)) {
+      nearest = r2;
+      best_index = original_index_[k];
     }
   }
   return best_index;
-}
-
-gaussian_field::point_probe gaussian_field::probe(const vec3& p) const {
-  point_probe out{0, {}, std::numeric_limits<std::uint32_t>::max()};
-  double best = -1;
-  visit_near(p, [&](const atom_data& a, double dx, double dy, double dz, double r2) {
-    const double k = std::exp(d_ * (r2 * a.inv_r2 - 1));
-    out.value += k;
-    const double s = 2 * d_ * a.inv_r2 * k;
-    out.gradient += vec3{s * dx, s * dy, s * dz};
-    if (k > best || (k == best && a.original_index < out.dominant_atom)) {
-      best = k;
-      out.dominant_atom = a.original_index;
-    }
-  });
-  if (out.dominant_atom == std::numeric_limits<std::uint32_t>::max()) out.dominant_atom = dominant_atom(p);
-  return out;
 }
 
 double gaussian_field::point_probe::surface_distance(double t0) const {
@@ -219,27 +385,36 @@ bool gaussian_field::project_to_surface(vec3& p, double max_move) const {
 
 void gaussian_field::atoms_near_box(const box3& box, std::vector<std::uint32_t>& out) const {
   out.clear();
-  const std::int64_t x0 = cell_of(box.lo.x - max_cutoff_), x1 = cell_of(box.hi.x + max_cutoff_);
-  const std::int64_t y0 = cell_of(box.lo.y - max_cutoff_), y1 = cell_of(box.hi.y + max_cutoff_);
-  const std::int64_t z0 = cell_of(box.lo.z - max_cutoff_), z1 = cell_of(box.hi.z + max_cutoff_);
-  for (std::int64_t ix = x0; ix <= x1; ++ix) {
-    for (std::int64_t iy = y0; iy <= y1; ++iy) {
-      const auto row = rows_.find(row_key(ix, iy));
-      if (row == rows_.end()) continue;
-      const auto first = cell_z_.begin() + row->second.begin;
-      const auto last = cell_z_.begin() + row->second.end;
-      for (auto it = std::lower_bound(first, last, z0); it != last && *it <= z1; ++it) {
-        const auto k = static_cast<std::uint32_t>(it - cell_z_.begin());
-        const atom_data& a = data_[k];
-        // Squared distance from the centre to the box; keep atoms whose cutoff sphere reaches it.
-        const double dx = std::max({box.lo.x - a.x, 0.0, a.x - box.hi.x});
-        const double dy = std::max({box.lo.y - a.y, 0.0, a.y - box.hi.y});
-        const double dz = std::max({box.lo.z - a.z, 0.0, a.z - box.hi.z});
-        if (dx * dx + dy * dy + dz * dz < a.cutoff2) out.push_back(k);
-      }
+  if (atom_count() == 0) return;
+  const double reach = max_cutoff_ * (1 + selection_slack);
+  std::int64_t lo[3], hi[3];
+  for (int axis = 0; axis < 3; ++axis) {
+    lo[axis] = cell_of(box.lo[axis] - reach);
+    hi[axis] = cell_of(box.hi[axis] + reach);
+    if (dense_) {  // cells outside the table hold nothing
+      lo[axis] = std::max(lo[axis], cell_lo_[axis]);
+      hi[axis] = std::min(hi[axis], cell_lo_[axis] + cell_count_[axis] - 1);
+    }
+    if (lo[axis] > hi[axis]) return;
+  }
+  const auto add_if_near = [&](std::uint32_t k) {
+    // Squared distance from the centre to the box; keep atoms whose cutoff sphere may reach it.
+    const double dx = std::max({box.lo.x - x_[k], 0.0, x_[k] - box.hi.x});
+    const double dy = std::max({box.lo.y - y_[k], 0.0, y_[k] - box.hi.y});
+    const double dz = std::max({box.lo.z - z_[k], 0.0, z_[k] - box.hi.z});
+    if (dx * dx + dy * dy + dz * dz < cutoff2_[k] * (1 + selection_slack)) out.push_back(k);
+  };
+  const double rows = static_cast<double>(hi[0] - lo[0] + 1) * static_cast<double>(hi[1] - lo[1] + 1);
+  if (rows > static_cast<double>(atom_count())) {  // a box wide in cells (tiny radii): scanning is cheaper
+    for (std::uint32_t k = 0; k < atom_count(); ++k) add_if_near(k);
+    return;
+  }
+  for (std::int64_t cx = lo[0]; cx <= hi[0]; ++cx) {
+    for (std::int64_t cy = lo[1]; cy <= hi[1]; ++cy) {
+      const atom_range range = row_atoms(cx, cy, lo[2], hi[2]);
+      for (std::uint32_t k = range.begin; k < range.end; ++k) add_if_near(k);
     }
   }
-  std::sort(out.begin(), out.end());
 }
 
 }  // namespace tracemesh
