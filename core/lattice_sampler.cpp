@@ -1,44 +1,87 @@
 #include "core/lattice_sampler.hpp"
 
 #include <array>
-#include <cmath>
 
 namespace tracemesh {
+namespace {
 
-void sample_block(const gaussian_field& field, const lattice& lat, const lattice_index& block,
-                  std::span<const std::uint32_t> atoms, std::vector<double>& values) {
+using simd::f64x4;
+using simd::i64x4;
+
+/// block_points rounded up to whole vectors: per-axis arrays are computed four lanes at a time.
+constexpr int padded_points = (block_points + simd::lanes - 1) / simd::lanes * simd::lanes;
+using axis_array = std::array<double, padded_points>;
+
+/// Lattice coordinates (Å) of the block's points along one axis, from global indices: identical doubles in every
+/// block that holds the point.
+axis_array axis_coordinates(std::int64_t first_index, double h) {
+  axis_array coordinate{};
+  for (int m = 0; m < padded_points; ++m) coordinate[m] = static_cast<double>(first_index + m) * h;
+  return coordinate;
+}
+
+/// Squared distances (x − c)² from the atom's centre along one axis, and the 1-D kernel factors exp(d·(x − c)²/r²).
+[[gnu::always_inline]] inline void axis_factors(const axis_array& coordinate, double centre, double d, double inv_r2,
+                                                axis_array& squared, axis_array& factor) {
+  for (int m = 0; m < padded_points; m += simd::lanes) {
+    f64x4 delta;
+    simd::load(delta, coordinate.data() + m);
+    delta -= centre;
+    const f64x4 delta2 = delta * delta;
+    f64x4 e = d * delta2 * inv_r2;
+    simd::exp_in_place(e);
+    simd::store(squared.data() + m, delta2);
+    simd::store(factor.data() + m, e);
+  }
+}
+
+/// row[x] += ex[x]·eyz for the points of one lattice row within the atom's cutoff (dx²[x] + yz² < cutoff²).
+/// Lanes 0–7 go four at a time, lane 8 alone; masked-out lanes add +0, which leaves a (non-negative) sum unchanged,
+/// so every point gets the same operations in the same order whichever lane it is in.
+[[gnu::always_inline]] inline void add_row(double* row, const axis_array& ex, const axis_array& dx2, double eyz,
+                                           double yz2, double cutoff2) {
+  for (int x = 0; x + simd::lanes <= block_points; x += simd::lanes) {
+    f64x4 sum, factor, distance2;
+    simd::load(sum, row + x);
+    simd::load(factor, ex.data() + x);
+    simd::load(distance2, dx2.data() + x);
+    f64x4 term = factor * eyz;
+    simd::keep_lanes(term, distance2 + yz2 < cutoff2);
+    sum += term;
+    simd::store(row + x, sum);
+  }
+  for (int x = block_points / simd::lanes * simd::lanes; x < block_points; ++x) {
+    if (dx2[x] + yz2 < cutoff2) row[x] += ex[x] * eyz;
+  }
+}
+
+}  // namespace
+
+__attribute__((target_clones("avx2", "default"))) void sample_block(const gaussian_field& field, const lattice& lat,
+                                                                  const lattice_index& block,
+                                                                  std::span<const std::uint32_t> atoms,
+                                                                  std::vector<double>& values) {
   constexpr int n = block_points;
   values.assign(static_cast<std::size_t>(n) * n * n, 0.0);
   const double h = lat.spacing();
   const double d = field.d();
-  const double scale = std::exp(-d);
-  const lattice_index first{block.i * lattice::block_cells, block.j * lattice::block_cells,
-                            block.k * lattice::block_cells};
-  std::array<double, n> ex{}, ey{}, ez{}, dx2{}, dy2{}, dz2{};
+  const double scale = kernel_exp(-d);  // e^(−d): the "− 1" of eq. 2
+  const axis_array x_coordinate = axis_coordinates(block.i * lattice::block_cells, h);
+  const axis_array y_coordinate = axis_coordinates(block.j * lattice::block_cells, h);
+  const axis_array z_coordinate = axis_coordinates(block.k * lattice::block_cells, h);
+  const gaussian_field::atom_arrays all = field.atoms();
+  axis_array ex, ey, ez, dx2, dy2, dz2;
   for (const std::uint32_t k : atoms) {
-    const auto& a = field.atom_at(k);
-    for (int m = 0; m < n; ++m) {
-      // Coordinates from global indices: identical doubles in every block that holds the point.
-      const double dx = static_cast<double>(first.i + m) * h - a.x;
-      const double dy = static_cast<double>(first.j + m) * h - a.y;
-      const double dz = static_cast<double>(first.k + m) * h - a.z;
-      dx2[m] = dx * dx;
-      dy2[m] = dy * dy;
-      dz2[m] = dz * dz;
-      ex[m] = std::exp(d * dx2[m] * a.inv_r2);
-      ey[m] = std::exp(d * dy2[m] * a.inv_r2);
-      ez[m] = std::exp(d * dz2[m] * a.inv_r2);
-    }
+    const double inv_r2 = all.inv_r2[k], cutoff2 = all.cutoff2[k];
+    axis_factors(x_coordinate, all.x[k], d, inv_r2, dx2, ex);
+    axis_factors(y_coordinate, all.y[k], d, inv_r2, dy2, ey);
+    axis_factors(z_coordinate, all.z[k], d, inv_r2, dz2, ez);
     for (int z = 0; z < n; ++z) {
-      if (dz2[z] >= a.cutoff2) continue;
+      if (dz2[z] >= cutoff2) continue;
       for (int y = 0; y < n; ++y) {
         const double yz2 = dy2[y] + dz2[z];
-        if (yz2 >= a.cutoff2) continue;
-        const double eyz = scale * ey[y] * ez[z];
-        double* row = values.data() + static_cast<std::size_t>(z * n + y) * n;
-        for (int x = 0; x < n; ++x) {
-          if (dx2[x] + yz2 < a.cutoff2) row[x] += ex[x] * eyz;
-        }
+        if (yz2 >= cutoff2) continue;
+        add_row(values.data() + static_cast<std::size_t>(z * n + y) * n, ex, dx2, scale * ey[y] * ez[z], yz2, cutoff2);
       }
     }
   }
