@@ -10,29 +10,95 @@
 namespace tracemesh {
 namespace {
 
+using simd::f64x4;
+using simd::i64x4;
+
 /// Octree depth from top cubes to blocks: a top cube is 2^levels blocks on a side.
 constexpr int octree_levels = 3;
 constexpr std::int64_t top_blocks = 1 << octree_levels;
 
-struct axis_factors {
-  double lower, upper;
+/// Atoms as parallel arrays (x, y, z, d/r², cutoff²), padded with never-contributing entries (cutoff² = 0) to whole
+/// vectors. One per octree level: a cube's atoms are those of its parent whose cutoff sphere reaches it.
+struct atom_columns {
+  std::vector<double> x, y, z, d_inv_r2, cutoff2;
+  std::size_t count = 0;
+
+  void reserve_padded(std::size_t n) {
+    const std::size_t padded = (n + simd::lanes - 1) / simd::lanes * simd::lanes;
+    for (auto* column : {&x, &y, &z, &d_inv_r2, &cutoff2}) column->resize(padded);
+  }
+  void push_back(double ax, double ay, double az, double a_d_inv_r2, double a_cutoff2) {
+    x[count] = ax;
+    y[count] = ay;
+    z[count] = az;
+    d_inv_r2[count] = a_d_inv_r2;
+    cutoff2[count] = a_cutoff2;
+    ++count;
+  }
+  /// Zeroes cutoff² of the padding after the last atom.
+  void finish_padding() {
+    for (std::size_t k = count; k < cutoff2.size(); ++k) cutoff2[k] = 0;
+  }
 };
 
-/// Extremes of exp(d (x − c)² / r²) for x ∈ [lo, hi] (eq. 4).
-axis_factors kernel_extremes(double d, double inv_r2, double c, double lo, double hi) {
-  const double at_lo = std::exp(d * (lo - c) * (lo - c) * inv_r2);
-  const double at_hi = std::exp(d * (hi - c) * (hi - c) * inv_r2);
-  const double upper = (c >= lo && c <= hi) ? 1.0 : std::max(at_lo, at_hi);
-  return {std::min(at_lo, at_hi), upper};
+void gather_columns(const gaussian_field& field, std::span<const std::uint32_t> atoms, atom_columns& out) {
+  out.count = 0;
+  out.reserve_padded(atoms.size());
+  const gaussian_field::atom_arrays all = field.atoms();
+  for (const std::uint32_t k : atoms) out.push_back(all.x[k], all.y[k], all.z[k], field.d() * all.inv_r2[k], all.cutoff2[k]);
+  out.finish_padding();
 }
 
-double farthest_corner_squared(const box3& box, const vec3& c) {
-  double sum = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    const double far = std::max(std::abs(box.lo[axis] - c[axis]), std::abs(box.hi[axis] - c[axis]));
-    sum += far * far;
+/// Per lane: the distance from c to the interval [lo, hi] (0 inside it) in `near`, to its farther end in `far`.
+[[gnu::always_inline]] inline void interval_distances(const f64x4& c, double lo, double hi, f64x4& near, f64x4& far) {
+  const f64x4 below = lo - c, above = c - hi;  // at most one is positive
+  const i64x4 use_below = below > 0.0, use_above = above > 0.0;
+  near = reinterpret_cast<f64x4>((reinterpret_cast<i64x4>(below) & use_below) |
+                                 (reinterpret_cast<i64x4>(above) & use_above));
+  const f64x4 to_lo = c - lo, to_hi = hi - c;
+  const f64x4 abs_lo = reinterpret_cast<f64x4>(reinterpret_cast<i64x4>(to_lo) & 0x7fffffffffffffffLL);
+  const f64x4 abs_hi = reinterpret_cast<f64x4>(reinterpret_cast<i64x4>(to_hi) & 0x7fffffffffffffffLL);
+  const i64x4 lo_farther = abs_lo > abs_hi;
+  far = reinterpret_cast<f64x4>((reinterpret_cast<i64x4>(abs_lo) & lo_farther) |
+                                (reinterpret_cast<i64x4>(abs_hi) & ~lo_farther));
+}
+
+/// Bounds of the cut-off field on `box` from `atoms` (eqs. 4–5): per atom, the kernel is largest at the point of the
+/// box nearest its centre and smallest at the farthest corner; exp(a)·exp(b)·exp(c) = exp(a + b + c), so each
+/// product of per-axis extremes is one exponential. An atom adds to `lower` only when its cutoff sphere holds the
+/// whole box. When `reaching` is given, the atoms whose cutoff sphere reaches the box are appended to it.
+[[gnu::always_inline]] inline field_bounds bound_box(const atom_columns& atoms, const box3& box, double scale,
+                                                     atom_columns* reaching) {
+  f64x4 upper{}, lower{};
+  for (std::size_t k = 0; k < atoms.count; k += simd::lanes) {
+    f64x4 cx, cy, cz, d_inv_r2, cutoff2;
+    simd::load(cx, atoms.x.data() + k);
+    simd::load(cy, atoms.y.data() + k);
+    simd::load(cz, atoms.z.data() + k);
+    simd::load(d_inv_r2, atoms.d_inv_r2.data() + k);
+    simd::load(cutoff2, atoms.cutoff2.data() + k);
+    f64x4 near_x, near_y, near_z, far_x, far_y, far_z;
+    interval_distances(cx, box.lo.x, box.hi.x, near_x, far_x);
+    interval_distances(cy, box.lo.y, box.hi.y, near_y, far_y);
+    interval_distances(cz, box.lo.z, box.hi.z, near_z, far_z);
+    const f64x4 near2 = near_x * near_x + near_y * near_y + near_z * near_z;
+    const f64x4 far2 = far_x * far_x + far_y * far_y + far_z * far_z;
+    const i64x4 reaches = near2 < cutoff2, contains = far2 < cutoff2;  // padding: cutoff² = 0, neither
+    if (!simd::any_lane(reaches)) continue;
+    f64x4 largest = d_inv_r2 * near2, smallest = d_inv_r2 * far2;
+    simd::exp_in_place(largest);
+    simd::exp_in_place(smallest);
+    simd::keep_lanes(largest, reaches);
+    simd::keep_lanes(smallest, contains);
+    upper += largest;
+    lower += smallest;
+    if (reaching == nullptr) continue;
+    for (int j = 0; j < simd::lanes; ++j) {
+      if (reaches[j]) reaching->push_back(cx[j], cy[j], cz[j], d_inv_r2[j], cutoff2[j]);
+    }
   }
-  return sum;
+  if (reaching != nullptr) reaching->finish_padding();
+  return {scale * simd::lane_sum(lower), scale * simd::lane_sum(upper)};
 }
 
 /// Top-level cubes (in units of top cubes) reached by some atom's cutoff sphere.
@@ -40,7 +106,7 @@ std::vector<lattice_index> top_cubes(const gaussian_field& field, const lattice&
   const double top_size = lat.spacing() * lattice::block_cells * top_blocks;
   std::vector<lattice_index> cubes;
   for (std::uint32_t k = 0; k < field.atom_count(); ++k) {
-    const auto& a = field.atom_at(k);
+    const auto a = field.atom_at(k);
     const double reach = std::sqrt(a.cutoff2);
     const vec3 c{a.x, a.y, a.z};
     std::array<std::int64_t, 3> lo{}, hi{};
@@ -60,52 +126,54 @@ std::vector<lattice_index> top_cubes(const gaussian_field& field, const lattice&
   return cubes;
 }
 
-/// Recursively refines the cube of `size` blocks whose lowest block is `corner`; appends surviving blocks.
-void refine(const gaussian_field& field, const lattice& lat, const lattice_index& corner, std::int64_t size,
-            std::span<const std::uint32_t> parent_atoms, std::vector<lattice_index>& blocks) {
-  const box3 lo_box = lat.block_box(corner);
-  const box3 hi_box = lat.block_box({corner.i + size - 1, corner.j + size - 1, corner.k + size - 1});
-  const box3 box{lo_box.lo, hi_box.hi};
-  std::vector<std::uint32_t> atoms;
-  atoms.reserve(parent_atoms.size());
-  for (const std::uint32_t k : parent_atoms) {
-    const auto& a = field.atom_at(k);
-    const double dx = std::max({box.lo.x - a.x, 0.0, a.x - box.hi.x});
-    const double dy = std::max({box.lo.y - a.y, 0.0, a.y - box.hi.y});
-    const double dz = std::max({box.lo.z - a.z, 0.0, a.z - box.hi.z});
-    if (dx * dx + dy * dy + dz * dz < a.cutoff2) atoms.push_back(k);
+/// The octree below one top cube: per level, the atoms that reach the current cube.
+class octree_refiner {
+ public:
+  octree_refiner(const gaussian_field& field, const lattice& lat)
+      : lat_(lat), t0_(field.t0()), scale_(kernel_exp(-field.d())), levels_(octree_levels + 1) {}
+
+  /// Appends the blocks of the top cube at `corner` (in blocks) that may hold surface; `atoms` reach the cube.
+  void refine_top(const lattice_index& corner, const atom_columns& atoms, std::vector<lattice_index>& blocks) {
+    refine(corner, top_blocks, atoms, 0, blocks);
   }
-  if (atoms.empty()) return;  // φ ≡ 0 < t0 here
-  if (bounds_exclude(bound_field_on_box(field, box, atoms), field.t0())) return;
-  if (size == 1) {
-    blocks.push_back(corner);
-    return;
+
+ private:
+  /// The cube of `size` blocks whose lowest block is `corner`, with its parent's atoms. (Recursive, so not
+  /// inlined into a vectorised caller: it carries its own clones.)
+  __attribute__((target_clones("avx2", "default"))) void refine(const lattice_index& corner, std::int64_t size, const atom_columns& parent_atoms, int level,
+              std::vector<lattice_index>& blocks) {
+    const box3 lo_box = lat_.block_box(corner);
+    const box3 hi_box = lat_.block_box({corner.i + size - 1, corner.j + size - 1, corner.k + size - 1});
+    atom_columns& atoms = levels_[level];
+    atoms.count = 0;
+    atoms.reserve_padded(parent_atoms.count);
+    const field_bounds bounds = bound_box(parent_atoms, {lo_box.lo, hi_box.hi}, scale_, size > 1 ? &atoms : nullptr);
+    if (bounds.upper == 0) return;  // no atom reaches the cube: φ ≡ 0 < t0 here
+    if (bounds_exclude(bounds, t0_)) return;
+    if (size == 1) {
+      blocks.push_back(corner);
+      return;
+    }
+    const std::int64_t half = size / 2;
+    for (int octant = 0; octant < 8; ++octant) {
+      const lattice_index child{corner.i + ((octant & 1) ? half : 0), corner.j + ((octant & 2) ? half : 0),
+                                corner.k + ((octant & 4) ? half : 0)};
+      refine(child, half, atoms, level + 1, blocks);
+    }
   }
-  const std::int64_t half = size / 2;
-  for (int octant = 0; octant < 8; ++octant) {
-    const lattice_index child{corner.i + ((octant & 1) ? half : 0), corner.j + ((octant & 2) ? half : 0),
-                              corner.k + ((octant & 4) ? half : 0)};
-    refine(field, lat, child, half, atoms, blocks);
-  }
-}
+
+  const lattice& lat_;
+  double t0_, scale_;
+  std::vector<atom_columns> levels_;  ///< scratch atoms per depth, reused across cubes
+};
 
 }  // namespace
 
-field_bounds bound_field_on_box(const gaussian_field& field, const box3& box, std::span<const std::uint32_t> atoms) {
-  const double d = field.d();
-  const double scale = std::exp(-d);  // e^(−d): the "− 1" of eq. 2
-  field_bounds bounds;
-  for (const std::uint32_t k : atoms) {
-    const auto& a = field.atom_at(k);
-    const axis_factors fx = kernel_extremes(d, a.inv_r2, a.x, box.lo.x, box.hi.x);
-    const axis_factors fy = kernel_extremes(d, a.inv_r2, a.y, box.lo.y, box.hi.y);
-    const axis_factors fz = kernel_extremes(d, a.inv_r2, a.z, box.lo.z, box.hi.z);
-    bounds.upper += scale * fx.upper * fy.upper * fz.upper;
-    if (farthest_corner_squared(box, {a.x, a.y, a.z}) < a.cutoff2) {
-      bounds.lower += scale * fx.lower * fy.lower * fz.lower;
-    }
-  }
-  return bounds;
+__attribute__((target_clones("avx2", "default"))) field_bounds bound_field_on_box(
+    const gaussian_field& field, const box3& box, std::span<const std::uint32_t> atoms) {
+  atom_columns columns;
+  gather_columns(field, atoms, columns);
+  return bound_box(columns, box, kernel_exp(-field.d()), nullptr);
 }
 
 bool bounds_exclude(const field_bounds& bounds, double t0) {
@@ -113,21 +181,38 @@ bool bounds_exclude(const field_bounds& bounds, double t0) {
   return bounds.lower > t0 * (1 + margin) || bounds.upper < t0 * (1 - margin);
 }
 
+namespace {
+
+/// Refines the top cubes [begin, end) into `per_top`.
+void refine_top_cubes(
+    const gaussian_field& field, const lattice& lat, const std::vector<lattice_index>& tops, std::size_t begin,
+    std::size_t end, std::vector<std::vector<lattice_index>>& per_top, progress_token& progress,
+    std::atomic<std::size_t>& done) {
+  octree_refiner refiner(field, lat);
+  std::vector<std::uint32_t> atom_indices;
+  atom_columns atoms;
+  for (std::size_t n = begin; n < end; ++n) {
+    if (progress.cancelled()) return;
+    const lattice_index corner{tops[n].i * top_blocks, tops[n].j * top_blocks, tops[n].k * top_blocks};
+    const box3 lo_box = lat.block_box(corner);
+    const box3 hi_box = lat.block_box({corner.i + top_blocks - 1, corner.j + top_blocks - 1, corner.k + top_blocks - 1});
+    field.atoms_near_box({lo_box.lo, hi_box.hi}, atom_indices);
+    gather_columns(field, atom_indices, atoms);
+    refiner.refine_top(corner, atoms, per_top[n]);
+    const std::size_t finished = ++done;
+    if (finished % 64 == 0) progress.report(mesh_stage::culling, static_cast<double>(finished) / tops.size());
+  }
+}
+
+}  // namespace
+
 result<std::vector<lattice_index>> cull_blocks(const gaussian_field& field, const lattice& lat,
                                                progress_token& progress) {
   const std::vector<lattice_index> tops = top_cubes(field, lat);
   std::vector<std::vector<lattice_index>> per_top(tops.size());
   std::atomic<std::size_t> done{0};
-  tbb::parallel_for(std::size_t{0}, tops.size(), [&](std::size_t n) {
-    if (progress.cancelled()) return;
-    const lattice_index corner{tops[n].i * top_blocks, tops[n].j * top_blocks, tops[n].k * top_blocks};
-    const box3 lo_box = lat.block_box(corner);
-    const box3 hi_box = lat.block_box({corner.i + top_blocks - 1, corner.j + top_blocks - 1, corner.k + top_blocks - 1});
-    std::vector<std::uint32_t> atoms;
-    field.atoms_near_box({lo_box.lo, hi_box.hi}, atoms);
-    refine(field, lat, corner, top_blocks, atoms, per_top[n]);
-    const std::size_t finished = ++done;
-    if (finished % 64 == 0) progress.report(mesh_stage::culling, static_cast<double>(finished) / tops.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, tops.size()), [&](const tbb::blocked_range<std::size_t>& r) {
+    refine_top_cubes(field, lat, tops, r.begin(), r.end(), per_top, progress, done);
   });
   if (progress.cancelled()) return status{errc::cancelled, "cancelled"};
   std::vector<lattice_index> blocks;
