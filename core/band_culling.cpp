@@ -10,9 +10,6 @@
 namespace tracemesh {
 namespace {
 
-using simd::f64x4;
-using simd::i64x4;
-
 /// Octree depth from top cubes to blocks: a top cube is 2^levels blocks on a side.
 constexpr int octree_levels = 3;
 constexpr std::int64_t top_blocks = 1 << octree_levels;
@@ -24,7 +21,7 @@ struct atom_columns {
   std::size_t count = 0;
 
   void reserve_padded(std::size_t n) {
-    const std::size_t padded = (n + simd::lanes - 1) / simd::lanes * simd::lanes;
+    const std::size_t padded = (n + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes;
     for (auto* column : {&x, &y, &z, &d_inv_r2, &cutoff2}) column->resize(padded);
   }
   void push_back(double ax, double ay, double az, double a_d_inv_r2, double a_cutoff2) {
@@ -50,42 +47,45 @@ void gather_columns(const gaussian_field& field, std::span<const std::uint32_t> 
 }
 
 /// Per lane: the distance from c to the interval [lo, hi] (0 inside it) in `near`, to its farther end in `far`.
-[[gnu::always_inline]] inline void interval_distances(const f64x4& c, double lo, double hi, f64x4& near, f64x4& far) {
-  const f64x4 below = lo - c, above = c - hi;  // at most one is positive
-  const i64x4 use_below = below > 0.0, use_above = above > 0.0;
-  near = reinterpret_cast<f64x4>((reinterpret_cast<i64x4>(below) & use_below) |
-                                 (reinterpret_cast<i64x4>(above) & use_above));
-  const f64x4 to_lo = c - lo, to_hi = hi - c;
-  const f64x4 abs_lo = reinterpret_cast<f64x4>(reinterpret_cast<i64x4>(to_lo) & 0x7fffffffffffffffLL);
-  const f64x4 abs_hi = reinterpret_cast<f64x4>(reinterpret_cast<i64x4>(to_hi) & 0x7fffffffffffffffLL);
-  const i64x4 lo_farther = abs_lo > abs_hi;
-  far = reinterpret_cast<f64x4>((reinterpret_cast<i64x4>(abs_lo) & lo_farther) |
-                                (reinterpret_cast<i64x4>(abs_hi) & ~lo_farther));
+template <class F>
+[[gnu::always_inline]] inline void interval_distances(const F& c, double lo, double hi, F& near, F& far) {
+  using M = simd::mask_of<F>;
+  const F below = lo - c, above = c - hi;  // at most one is positive
+  const M use_below = below > 0.0, use_above = above > 0.0;
+  near = reinterpret_cast<F>((reinterpret_cast<M>(below) & use_below) | (reinterpret_cast<M>(above) & use_above));
+  constexpr std::int64_t magnitude = 0x7fffffffffffffffLL;  // all bits but the sign
+  const F abs_lo = reinterpret_cast<F>(reinterpret_cast<M>(c - lo) & magnitude);
+  const F abs_hi = reinterpret_cast<F>(reinterpret_cast<M>(hi - c) & magnitude);
+  const M lo_farther = abs_lo > abs_hi;
+  far = reinterpret_cast<F>((reinterpret_cast<M>(abs_lo) & lo_farther) | (reinterpret_cast<M>(abs_hi) & ~lo_farther));
 }
 
 /// Bounds of the cut-off field on `box` from `atoms` (eqs. 4–5): per atom, the kernel is largest at the point of the
 /// box nearest its centre and smallest at the farthest corner; exp(a)·exp(b)·exp(c) = exp(a + b + c), so each
 /// product of per-axis extremes is one exponential. An atom adds to `lower` only when its cutoff sphere holds the
 /// whole box. When `reaching` is given, the atoms whose cutoff sphere reaches the box are appended to it.
+template <int W>
 [[gnu::always_inline]] inline field_bounds bound_box(const atom_columns& atoms, const box3& box, double scale,
                                                      atom_columns* reaching) {
-  f64x4 upper{}, lower{};
-  for (std::size_t k = 0; k < atoms.count; k += simd::lanes) {
-    f64x4 cx, cy, cz, d_inv_r2, cutoff2;
+  using F = typename simd::pack<W>::f64;
+  using M = typename simd::pack<W>::i64;
+  F upper{}, lower{};
+  for (std::size_t k = 0; k < atoms.count; k += W) {
+    F cx, cy, cz, d_inv_r2, cutoff2;
     simd::load(cx, atoms.x.data() + k);
     simd::load(cy, atoms.y.data() + k);
     simd::load(cz, atoms.z.data() + k);
     simd::load(d_inv_r2, atoms.d_inv_r2.data() + k);
     simd::load(cutoff2, atoms.cutoff2.data() + k);
-    f64x4 near_x, near_y, near_z, far_x, far_y, far_z;
+    F near_x, near_y, near_z, far_x, far_y, far_z;
     interval_distances(cx, box.lo.x, box.hi.x, near_x, far_x);
     interval_distances(cy, box.lo.y, box.hi.y, near_y, far_y);
     interval_distances(cz, box.lo.z, box.hi.z, near_z, far_z);
-    const f64x4 near2 = near_x * near_x + near_y * near_y + near_z * near_z;
-    const f64x4 far2 = far_x * far_x + far_y * far_y + far_z * far_z;
-    const i64x4 reaches = near2 < cutoff2, contains = far2 < cutoff2;  // padding: cutoff² = 0, neither
+    const F near2 = near_x * near_x + near_y * near_y + near_z * near_z;
+    const F far2 = far_x * far_x + far_y * far_y + far_z * far_z;
+    const M reaches = near2 < cutoff2, contains = far2 < cutoff2;  // padding: cutoff² = 0, neither
     if (!simd::any_lane(reaches)) continue;
-    f64x4 largest = d_inv_r2 * near2, smallest = d_inv_r2 * far2;
+    F largest = d_inv_r2 * near2, smallest = d_inv_r2 * far2;
     simd::exp_in_place(largest);
     simd::exp_in_place(smallest);
     simd::keep_lanes(largest, reaches);
@@ -93,7 +93,7 @@ void gather_columns(const gaussian_field& field, std::span<const std::uint32_t> 
     upper += largest;
     lower += smallest;
     if (reaching == nullptr) continue;
-    for (int j = 0; j < simd::lanes; ++j) {
+    for (int j = 0; j < W; ++j) {
       if (reaches[j]) reaching->push_back(cx[j], cy[j], cz[j], d_inv_r2[j], cutoff2[j]);
     }
   }
@@ -126,54 +126,69 @@ std::vector<lattice_index> top_cubes(const gaussian_field& field, const lattice&
   return cubes;
 }
 
-/// The octree below one top cube: per level, the atoms that reach the current cube.
+/// One cube of the octree to visit: its lowest block, its size in blocks and its depth (0 for top cubes).
+struct octree_cube {
+  lattice_index corner;
+  std::int64_t size;
+  int depth;
+};
+
+/// The octree below top cubes, depth first with an explicit stack (so that it all compiles into one vectorised
+/// function). A cube's atoms are those of its parent whose cutoff sphere reaches it; atoms[depth] holds them for the
+/// cube being refined at that depth and stays valid while its children are visited.
 class octree_refiner {
  public:
   octree_refiner(const gaussian_field& field, const lattice& lat)
-      : lat_(lat), t0_(field.t0()), scale_(kernel_exp(-field.d())), levels_(octree_levels + 1) {}
+      : lat_(lat), t0_(field.t0()), scale_(kernel_exp(-field.d())), atoms_(octree_levels + 2) {}
 
-  /// Appends the blocks of the top cube at `corner` (in blocks) that may hold surface; `atoms` reach the cube.
-  void refine_top(const lattice_index& corner, const atom_columns& atoms, std::vector<lattice_index>& blocks) {
-    refine(corner, top_blocks, atoms, 0, blocks);
+  /// Scratch for the atoms reaching a top cube, to be filled before refine_top().
+  atom_columns& top_atoms() { return atoms_[0]; }
+
+  /// Appends the blocks of the top cube at `corner` (in blocks) that may hold surface.
+  template <int W>
+  [[gnu::always_inline]] void refine_top(const lattice_index& corner, std::vector<lattice_index>& blocks) {
+    stack_.assign(1, {corner, top_blocks, 0});
+    while (!stack_.empty()) {
+      const octree_cube cube = stack_.back();
+      stack_.pop_back();
+      const box3 lo_box = lat_.block_box(cube.corner);
+      const box3 hi_box =
+          lat_.block_box({cube.corner.i + cube.size - 1, cube.corner.j + cube.size - 1, cube.corner.k + cube.size - 1});
+      atom_columns& reaching = atoms_[cube.depth + 1];
+      reaching.count = 0;
+      reaching.reserve_padded(atoms_[cube.depth].count);
+      const field_bounds bounds =
+          bound_box<W>(atoms_[cube.depth], {lo_box.lo, hi_box.hi}, scale_, cube.size > 1 ? &reaching : nullptr);
+      if (bounds.upper == 0) continue;  // no atom reaches the cube: φ ≡ 0 < t0 here
+      if (bounds_exclude(bounds, t0_)) continue;
+      if (cube.size == 1) {
+        blocks.push_back(cube.corner);
+        continue;
+      }
+      const std::int64_t half = cube.size / 2;
+      for (int octant = 7; octant >= 0; --octant) {  // pushed in reverse: visited in octant order
+        const lattice_index child{cube.corner.i + ((octant & 1) ? half : 0), cube.corner.j + ((octant & 2) ? half : 0),
+                                  cube.corner.k + ((octant & 4) ? half : 0)};
+        stack_.push_back({child, half, cube.depth + 1});
+      }
+    }
   }
 
  private:
-  /// The cube of `size` blocks whose lowest block is `corner`, with its parent's atoms. (Recursive, so not
-  /// inlined into a vectorised caller: it carries its own clones.)
-  __attribute__((target_clones("avx2", "default"))) void refine(const lattice_index& corner, std::int64_t size, const atom_columns& parent_atoms, int level,
-              std::vector<lattice_index>& blocks) {
-    const box3 lo_box = lat_.block_box(corner);
-    const box3 hi_box = lat_.block_box({corner.i + size - 1, corner.j + size - 1, corner.k + size - 1});
-    atom_columns& atoms = levels_[level];
-    atoms.count = 0;
-    atoms.reserve_padded(parent_atoms.count);
-    const field_bounds bounds = bound_box(parent_atoms, {lo_box.lo, hi_box.hi}, scale_, size > 1 ? &atoms : nullptr);
-    if (bounds.upper == 0) return;  // no atom reaches the cube: φ ≡ 0 < t0 here
-    if (bounds_exclude(bounds, t0_)) return;
-    if (size == 1) {
-      blocks.push_back(corner);
-      return;
-    }
-    const std::int64_t half = size / 2;
-    for (int octant = 0; octant < 8; ++octant) {
-      const lattice_index child{corner.i + ((octant & 1) ? half : 0), corner.j + ((octant & 2) ? half : 0),
-                                corner.k + ((octant & 4) ? half : 0)};
-      refine(child, half, atoms, level + 1, blocks);
-    }
-  }
-
   const lattice& lat_;
   double t0_, scale_;
-  std::vector<atom_columns> levels_;  ///< scratch atoms per depth, reused across cubes
+  std::vector<atom_columns> atoms_;  ///< atoms_[0]: the top cube's candidates; atoms_[d + 1]: those reaching the cube at depth d
+  std::vector<octree_cube> stack_;
 };
 
 }  // namespace
 
-__attribute__((target_clones("avx2", "default"))) field_bounds bound_field_on_box(
-    const gaussian_field& field, const box3& box, std::span<const std::uint32_t> atoms) {
+field_bounds bound_field_on_box(const gaussian_field& field, const box3& box, std::span<const std::uint32_t> atoms) {
   atom_columns columns;
   gather_columns(field, atoms, columns);
-  return bound_box(columns, box, kernel_exp(-field.d()), nullptr);
+  return simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
+    return bound_box<decltype(lanes)::value>(columns, box, kernel_exp(-field.d()), nullptr);
+  });
 }
 
 bool bounds_exclude(const field_bounds& bounds, double t0) {
@@ -184,21 +199,21 @@ bool bounds_exclude(const field_bounds& bounds, double t0) {
 namespace {
 
 /// Refines the top cubes [begin, end) into `per_top`.
-void refine_top_cubes(
-    const gaussian_field& field, const lattice& lat, const std::vector<lattice_index>& tops, std::size_t begin,
-    std::size_t end, std::vector<std::vector<lattice_index>>& per_top, progress_token& progress,
-    std::atomic<std::size_t>& done) {
+void refine_top_cubes(const gaussian_field& field, const lattice& lat, const std::vector<lattice_index>& tops,
+                      std::size_t begin, std::size_t end, std::vector<std::vector<lattice_index>>& per_top,
+                      progress_token& progress, std::atomic<std::size_t>& done) {
   octree_refiner refiner(field, lat);
   std::vector<std::uint32_t> atom_indices;
-  atom_columns atoms;
   for (std::size_t n = begin; n < end; ++n) {
     if (progress.cancelled()) return;
     const lattice_index corner{tops[n].i * top_blocks, tops[n].j * top_blocks, tops[n].k * top_blocks};
     const box3 lo_box = lat.block_box(corner);
     const box3 hi_box = lat.block_box({corner.i + top_blocks - 1, corner.j + top_blocks - 1, corner.k + top_blocks - 1});
     field.atoms_near_box({lo_box.lo, hi_box.hi}, atom_indices);
-    gather_columns(field, atom_indices, atoms);
-    refiner.refine_top(corner, atoms, per_top[n]);
+    gather_columns(field, atom_indices, refiner.top_atoms());
+    simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
+      refiner.refine_top<decltype(lanes)::value>(corner, per_top[n]);
+    });
     const std::size_t finished = ++done;
     if (finished % 64 == 0) progress.report(mesh_stage::culling, static_cast<double>(finished) / tops.size());
   }

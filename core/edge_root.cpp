@@ -8,9 +8,6 @@
 namespace tracemesh {
 namespace {
 
-using simd::f64x4;
-using simd::i64x4;
-
 /// Relative slack when dropping atoms whose cutoff sphere misses a cube or an edge: rounding in the per-point test
 /// r² < cutoff² can never reach it, so a dropped atom would have contributed nothing anywhere on the edge.
 constexpr double reach_slack = 1e-9;
@@ -40,7 +37,7 @@ struct edge_sample {
   double value, slope, curvature;
 };
 
-std::size_t padded_size(std::size_t n) { return (n + simd::lanes - 1) / simd::lanes * simd::lanes; }
+std::size_t padded_size(std::size_t n) { return (n + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes; }
 
 /// Copies the block's atoms (field-internal indices) into columns, with d/r² in place of 1/r².
 void gather_block_atoms(const gaussian_field& field, std::span<const std::uint32_t> atoms, block_columns& out) {
@@ -58,20 +55,24 @@ void gather_block_atoms(const gaussian_field& field, std::span<const std::uint32
 }
 
 /// Per lane: distance from c to the interval [lo, hi] (0 inside).
-[[gnu::always_inline]] inline void interval_gap(f64x4& c, double lo, double hi) {
-  const f64x4 below = lo - c, above = c - hi;
-  const i64x4 use_below = below > 0.0, use_above = above > 0.0;
-  c = reinterpret_cast<f64x4>((reinterpret_cast<i64x4>(below) & use_below) |
-                              (reinterpret_cast<i64x4>(above) & use_above));
+template <class F>
+[[gnu::always_inline]] inline void interval_gap(F& c, double lo, double hi) {
+  using M = simd::mask_of<F>;
+  const F below = lo - c, above = c - hi;
+  const M use_below = below > 0.0, use_above = above > 0.0;
+  c = reinterpret_cast<F>((reinterpret_cast<M>(below) & use_below) | (reinterpret_cast<M>(above) & use_above));
 }
 
 /// The atoms of the block whose cutoff sphere reaches the cube [origin, origin + h]³ (every edge the cube owns lies
 /// inside it). `out`'s columns must hold padded_size(block.count) entries.
+template <int W>
 [[gnu::always_inline]] inline void gather_cube_atoms(const block_columns& block, const vec3& origin, double h,
                                                      cube_columns& out) {
+  using F = typename simd::pack<W>::f64;
+  using M = typename simd::pack<W>::i64;
   std::size_t kept = 0;
-  for (std::size_t k = 0; k < block.count; k += simd::lanes) {
-    f64x4 gx, gy, gz, cutoff2;
+  for (std::size_t k = 0; k < block.count; k += W) {
+    F gx, gy, gz, cutoff2;
     simd::load(gx, block.x.data() + k);
     simd::load(gy, block.y.data() + k);
     simd::load(gz, block.z.data() + k);
@@ -79,10 +80,10 @@ void gather_block_atoms(const gaussian_field& field, std::span<const std::uint32
     interval_gap(gx, origin.x, origin.x + h);
     interval_gap(gy, origin.y, origin.y + h);
     interval_gap(gz, origin.z, origin.z + h);
-    i64x4 reaches = gx * gx + gy * gy + gz * gz < cutoff2 * (1 + reach_slack);
+    M reaches = gx * gx + gy * gy + gz * gz < cutoff2 * (1 + reach_slack);
     simd::clear_lanes_from(reaches, static_cast<std::int64_t>(k), static_cast<std::int64_t>(block.count));
     if (!simd::any_lane(reaches)) continue;
-    for (int j = 0; j < simd::lanes; ++j) {
+    for (int j = 0; j < W; ++j) {
       if (!reaches[j]) continue;
       const vec3 offset{origin.x - block.x[k + j], origin.y - block.y[k + j], origin.z - block.z[k + j]};
       out.ox[kept] = offset.x;
@@ -99,31 +100,36 @@ void gather_block_atoms(const gaussian_field& field, std::span<const std::uint32
 }
 
 /// B = o·Δ of every cube atom for the edge Δ.
+template <int W>
 [[gnu::always_inline]] inline void edge_offsets(cube_columns& cube, const vec3& delta) {
-  for (std::size_t k = 0; k < cube.count; k += simd::lanes) {
-    f64x4 ox, oy, oz;
+  using F = typename simd::pack<W>::f64;
+  for (std::size_t k = 0; k < cube.count; k += W) {
+    F ox, oy, oz;
     simd::load(ox, cube.ox.data() + k);
     simd::load(oy, cube.oy.data() + k);
     simd::load(oz, cube.oz.data() + k);
-    simd::store(cube.b.data() + k, ox * delta.x + oy * delta.y + oz * delta.z);
+    const F b = ox * delta.x + oy * delta.y + oz * delta.z;
+    simd::store(cube.b.data() + k, b);
   }
 }
 
 /// φ(t), φ'(t), φ''(t) along the edge, each atom cut off exactly as gaussian_field does (r² < cutoff²).
 /// With g(t) = (d/r²)·r²(t): kernel' = g'·kernel and kernel'' = (g'' + g'²)·kernel.
+template <int W>
 [[gnu::always_inline]] inline edge_sample evaluate_edge(const cube_columns& cube, double c, double scale, double t) {
-  f64x4 value{}, slope{}, curvature{};
-  for (std::size_t k = 0; k < cube.count; k += simd::lanes) {
-    f64x4 a, b, d_inv_r2, cutoff2;
+  using F = typename simd::pack<W>::f64;
+  F value{}, slope{}, curvature{};
+  for (std::size_t k = 0; k < cube.count; k += W) {
+    F a, b, d_inv_r2, cutoff2;
     simd::load(a, cube.a.data() + k);
     simd::load(b, cube.b.data() + k);
     simd::load(d_inv_r2, cube.d_inv_r2.data() + k);
     simd::load(cutoff2, cube.cutoff2.data() + k);
-    const f64x4 r2 = a + t * (2 * b + t * c);
-    f64x4 kernel = d_inv_r2 * r2;
+    const F r2 = a + t * (2 * b + t * c);
+    F kernel = d_inv_r2 * r2;
     simd::exp_in_place(kernel);
     simd::keep_lanes(kernel, r2 < cutoff2);
-    const f64x4 g1 = 2 * d_inv_r2 * (b + t * c);
+    const F g1 = 2 * d_inv_r2 * (b + t * c);
     value += kernel;
     slope += g1 * kernel;
     curvature += (2 * c * d_inv_r2 + g1 * g1) * kernel;
@@ -166,11 +172,12 @@ double first_guess(double v0, double v1, double third, int third_t, double t0) {
 /// Taylor model of L(t) = ln(φ/t0) (from φ, φ', φ''; exact for one atom, third-order in general): from the
 /// interpolated guess, two or three field evaluations. Steps stay inside the shrinking bracket, bisecting when
 /// one would leave it.
+template <int W>
 [[gnu::always_inline]] inline double solve_edge(const cube_columns& cube, double c, double scale, double t0,
                                                 double inside_t, double outside_t, double guess) {
   double t = guess;
   for (int iteration = 0; iteration < max_root_iterations; ++iteration) {
-    const edge_sample s = evaluate_edge(cube, c, scale, t);
+    const edge_sample s = evaluate_edge<W>(cube, c, scale, t);
     const double residual = s.value - t0;
     if (residual == 0) break;
     (residual > 0 ? inside_t : outside_t) = t;
@@ -192,11 +199,12 @@ double first_guess(double v0, double v1, double third, int third_t, double t0) {
   return std::clamp(t, edge_root_margin, 1 - edge_root_margin);
 }
 
-}  // namespace
-
-__attribute__((target_clones("avx2", "default"))) void solve_block_roots(
-    const gaussian_field& field, const lattice& lat, const lattice_index& block, std::span<const std::uint32_t> atoms,
-    std::span<const double> values, std::vector<edge_vertex>& out) {
+template <int W>
+[[gnu::always_inline]] inline void solve_block_roots_lanes(const gaussian_field& field, const lattice& lat,
+                                                           const lattice_index& block,
+                                                           std::span<const std::uint32_t> atoms,
+                                                           std::span<const double> values,
+                                                           std::vector<edge_vertex>& out) {
   constexpr int n = block_points;
   const double t0 = field.t0();
   const double h = lat.spacing();
@@ -236,21 +244,31 @@ __attribute__((target_clones("avx2", "default"))) void solve_block_roots(
           const double v1 = value_at(x + dir[0], y + dir[1], z + dir[2]);
           if ((v0 >= t0) == (v1 >= t0)) continue;
           if (!gathered) {  // every edge the cube owns lies inside it
-            gather_cube_atoms(block_atoms, origin, h, cube_atoms);
+            gather_cube_atoms<W>(block_atoms, origin, h, cube_atoms);
             gathered = true;
           }
           const vec3 delta{dir[0] * h, dir[1] * h, dir[2] * h};
-          edge_offsets(cube_atoms, delta);
+          edge_offsets<W>(cube_atoms, delta);
           const double c = squared_norm(delta);
           const line_neighbour third = neighbour_of(x, y, z, dir);
           const double guess = first_guess(v0, v1, third.value, third.t, t0);
-          const double t = v0 >= t0 ? solve_edge(cube_atoms, c, scale, t0, 0.0, 1.0, guess)
-                                    : solve_edge(cube_atoms, c, scale, t0, 1.0, 0.0, guess);
+          const double t = v0 >= t0 ? solve_edge<W>(cube_atoms, c, scale, t0, 0.0, 1.0, guess)
+                                    : solve_edge<W>(cube_atoms, c, scale, t0, 1.0, 0.0, guess);
           out.push_back({lat.edge_key(p, direction), origin + delta * t});
         }
       }
     }
   }
+}
+
+}  // namespace
+
+void solve_block_roots(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                       std::span<const std::uint32_t> atoms, std::span<const double> values,
+                       std::vector<edge_vertex>& out) {
+  simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
+    solve_block_roots_lanes<decltype(lanes)::value>(field, lat, block, atoms, values, out);
+  });
 }
 
 }  // namespace tracemesh

@@ -5,11 +5,12 @@
 /// 1e-6·t0 anywhere, assuming at most `max_atom_number_density` atom centres per Å³ (see cutoff_factor()).
 /// Atoms of radius 0 do not contribute. Evaluation order is fixed: results are bitwise reproducible.
 ///
-/// Every exponential of the mesher's front end (field, culling, sampling, edge roots) is kernel_exp() or its
-/// four-lane form simd::exp_in_place(): one formula, so a quantity computed twice gives the same bits.
+/// Every exponential of the mesher's front end (field, culling, sampling, edge roots) is simd::exp_in_place() or its
+/// one-lane form kernel_exp(): one formula, so a quantity computed twice gives the same bits.
 
 #include <cstdint>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include "core/molecule.hpp"
@@ -29,60 +30,147 @@ double cutoff_factor(double d, double t0, double max_radius, double tolerance = 
 
 namespace simd {
 
-/// Four doubles worked on together: one AVX2 register, two SSE2 registers. GCC/Clang vector extensions, so the
-/// arithmetic reads like scalar code and comparisons give lane masks (all bits set where true).
-using f64x4 = double __attribute__((vector_size(32)));
-using i64x4 = std::int64_t __attribute__((vector_size(32)));
-inline constexpr int lanes = 4;
+/// W doubles, or W 64-bit integers (masks, bit patterns), worked on together: GCC/Clang vector extensions, so the
+/// arithmetic reads like scalar code and comparisons give lane masks (all bits set where true). Kernels are templates
+/// on W, compiled for AVX-512 (W = 8), AVX2 (W = 4) and SSE2 (W = 2) and chosen at run time (dispatch()).
+/// Vectors are always passed by reference: by value, their calling convention would depend on the instruction set.
+template <int W>
+struct pack {
+  typedef double f64 __attribute__((vector_size(8 * W)));
+  typedef std::int64_t i64 __attribute__((vector_size(8 * W)));
+};
+/// The mask type of a double vector F, and its lane count.
+template <class F>
+using mask_of = decltype(F{} < F{});
+template <class F>
+inline constexpr int lanes_of = static_cast<int>(sizeof(F) / sizeof(double));
+/// Widest vector the front end uses: arrays read W at a time are padded to a multiple of it.
+inline constexpr int max_lanes = 8;
 
 /// e^x in every lane, in place. Cody–Waite reduction x = n·ln2 + r with |r| ≤ ln2/2, the degree-13 Taylor
 /// polynomial of e^r (truncation < 2⁻⁵⁸) by Estrin's scheme (a short dependency chain), and 2ⁿ built in the exponent
-/// bits. Within 1 ulp of e^x for −708 ≤ x ≤ 709; exactly 0 for x < −708 and for NaN. No branches, no tables.
-/// Taken by reference: passing 32-byte vectors by value would depend on whether the caller was compiled for AVX.
-inline void exp_in_place(f64x4& x) {
+/// bits. Within 2 ulp of e^x for −708 ≤ x ≤ 709; exactly 0 for x < −708 and for NaN. No branches, no tables.
+template <class F>
+[[gnu::always_inline]] inline void exp_in_place(F& x) {
+  using M = mask_of<F>;
   constexpr double log2e = 1.4426950408889634074;
   constexpr double ln2_hi = 6.93147180369123816490e-01;  // 32 significant bits: n·ln2_hi is exact
   constexpr double ln2_lo = 1.90821492927058770002e-10;
   constexpr double round_shift = 0x1.8p52;  // adding it rounds to an integer held in the low mantissa bits
-  const i64x4 keep = x >= -708.0;
-  const f64x4 clamped = reinterpret_cast<f64x4>(reinterpret_cast<i64x4>(x) & keep);  // 0 where dropped
-  const f64x4 shifted = clamped * log2e + round_shift;
-  const f64x4 n = shifted - round_shift;
-  const f64x4 r = (clamped - n * ln2_hi) - n * ln2_lo;
+  const M keep = x >= -708.0;
+  const F clamped = reinterpret_cast<F>(reinterpret_cast<M>(x) & keep);  // 0 where dropped
+  const F shifted = clamped * log2e + round_shift;
+  const F n = shifted - round_shift;
+  const F r = (clamped - n * ln2_hi) - n * ln2_lo;
   // Σ r^k / k! for k = 0..13, as pairs (1/k! + r/(k+1)!), combined with r², r⁴, r⁸.
-  const f64x4 r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
-  const f64x4 p01 = 1.0 + r, p23 = 1.0 / 2 + r * (1.0 / 6), p45 = 1.0 / 24 + r * (1.0 / 120);
-  const f64x4 p67 = 1.0 / 720 + r * (1.0 / 5040), p89 = 1.0 / 40320 + r * (1.0 / 362880);
-  const f64x4 p1011 = 1.0 / 3628800 + r * (1.0 / 39916800), p1213 = 1.0 / 479001600 + r * (1.0 / 6227020800);
-  const f64x4 p03 = p01 + r2 * p23, p47 = p45 + r2 * p67, p811 = p89 + r2 * p1011;
-  const f64x4 p07 = p03 + r4 * p47, p813 = p811 + r4 * p1213;
-  const f64x4 p = p07 + r8 * p813;
+  const F r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const F p01 = 1.0 + r, p23 = 1.0 / 2 + r * (1.0 / 6), p45 = 1.0 / 24 + r * (1.0 / 120);
+  const F p67 = 1.0 / 720 + r * (1.0 / 5040), p89 = 1.0 / 40320 + r * (1.0 / 362880);
+  const F p1011 = 1.0 / 3628800 + r * (1.0 / 39916800), p1213 = 1.0 / 479001600 + r * (1.0 / 6227020800);
+  const F p03 = p01 + r2 * p23, p47 = p45 + r2 * p67, p811 = p89 + r2 * p1011;
+  const F p07 = p03 + r4 * p47, p813 = p811 + r4 * p1213;
+  const F p = p07 + r8 * p813;
   // Low bits of `shifted` hold n; (n + 1023) << 52 is the bit pattern of 2ⁿ.
-  const i64x4 two_to_n = ((reinterpret_cast<i64x4>(shifted) + 1023) << 52) & keep;
-  x = p * reinterpret_cast<f64x4>(two_to_n);
+  const M two_to_n = ((reinterpret_cast<M>(shifted) + 1023) << 52) & keep;
+  x = p * reinterpret_cast<F>(two_to_n);
 }
 
-// Small helpers, all by reference for the same reason.
-inline void load(f64x4& v, const double* p) { __builtin_memcpy(&v, p, sizeof v); }
-inline void store(double* p, const f64x4& v) { __builtin_memcpy(p, &v, sizeof v); }
-/// Zeroes the lanes where `mask` is clear.
-inline void keep_lanes(f64x4& v, const i64x4& mask) {
-  v = reinterpret_cast<f64x4>(reinterpret_cast<i64x4>(v) & mask);
+template <class F>
+[[gnu::always_inline]] inline void load(F& v, const double* p) {
+  __builtin_memcpy(&v, p, sizeof v);
 }
-inline bool any_lane(const i64x4& mask) { return (mask[0] | mask[1] | mask[2] | mask[3]) != 0; }
-/// Sum of the lanes in a fixed order.
-inline double lane_sum(const f64x4& v) { return (v[0] + v[1]) + (v[2] + v[3]); }
-/// Clears lanes j with first + j ≥ end: keeps the valid part of a four-lane load at `first`.
-inline void clear_lanes_from(i64x4& mask, std::int64_t first, std::int64_t end) {
-  const i64x4 lane{0, 1, 2, 3};
+template <class F>
+[[gnu::always_inline]] inline void store(double* p, const F& v) {
+  __builtin_memcpy(p, &v, sizeof v);
+}
+/// Zeroes the lanes where `mask` is clear. (Bitwise, so a product is never fused with a later sum.)
+template <class F>
+[[gnu::always_inline]] inline void keep_lanes(F& v, const mask_of<F>& mask) {
+  v = reinterpret_cast<F>(reinterpret_cast<mask_of<F>>(v) & mask);
+}
+/// The scalar form of keep_lanes.
+[[gnu::always_inline]] inline void keep_if(double& v, bool keep) {
+  std::uint64_t bits;
+  __builtin_memcpy(&bits, &v, sizeof bits);
+  bits &= std::uint64_t{0} - static_cast<std::uint64_t>(keep);
+  __builtin_memcpy(&v, &bits, sizeof v);
+}
+template <class M>
+[[gnu::always_inline]] inline bool any_lane(const M& mask) {
+  std::int64_t any = 0;
+  for (std::size_t j = 0; j < sizeof(M) / sizeof(std::int64_t); ++j) any |= mask[j];
+  return any != 0;
+}
+/// Sum of the lanes, pairwise in a fixed order.
+template <class F>
+[[gnu::always_inline]] inline double lane_sum(const F& lanes) {
+  F v = lanes;
+  for (int width = lanes_of<F>; width > 1; width /= 2) {
+    for (int j = 0; j < width / 2; ++j) v[j] = v[2 * j] + v[2 * j + 1];
+  }
+  return v[0];
+}
+/// Clears lanes j with first + j ≥ end: keeps the valid part of a load at `first`.
+template <class M>
+[[gnu::always_inline]] inline void clear_lanes_from(M& mask, std::int64_t first, std::int64_t end) {
+  M lane;
+  for (std::size_t j = 0; j < sizeof(M) / sizeof(std::int64_t); ++j) lane[j] = static_cast<std::int64_t>(j);
   mask &= lane < end - first;
+}
+
+/// 8 with AVX-512F, 4 with AVX2, otherwise 2.
+int widest_lanes();
+
+}  // namespace simd
+
+// The vector instruction sets of dispatch(). GCC may fuse a·b + c into one rounding where FMA exists (AVX-512);
+// it is switched off so that every width gives the same roundings (Clang fuses only within one expression).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define TRACEMESH_TARGET_AVX512 __attribute__((target("avx512f"), optimize("fp-contract=off")))
+#define TRACEMESH_TARGET_AVX2 __attribute__((target("avx2")))
+#elif defined(__x86_64__)
+#define TRACEMESH_TARGET_AVX512 __attribute__((target("avx512f")))
+#define TRACEMESH_TARGET_AVX2 __attribute__((target("avx2")))
+#endif
+
+namespace simd {
+namespace detail {
+#if defined(TRACEMESH_TARGET_AVX512)
+template <int W, class Body>
+TRACEMESH_TARGET_AVX512 auto run_avx512(Body& body) {
+  return body(std::integral_constant<int, W>{});
+}
+template <int W, class Body>
+TRACEMESH_TARGET_AVX2 auto run_avx2(Body& body) {
+  return body(std::integral_constant<int, W>{});
+}
+#endif
+}  // namespace detail
+
+/// Returns body(std::integral_constant<int, W>{}) run inside a function compiled for the widest vector unit of this
+/// CPU, with W its lane count capped at MaxLanes (kernels that work on short runs of atoms are faster with 4 lanes
+/// even where 8 are available). `body` must be always_inline (so that it is compiled for that unit) and must not
+/// pass vectors across its own boundary. Results are the same for every W up to the grouping of lane sums.
+template <int MaxLanes = max_lanes, class Body>
+auto dispatch(Body&& body) {
+#if defined(TRACEMESH_TARGET_AVX512)
+  switch (widest_lanes()) {
+    case 8:
+      return detail::run_avx512<(MaxLanes < 8 ? MaxLanes : 8)>(body);
+    case 4:
+      return detail::run_avx2<(MaxLanes < 4 ? MaxLanes : 4)>(body);
+    default:
+      break;
+  }
+#endif
+  return body(std::integral_constant<int, 2>{});
 }
 
 }  // namespace simd
 
 /// e^x as every stage of the mesher computes it (simd::exp_in_place on one lane; same bits).
 inline double kernel_exp(double x) {
-  simd::f64x4 v = {x, x, x, x};
+  simd::pack<2>::f64 v = {x, x};
   simd::exp_in_place(v);
   return v[0];
 }
@@ -148,7 +236,7 @@ class gaussian_field {
     return {x_[k], y_[k], z_[k], inv_r2_[k], cutoff2_[k], original_index_[k]};
   }
   /// The same data as structure of arrays, for vectorised loops. Each array holds atom_count() entries followed by
-  /// simd::lanes − 1 padding entries (cutoff2 = 0, so they never contribute), so a four-lane load starting at any
+  /// simd::max_lanes − 1 padding entries (cutoff2 = 0, so they never contribute), so a vector load starting at any
   /// atom stays in bounds.
   struct atom_arrays {
     const double* x;
@@ -190,6 +278,9 @@ class gaussian_field {
   void for_each_nearby_range(const vec3& p, Visitor&& visit) const;
   /// Nearest centre by brute force (for points beyond every cutoff).
   std::uint32_t nearest_atom(const vec3& p) const;
+  /// One pass over the atoms near p, W at a time: φ, and ∇φ and the dominant atom when asked for.
+  template <int W, bool with_gradient, bool with_dominant>
+  point_probe evaluate(const vec3& p) const;
 
   double d_, t0_;
   double cutoff_error_bound_ = 0;

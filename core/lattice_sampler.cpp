@@ -5,11 +5,8 @@
 namespace tracemesh {
 namespace {
 
-using simd::f64x4;
-using simd::i64x4;
-
-/// block_points rounded up to whole vectors: per-axis arrays are computed four lanes at a time.
-constexpr int padded_points = (block_points + simd::lanes - 1) / simd::lanes * simd::lanes;
+/// block_points rounded up to whole vectors of the widest width: per-axis arrays are computed W lanes at a time.
+constexpr int padded_points = (block_points + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes;
 using axis_array = std::array<double, padded_points>;
 
 /// Lattice coordinates (Å) of the block's points along one axis, from global indices: identical doubles in every
@@ -21,48 +18,53 @@ axis_array axis_coordinates(std::int64_t first_index, double h) {
 }
 
 /// Squared distances (x − c)² from the atom's centre along one axis, and the 1-D kernel factors exp(d·(x − c)²/r²).
+template <int W>
 [[gnu::always_inline]] inline void axis_factors(const axis_array& coordinate, double centre, double d, double inv_r2,
                                                 axis_array& squared, axis_array& factor) {
-  for (int m = 0; m < padded_points; m += simd::lanes) {
-    f64x4 delta;
+  using F = typename simd::pack<W>::f64;
+  for (int m = 0; m < padded_points; m += W) {
+    F delta;
     simd::load(delta, coordinate.data() + m);
     delta -= centre;
-    const f64x4 delta2 = delta * delta;
-    f64x4 e = d * delta2 * inv_r2;
+    const F delta2 = delta * delta;
+    F e = d * delta2 * inv_r2;
     simd::exp_in_place(e);
     simd::store(squared.data() + m, delta2);
     simd::store(factor.data() + m, e);
   }
 }
 
-/// row[x] += ex[x]·eyz for the points of one lattice row within the atom's cutoff (dx²[x] + yz² < cutoff²).
-/// Lanes 0–7 go four at a time, lane 8 alone; masked-out lanes add +0, which leaves a (non-negative) sum unchanged,
-/// so every point gets the same operations in the same order whichever lane it is in.
+/// row[x] += ex[x]·eyz for the points of one lattice row within the atom's cutoff (dx²[x] + yz² < cutoff²), W
+/// points at a time and the rest one by one. Masked-out points add +0, which leaves their (non-negative) sums
+/// unchanged, and the product is masked before the sum, so it is never fused with it: every point gets the same
+/// roundings whichever lane or block computes it.
+template <int W>
 [[gnu::always_inline]] inline void add_row(double* row, const axis_array& ex, const axis_array& dx2, double eyz,
                                            double yz2, double cutoff2) {
-  for (int x = 0; x + simd::lanes <= block_points; x += simd::lanes) {
-    f64x4 sum, factor, distance2;
+  using F = typename simd::pack<W>::f64;
+  int x = 0;
+  for (; x + W <= block_points; x += W) {
+    F sum, factor, distance2;
     simd::load(sum, row + x);
     simd::load(factor, ex.data() + x);
     simd::load(distance2, dx2.data() + x);
-    f64x4 term = factor * eyz;
+    F term = factor * eyz;
     simd::keep_lanes(term, distance2 + yz2 < cutoff2);
     sum += term;
     simd::store(row + x, sum);
   }
-  for (int x = block_points / simd::lanes * simd::lanes; x < block_points; ++x) {
-    if (dx2[x] + yz2 < cutoff2) row[x] += ex[x] * eyz;
+  for (; x < block_points; ++x) {
+    double term = ex[x] * eyz;
+    simd::keep_if(term, dx2[x] + yz2 < cutoff2);
+    row[x] += term;
   }
 }
 
-}  // namespace
-
-__attribute__((target_clones("avx2", "default"))) void sample_block(const gaussian_field& field, const lattice& lat,
-                                                                  const lattice_index& block,
-                                                                  std::span<const std::uint32_t> atoms,
-                                                                  std::vector<double>& values) {
+template <int W>
+[[gnu::always_inline]] inline void sample_block_lanes(const gaussian_field& field, const lattice& lat,
+                                                      const lattice_index& block, std::span<const std::uint32_t> atoms,
+                                                      std::vector<double>& values) {
   constexpr int n = block_points;
-  values.assign(static_cast<std::size_t>(n) * n * n, 0.0);
   const double h = lat.spacing();
   const double d = field.d();
   const double scale = kernel_exp(-d);  // e^(−d): the "− 1" of eq. 2
@@ -73,18 +75,29 @@ __attribute__((target_clones("avx2", "default"))) void sample_block(const gaussi
   axis_array ex, ey, ez, dx2, dy2, dz2;
   for (const std::uint32_t k : atoms) {
     const double inv_r2 = all.inv_r2[k], cutoff2 = all.cutoff2[k];
-    axis_factors(x_coordinate, all.x[k], d, inv_r2, dx2, ex);
-    axis_factors(y_coordinate, all.y[k], d, inv_r2, dy2, ey);
-    axis_factors(z_coordinate, all.z[k], d, inv_r2, dz2, ez);
+    axis_factors<W>(x_coordinate, all.x[k], d, inv_r2, dx2, ex);
+    axis_factors<W>(y_coordinate, all.y[k], d, inv_r2, dy2, ey);
+    axis_factors<W>(z_coordinate, all.z[k], d, inv_r2, dz2, ez);
     for (int z = 0; z < n; ++z) {
       if (dz2[z] >= cutoff2) continue;
       for (int y = 0; y < n; ++y) {
         const double yz2 = dy2[y] + dz2[z];
         if (yz2 >= cutoff2) continue;
-        add_row(values.data() + static_cast<std::size_t>(z * n + y) * n, ex, dx2, scale * ey[y] * ez[z], yz2, cutoff2);
+        add_row<W>(values.data() + static_cast<std::size_t>(z * n + y) * n, ex, dx2, scale * ey[y] * ez[z], yz2,
+                   cutoff2);
       }
     }
   }
+}
+
+}  // namespace
+
+void sample_block(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                  std::span<const std::uint32_t> atoms, std::vector<double>& values) {
+  values.assign(static_cast<std::size_t>(block_points) * block_points * block_points, 0.0);
+  simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
+    sample_block_lanes<decltype(lanes)::value>(field, lat, block, atoms, values);
+  });
 }
 
 }  // namespace tracemesh

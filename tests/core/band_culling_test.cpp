@@ -40,6 +40,41 @@ TEST(band_culling, bounds_enclose_sampled_values) {
   }
 }
 
+// The bounds are eq. 4–5 exactly: the product over the axes of each atom's 1-D kernel extremes on the box (computed
+// here with std::exp, per axis, as the paper writes it).
+TEST(band_culling, bounds_are_the_per_axis_products_of_kernel_extremes) {
+  const molecule mol = random_cluster(120, 5, 6);
+  const gaussian_field field(mol, -1.3, 1);
+  std::mt19937 rng(10);
+  std::uniform_real_distribution<double> corner(-9, 7), size(0.2, 5);
+  for (int n = 0; n < 100; ++n) {
+    const vec3 lo{corner(rng), corner(rng), corner(rng)};
+    const box3 box{lo, lo + vec3{size(rng), size(rng), size(rng)}};
+    std::vector<std::uint32_t> atoms;
+    field.atoms_near_box(box, atoms);
+    field_bounds expected;
+    for (const std::uint32_t k : atoms) {
+      const auto a = field.atom_at(k);
+      const vec3 c{a.x, a.y, a.z};
+      double upper = std::exp(-field.d()), lower = std::exp(-field.d()), near2 = 0, far2 = 0;
+      for (int axis = 0; axis < 3; ++axis) {
+        const double to_lo = box.lo[axis] - c[axis], to_hi = box.hi[axis] - c[axis];
+        const double near = (to_lo <= 0 && to_hi >= 0) ? 0.0 : std::min(std::abs(to_lo), std::abs(to_hi));
+        const double far = std::max(std::abs(to_lo), std::abs(to_hi));
+        upper *= std::exp(field.d() * near * near * a.inv_r2);
+        lower *= std::exp(field.d() * far * far * a.inv_r2);
+        near2 += near * near;
+        far2 += far * far;
+      }
+      if (near2 < a.cutoff2) expected.upper += upper;
+      if (far2 < a.cutoff2) expected.lower += lower;
+    }
+    const field_bounds bounds = bound_field_on_box(field, box, atoms);
+    EXPECT_NEAR(bounds.upper, expected.upper, 1e-12 * (1 + expected.upper));
+    EXPECT_NEAR(bounds.lower, expected.lower, 1e-12 * (1 + expected.lower));
+  }
+}
+
 // Property: a block dropped by the culling never holds a sign change, on a lattice 4× finer than the mesher's.
 TEST(band_culling, never_drops_a_block_that_holds_surface) {
   const molecule mol = random_cluster(40, 21, 6);

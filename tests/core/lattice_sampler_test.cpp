@@ -51,10 +51,12 @@ TEST(lattice_sampler, neighbouring_blocks_agree_bitwise_on_shared_faces) {
   for (const lattice_index& block : {lattice_index{-1, -1, -1}, lattice_index{0, -1, 0}, lattice_index{-1, 0, -1}}) {
     const std::vector<double> here = sample(field, lat, block);
     const std::vector<double> right = sample(field, lat, {block.i + 1, block.j, block.k});
+    const std::vector<double> behind = sample(field, lat, {block.i, block.j + 1, block.k});
     const std::vector<double> above = sample(field, lat, {block.i, block.j, block.k + 1});
     for (int a = 0; a < n; ++a) {
       for (int b = 0; b < n; ++b) {
         EXPECT_EQ(here[(b * n + a) * n + (n - 1)], right[(b * n + a) * n + 0]);  // x faces
+        EXPECT_EQ(here[(b * n + (n - 1)) * n + a], behind[(b * n + 0) * n + a]);  // y faces
         EXPECT_EQ(here[((n - 1) * n + b) * n + a], above[(0 * n + b) * n + a]);  // z faces
       }
     }
