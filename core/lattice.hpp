@@ -55,6 +55,12 @@ class lattice {
     return (rel(p.i, origin_.i) << 43) | (rel(p.j, origin_.j) << 23) | (rel(p.k, origin_.k) << 3) |
            static_cast<std::uint64_t>(direction);
   }
+  /// The fields never carry into each other, so keys are linear: edge_key(p + (di, dj, dk), direction) ==
+  /// edge_key(p, 0) + edge_key_offset(di, dj, dk, direction) for non-negative offsets within the precondition.
+  static constexpr std::uint64_t edge_key_offset(int di, int dj, int dk, int direction) {
+    return (static_cast<std::uint64_t>(di) << 43) + (static_cast<std::uint64_t>(dj) << 23) +
+           (static_cast<std::uint64_t>(dk) << 3) + static_cast<std::uint64_t>(direction);
+  }
   /// Inverse of edge_key: the edge's two end points.
   std::array<lattice_index, 2> edge_ends(std::uint64_t key) const {
     constexpr std::uint64_t mask = (1ULL << 20) - 1;
