@@ -1,6 +1,7 @@
 #include "core/gaussian_field.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -247,30 +248,68 @@ template <class Visitor>
 
 namespace {
 
-/// Adds the kernels of atoms [begin, end) at p to `sums`, W atoms at a time. Atoms beyond their cutoff add
-/// nothing. Lane j of `sums` receives atoms begin + j, begin + j + W, …: the order is fixed by the range.
-template <int W, bool with_gradient, bool with_dominant>
-[[gnu::always_inline]] inline void accumulate(const gaussian_field::atom_arrays& atoms, std::uint32_t begin,
-                                              std::uint32_t end, const vec3& p, double d, lane_sums<W>& sums) {
+/// The atoms within their cutoff of one point, gathered before their kernels are summed: only about a third of the
+/// atoms in the visited cell rows are, and rows hold a few atoms each, so summing straight from the rows would
+/// leave most vector lanes empty.
+template <int W>
+struct inside_atoms {
+  static constexpr int capacity = 256;
+  std::array<std::uint32_t, capacity + W> index;  // W spare entries: the screening writes whole vectors
+  int count = 0;
+};
+
+/// Appends to `inside` the atoms of [begin, end) within their cutoff of p, W at a time (branch-free).
+template <int W>
+[[gnu::always_inline]] inline void screen(const gaussian_field::atom_arrays& atoms, std::uint32_t begin,
+                                          std::uint32_t end, const vec3& p, inside_atoms<W>& inside) {
   using F = typename simd::pack<W>::f64;
   using M = typename simd::pack<W>::i64;
   for (std::uint32_t k = begin; k < end; k += W) {
-    F dx, dy, dz, cutoff2, inv_r2;
+    F dx, dy, dz, cutoff2;
     simd::load(dx, atoms.x + k);
     simd::load(dy, atoms.y + k);
     simd::load(dz, atoms.z + k);
     simd::load(cutoff2, atoms.cutoff2 + k);
-    simd::load(inv_r2, atoms.inv_r2 + k);
+    dx = p.x - dx;
+    dy = p.y - dy;
+    dz = p.z - dz;
+    M within = dx * dx + dy * dy + dz * dz < cutoff2;
+    simd::clear_lanes_from(within, k, end);
+    for (int j = 0; j < W; ++j) {
+      inside.index[static_cast<std::size_t>(inside.count)] = k + static_cast<std::uint32_t>(j);
+      inside.count += static_cast<int>(within[j] & 1);
+    }
+  }
+}
+
+/// Adds the kernels of the gathered atoms at p to `sums`, W at a time; lane j receives atoms j, j + W, … of the
+/// list, so the order is fixed by the list.
+template <int W, bool with_gradient, bool with_dominant>
+[[gnu::always_inline]] inline void sum_kernels(const gaussian_field::atom_arrays& atoms,
+                                               const inside_atoms<W>& inside, const vec3& p, double d,
+                                               lane_sums<W>& sums) {
+  using F = typename simd::pack<W>::f64;
+  using M = typename simd::pack<W>::i64;
+  for (int first = 0; first < inside.count; first += W) {
+    F dx, dy, dz, inv_r2;
+    M index;
+    for (int j = 0; j < W; ++j) {
+      const std::uint32_t k = inside.index[static_cast<std::size_t>(std::min(first + j, inside.count - 1))];
+      dx[j] = atoms.x[k];
+      dy[j] = atoms.y[k];
+      dz[j] = atoms.z[k];
+      inv_r2[j] = atoms.inv_r2[k];
+      if constexpr (with_dominant) index[j] = atoms.original_index[k];
+    }
+    M valid = M{} - 1;
+    simd::clear_lanes_from(valid, first, inside.count);
     dx = p.x - dx;
     dy = p.y - dy;
     dz = p.z - dz;
     const F r2 = dx * dx + dy * dy + dz * dz;
-    M inside = r2 < cutoff2;
-    simd::clear_lanes_from(inside, k, end);
-    if (!simd::any_lane(inside)) continue;  // common at the rim of the cutoff sphere: skip the exponentials
     F kernel = d * (r2 * inv_r2 - 1);
     simd::exp_in_place(kernel);
-    simd::keep_lanes(kernel, inside);
+    simd::keep_lanes(kernel, valid);
     sums.value += kernel;
     if constexpr (with_gradient) {
       const F s = 2 * d * inv_r2 * kernel;  // ∂/∂x of exp(d(|x−c|²/r² − 1)) = 2d(x−c)/r² · kernel
@@ -279,9 +318,7 @@ template <int W, bool with_gradient, bool with_dominant>
       sums.gz += s * dz;
     }
     if constexpr (with_dominant) {
-      M index;
-      for (int j = 0; j < W; ++j) index[j] = atoms.original_index[std::min(k + j, end - 1)];
-      const M better = inside & ((kernel > sums.best_kernel) | ((kernel == sums.best_kernel) & (index < sums.best_index)));
+      const M better = valid & ((kernel > sums.best_kernel) | ((kernel == sums.best_kernel) & (index < sums.best_index)));
       sums.best_kernel = reinterpret_cast<F>((reinterpret_cast<M>(kernel) & better) |
                                              (reinterpret_cast<M>(sums.best_kernel) & ~better));
       sums.best_index = (index & better) | (sums.best_index & ~better);
@@ -309,10 +346,21 @@ std::int64_t best_lane_index(const lane_sums<W>& sums) {
 template <int W, bool with_gradient, bool with_dominant>
 [[gnu::always_inline]] inline gaussian_field::point_probe gaussian_field::evaluate(const vec3& p) const {
   lane_sums<W> sums;
+  inside_atoms<W> inside;
   const atom_arrays a = atoms();
   for_each_nearby_range(p, [&](atom_range r) {
-    accumulate<W, with_gradient, with_dominant>(a, r.begin, r.end, p, d_, sums);
+    // Whole ranges keep the screening simple; a range longer than the list's room goes in pieces.
+    for (std::uint32_t begin = r.begin; begin < r.end;) {
+      const std::uint32_t end = std::min<std::uint32_t>(r.end, begin + inside_atoms<W>::capacity / 2);
+      if (inside.count + static_cast<int>(end - begin) > inside_atoms<W>::capacity) {
+        sum_kernels<W, with_gradient, with_dominant>(a, inside, p, d_, sums);
+        inside.count = 0;
+      }
+      screen(a, begin, end, p, inside);
+      begin = end;
+    }
   });
+  sum_kernels<W, with_gradient, with_dominant>(a, inside, p, d_, sums);
   point_probe out{simd::lane_sum(sums.value), {}, 0};
   if constexpr (with_gradient) out.gradient = {simd::lane_sum(sums.gx), simd::lane_sum(sums.gy), simd::lane_sum(sums.gz)};
   if constexpr (with_dominant) {
