@@ -6,6 +6,8 @@
 /// A session reads one request at a time and answers it before reading the next (pipelined requests wait in the
 /// socket, so responses keep request order and at most one request per connection is in flight). Per request:
 /// 1. the header block is read under max_header_bytes (431) and header_timeout (keep-alive idle + slow headers);
+///    malformed framing — conflicting Content-Length values, Transfer-Encoding other than a lone "chunked" or
+///    together with Content-Length — is refused with 400 and the connection closed (request smuggling);
 /// 2. request_handler::plan() decides from the header alone: an immediate reply (errors, 413 from
 ///    Content-Length, 415...) or how to read the body; only then is "100 Continue" sent to an Expect: 100-continue;
 /// 3. an upload body is streamed chunk by chunk into the multipart parser (never buffered whole; chunked bodies
@@ -15,6 +17,8 @@
 ///    back to the session's strand, so no I/O thread ever waits for a job;
 /// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection.
 /// Connections over max_connections get 503 and are closed. CORS headers are added to every response.
+/// The session itself lives in detail/http_session.hpp, a template over its stream (the request fuzzer runs it
+/// over a Beast test stream).
 
 #include <atomic>
 #include <cstdint>
