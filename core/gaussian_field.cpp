@@ -22,9 +22,11 @@ double tail_bound(double d, double max_radius, double u) {
          gaussian_moment_tail(a, u);
 }
 
-/// Cell edge = largest cutoff / cell_reach. A query visits the cell rows within the cutoff sphere, trimmed to it:
-/// smaller cells check fewer atoms that turn out to be beyond their cutoff, but visit more rows.
-constexpr int cell_reach = 3;
+/// Cells are largest cutoff / row_reach wide in x and y and largest cutoff / z_reach high. A query visits the cell
+/// rows (x, y) that its cutoff sphere reaches, each trimmed in z to the sphere: wide rows are few (at most 9 here),
+/// and short cells trim them closely. Measured on mache against cubes of a third of the cutoff: 30% faster.
+constexpr int row_reach = 1;
+constexpr int z_reach = 8;
 /// The dense cell table is used while the atoms' bounding box holds at most this many cells per atom plus
 /// dense_cells_floor (4 bytes each: memory stays O(atoms)); sparser inputs use hashed rows.
 constexpr double dense_cells_per_atom = 4;
@@ -87,8 +89,10 @@ gaussian_field::gaussian_field(const molecule& mol, double d, double t0) : d_(d)
   const double u = cutoff_factor(d, t0, max_radius_);
   cutoff_error_bound_ = tail_bound(d, max_radius_, u);
   max_cutoff_ = u * max_radius_;
-  cell_size_ = max_cutoff_ / cell_reach;
-  inverse_cell_size_ = 1 / cell_size_;
+  for (int axis = 0; axis < 3; ++axis) {
+    cell_size_[axis] = max_cutoff_ / (axis == 2 ? z_reach : row_reach);
+    inverse_cell_size_[axis] = 1 / cell_size_[axis];
+  }
 
   atom_bounds_.lo = atom_bounds_.hi = mol.atoms[contributing.front()].center;
   for (const std::uint32_t i : contributing) {
@@ -105,12 +109,12 @@ void gaussian_field::sort_atoms(const molecule& mol, const std::vector<std::uint
   std::vector<std::int64_t> cells(3 * contributing.size());
   for (std::size_t n = 0; n < contributing.size(); ++n) {
     const vec3& c = mol.atoms[contributing[n]].center;
-    for (int axis = 0; axis < 3; ++axis) cells[3 * n + axis] = cell_of(c[axis]);
+    for (int axis = 0; axis < 3; ++axis) cells[3 * n + axis] = cell_of(c[axis], axis);
   }
   double cell_total = 1;
   for (int axis = 0; axis < 3; ++axis) {
-    cell_lo_[axis] = cell_of(atom_bounds_.lo[axis]);
-    cell_count_[axis] = cell_of(atom_bounds_.hi[axis]) - cell_lo_[axis] + 1;
+    cell_lo_[axis] = cell_of(atom_bounds_.lo[axis], axis);
+    cell_count_[axis] = cell_of(atom_bounds_.hi[axis], axis) - cell_lo_[axis] + 1;
     cell_total *= static_cast<double>(cell_count_[axis]);
   }
   dense_ = cell_total <= dense_cells_per_atom * static_cast<double>(contributing.size()) + dense_cells_floor;
@@ -185,8 +189,8 @@ void gaussian_field::store_atoms(const molecule& mol, const std::vector<std::uin
   }
 }
 
-std::int64_t gaussian_field::cell_of(double coordinate) const {
-  return static_cast<std::int64_t>(std::floor(coordinate * inverse_cell_size_));
+std::int64_t gaussian_field::cell_of(double coordinate, int axis) const {
+  return static_cast<std::int64_t>(std::floor(coordinate * inverse_cell_size_[axis]));
 }
 
 std::uint64_t gaussian_field::row_key(std::int64_t cx, std::int64_t cy) {
@@ -223,9 +227,9 @@ template <class Visitor>
 [[gnu::always_inline]] inline void gaussian_field::for_each_nearby_range(const vec3& p, Visitor&& visit) const {
   const double reach = max_cutoff_ * (1 + selection_slack) + selection_slack * (std::abs(p.x) + std::abs(p.y) + std::abs(p.z));
   const double reach2 = reach * reach;
-  const double c = cell_size_;
-  std::int64_t x0 = cell_of(p.x - reach), x1 = cell_of(p.x + reach);
-  std::int64_t y0 = cell_of(p.y - reach), y1 = cell_of(p.y + reach);
+  const double c = cell_size_[0];  // = cell_size_[1]
+  std::int64_t x0 = cell_of(p.x - reach, 0), x1 = cell_of(p.x + reach, 0);
+  std::int64_t y0 = cell_of(p.y - reach, 1), y1 = cell_of(p.y + reach, 1);
   if (dense_) {  // rows outside the table hold nothing
     x0 = std::max(x0, cell_lo_[0]);
     x1 = std::min(x1, cell_lo_[0] + cell_count_[0] - 1);
@@ -240,7 +244,7 @@ template <class Visitor>
       const double left = reach2 - gap_x * gap_x - gap_y * gap_y;
       if (left <= 0) continue;
       const double half_height = std::sqrt(left);
-      const atom_range range = row_atoms(cx, cy, cell_of(p.z - half_height), cell_of(p.z + half_height));
+      const atom_range range = row_atoms(cx, cy, cell_of(p.z - half_height, 2), cell_of(p.z + half_height, 2));
       if (range.begin < range.end) visit(range);
     }
   }
@@ -456,8 +460,8 @@ void gaussian_field::atoms_near_box(const box3& box, std::vector<std::uint32_t>&
   const double reach = max_cutoff_ * (1 + selection_slack);
   std::int64_t lo[3], hi[3];
   for (int axis = 0; axis < 3; ++axis) {
-    lo[axis] = cell_of(box.lo[axis] - reach);
-    hi[axis] = cell_of(box.hi[axis] + reach);
+    lo[axis] = cell_of(box.lo[axis] - reach, axis);
+    hi[axis] = cell_of(box.hi[axis] + reach, axis);
     if (dense_) {  // cells outside the table hold nothing
       lo[axis] = std::max(lo[axis], cell_lo_[axis]);
       hi[axis] = std::min(hi[axis], cell_lo_[axis] + cell_count_[axis] - 1);

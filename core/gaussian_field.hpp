@@ -182,9 +182,9 @@ struct box3 {
 
 class gaussian_field {
  public:
-  /// Builds the neighbour structure: atoms sorted into cubic cells of a third of the largest cutoff, indexed by a
-  /// dense cell table when the atoms' bounding box holds few enough cells (memory O(atoms)), by hashed cell rows
-  /// otherwise (two atoms 10⁵ Å apart cost nothing).
+  /// Builds the neighbour structure: atoms sorted into cells (rows as wide as the largest cutoff, cut in z every
+  /// eighth of it), indexed by a dense cell table when the atoms' bounding box holds few enough cells (memory
+  /// O(atoms)), by hashed cell rows otherwise (two atoms 10⁵ Å apart cost nothing).
   /// Preconditions: d < 0, t0 > 0, radii ≥ 0 and finite coordinates (validated by the reader and validate()).
   gaussian_field(const molecule& mol, double d, double t0);
 
@@ -268,7 +268,7 @@ class gaussian_field {
   void store_atoms(const molecule& mol, const std::vector<std::uint32_t>& contributing,
                    const std::vector<std::uint32_t>& order, double u);
 
-  std::int64_t cell_of(double coordinate) const;
+  std::int64_t cell_of(double coordinate, int axis) const;
   static std::uint64_t row_key(std::int64_t cx, std::int64_t cy);
   /// Atoms of the cells cz ∈ [z0, z1] of row (cx, cy).
   atom_range row_atoms(std::int64_t cx, std::int64_t cy, std::int64_t z0, std::int64_t z1) const;
@@ -286,8 +286,8 @@ class gaussian_field {
   double cutoff_error_bound_ = 0;
   double max_radius_ = 0;
   double max_cutoff_ = 0;
-  double cell_size_ = 1;
-  double inverse_cell_size_ = 1;  ///< cell_of multiplies: cheaper than dividing, and atoms and queries agree
+  double cell_size_[3] = {1, 1, 1};          ///< per axis, Å (x and y equal)
+  double inverse_cell_size_[3] = {1, 1, 1};  ///< cell_of multiplies: cheaper than dividing, and atoms and queries agree
   box3 atom_bounds_{};
 
   // Atoms sorted by (cell x, cell y, cell z, original index), structure of arrays, padded (see atom_arrays).
