@@ -1,8 +1,11 @@
 #pragma once
 /// @file edge_root.hpp
 /// Surface points on lattice edges (paper §3 finds them on x-parallel lines; here every cut edge of the
-/// tetrahedral lattice gets one): the root of φ = t0 between an inside and an outside end point, by Newton's method
-/// on the exact (cut-off) field along the edge, safeguarded by bisection.
+/// tetrahedral lattice gets one): the root of φ = t0 between an inside and an outside end point, on the exact
+/// (cut-off) field along the edge. The first guess interpolates ln φ through three lattice values on the edge's line;
+/// each step solves the quadratic Taylor model of ln(φ/t0) (third order: about 2.4 field evaluations per root), kept
+/// inside the bracket and safeguarded by bisection. Roots are exact to ~1e-15 of the edge; where φ crosses t0 more
+/// than once on an edge, the root is one of the crossings.
 
 #include <cstdint>
 #include <span>

@@ -1,7 +1,8 @@
 #pragma once
 /// @file lattice_sampler.hpp
 /// φ at the lattice points of one block, from the separable kernel (paper §1: exp(d|x−c|²/r²) is a product of
-/// three 1-D factors), so each atom costs 3·(n+1) exponentials instead of (n+1)³.
+/// three 1-D factors), so each atom costs 3·(n+1) exponentials instead of (n+1)³. Factors and lattice rows are
+/// computed several lanes at a time (simd::dispatch); every point gets the same roundings in every lane and block.
 
 #include <span>
 #include <vector>
