@@ -235,7 +235,7 @@ std::string job_document(const job_snapshot& job) {
                      ? nlohmann::json(nullptr)
                      : nlohmann::json{{"code", job.error_code}, {"message", job.error.message()}};
   doc["links"] = job_links(job.id, job.format);
-  std::string text = doc.dump();
+  std::string text = doc.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);  // never throws
   text.pop_back();  // the closing brace
   text += ",\"report\":";
   text += job.report ? *job.report : std::string("null");

@@ -17,7 +17,11 @@ using tcp = net::ip::tcp;
 using tcp_session = detail::http_session<beast::tcp_stream>;
 
 reply error_reply(unsigned status, std::string_view code, std::string_view message, std::string route) {
-  return json_reply(status, proto::error_body(code, message).dump(), std::move(route));
+  // Messages may quote client bytes (a parameter name, a PQR field): invalid UTF-8 is replaced (U+FFFD), never
+  // thrown — an exception here would escape an I/O handler and end the process.
+  const std::string body =
+      proto::error_body(code, message).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  return json_reply(status, body, std::move(route));
 }
 
 reply json_reply(unsigned status, std::string body, std::string route) {

@@ -187,6 +187,13 @@ TEST_F(ServiceTest, BadRequestsGetTheRightStatusAndTheServerKeepsServing) {
   expect_error(post("/mesh", gly_, {{"format", "obj"}}), 400, "invalid_argument");
   expect_error(post("/mesh", gly_, {{"colour", "red"}}), 400, "invalid_argument");
   expect_error(post("/mesh?probe=1.4", gly_), 400, "invalid_argument");
+  // Client bytes quoted in a message may be invalid UTF-8: replaced in the JSON, never a crash (a fuzz find).
+  const http_reply invalid_utf8 = post("/mesh?form\xff" "at=draco", gly_);
+  expect_error(invalid_utf8, 400, "invalid_argument");
+  EXPECT_NE(invalid_utf8.body.find("form\xEF\xBF\xBD" "at"), std::string::npos) << invalid_utf8.body;
+  expect_error(post("/mesh", gly_, {{"\xc3\x28", "1"}}), 400, "invalid_argument");
+  expect_error(post("/mesh", gly_, {{"density", "1\xff"}}), 400, "invalid_argument");
+  expect_error(post("/mesh", "ATOM 1 N GLY 1 \xfe\xff 0 0 0 1.5\n"), 400, "invalid_input");
   expect_error(post("/mesh", gly_, {{"pqr", "twice"}}), 400, "invalid_input");
   expect_error(round_trip(port_, "POST /mesh HTTP/1.1\r\nHost: t\r\nContent-Type: multipart/form-data; boundary=b\r\n"
                                "Content-Length: 47\r\n\r\n--b\r\nContent-Disposition: form-data; name=\"d\"\r\n\r\n"),
