@@ -14,6 +14,9 @@
 ///    of an edge) and the iteration is redone, with a growing radius, or skipped;
 /// 2. should a round still end unclean, it restarts from the input with the input vertices near the offending
 ///    triangles frozen, until clean (at worst everything is frozen and the input is returned).
+/// Level 1 is optional (remesh_options::check_every_stage, off by default): level 2 alone checks once per round.
+/// Large meshes are cut into chunks remeshed in parallel as patches with a fixed boundary, each checked against the
+/// triangles around it, so that a failure redoes one patch, not the mesh (remesh_chunks.hpp).
 /// Deterministic: the same input gives the same output whatever the number of threads.
 
 #include <cstddef>
@@ -49,7 +52,14 @@ struct remesh_options {
   /// When true and mesh.normals holds one unit normal per vertex, they are taken as the field normals −∇φ/|∇φ| of
   /// the input vertices instead of evaluating the field there (the mesher's root finder may already know them).
   bool trust_input_normals = false;
-  int max_rounds = 6;  ///< rounds (see level 2 above) before giving up and returning the input unchanged
+  int max_rounds = 6;  ///< rounds (see level 2 above) before giving up and returning the input (patch) unchanged
+  /// Level 1 above on every stage (true), or only on the final relaxation, a failure redoing the patch's round
+  /// (false: one check per round instead of one per stage; patches are small, so a redo is cheap).
+  bool check_every_stage = false;
+  /// Edge of the chunks the mesh is cut into, in units of L (see remesh_chunks.hpp); at least 16.
+  double chunk_edges = 48;
+  /// Meshes with fewer triangles are remeshed as one patch (no chunks).
+  std::size_t single_patch_triangles = 100'000;
   std::size_t max_triangles = mesh_limits{}.max_triangles;  ///< errc::limit_exceeded when the output would exceed it
 };
 
@@ -62,8 +72,10 @@ struct remesh_stats {
   std::size_t rejected_ops = 0;     ///< candidate operations refused by a local safety check
   std::size_t frozen_vertices = 0;  ///< output vertices left frozen (or input vertices, when the input is returned)
   std::size_t retried_stages = 0;   ///< stages redone with a frozen region after a failed check (all rounds)
-  int rounds = 0;                   ///< rounds run (1 unless a round ended unclean)
-  bool input_returned = false;      ///< true when no round gave a clean result and the input was kept
+  int rounds = 0;                   ///< most rounds run in one patch (1 unless a round ended unclean)
+  bool input_returned = false;      ///< true when no patch gave a clean result and the input was kept
+  std::size_t patches = 0;            ///< patches remeshed (1 for a mesh remeshed whole)
+  std::size_t unchanged_patches = 0;  ///< patches whose rounds all failed, left as they were
 };
 
 /// Improves `mesh` in place.
@@ -77,7 +89,10 @@ struct remesh_stats {
 /// @param progress polled between sweeps and every few thousand operations (stage mesh_stage::refining).
 /// @return the statistics, or: errc::invalid_argument (options out of range, or a mesh that is not a closed
 ///         oriented manifold), errc::limit_exceeded (output over options.max_triangles), errc::cancelled. On
-///         error the mesh is left unchanged.
+///         errc::invalid_argument, and on any error of a mesh remeshed whole, its positions and triangles are left
+///         unchanged (mesh.normals may hold the field normals); a chunked mesh stopped part-way (cancelled, too
+///         many triangles) is left valid but partly remeshed (not copying a mesh of millions of triangles is worth
+///         more than restoring it).
 result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& field, const remesh_options& options,
                                     progress_token& progress);
 

@@ -27,7 +27,7 @@ outgoing_rows group_by_start(const std::vector<std::uint32_t>& corner, std::size
 }  // namespace
 
 result<remesh_mesh> remesh_mesh::build(std::vector<vec3> positions, std::vector<vec3> normals,
-                                       const triangle_list& triangles) {
+                                       const triangle_list& triangles, bool allow_boundary) {
   const std::size_t vertex_count = positions.size();
   if (normals.size() != vertex_count) return invalid_mesh("has one normal per vertex missing");
   if (vertex_count >= no_index || triangles.size() >= no_index / 3) return invalid_mesh("is too large");
@@ -52,20 +52,39 @@ result<remesh_mesh> remesh_mesh::build(std::vector<vec3> positions, std::vector<
     for (std::uint32_t k = rows.begin[b]; k < rows.begin[b + 1]; ++k) {
       if (mesh.to(rows.halfedges[k]) == a) mesh.opposite_[h] = rows.halfedges[k];
     }
-    if (mesh.opposite_[h] == no_index) return invalid_mesh("is not closed (boundary edge)");
+    if (mesh.opposite_[h] == no_index && !allow_boundary) return invalid_mesh("is not closed (boundary edge)");
   }
 
+  // An open fan starts at its half-edge without opposite (nothing rotates onto it); a closed one anywhere.
   mesh.outgoing_.resize(vertex_count);
+  std::vector<std::uint8_t> boundary(vertex_count, 0);
   for (std::uint32_t v = 0; v < vertex_count; ++v) {
     const std::uint32_t fan_size = rows.begin[v + 1] - rows.begin[v];
     if (fan_size == 0) return invalid_mesh("has an unreferenced vertex");
     mesh.outgoing_[v] = rows.halfedges[rows.begin[v]];
-    if (mesh.valence(v) != fan_size) return invalid_mesh("has a non-manifold vertex (its faces form several fans)");
+    int fan_starts = 0;
+    for (std::uint32_t k = rows.begin[v]; k < rows.begin[v + 1]; ++k) {
+      const std::uint32_t h = rows.halfedges[k];
+      if (mesh.opposite_[h] != no_index) continue;
+      mesh.outgoing_[v] = h;
+      ++fan_starts;
+    }
+    boundary[v] = fan_starts > 0;
+    // A patch may cut a vertex's fan into several open ones; such a vertex is frozen and never navigated around.
+    if (fan_starts > 1 && allow_boundary) continue;
+    if (fan_starts > 1 || mesh.fan_faces(v) != fan_size) {
+      return invalid_mesh("has a non-manifold vertex (its faces form several fans)");
+    }
   }
   mesh.position_ = std::move(positions);
   mesh.normal_ = std::move(normals);
   mesh.protection_.assign(vertex_count, vertex_protection::free);
+  for (std::uint32_t v = 0; v < vertex_count; ++v) {
+    if (boundary[v]) mesh.protection_[v] = vertex_protection::frozen;
+  }
   mesh.placed_.assign(vertex_count, 0);
+  mesh.origin_.resize(vertex_count);
+  for (std::uint32_t v = 0; v < vertex_count; ++v) mesh.origin_[v] = v;
   mesh.vertex_removed_.assign(vertex_count, 0);
   mesh.face_removed_.assign(triangles.size(), 0);
   mesh.live_faces_ = triangles.size();
@@ -73,25 +92,32 @@ result<remesh_mesh> remesh_mesh::build(std::vector<vec3> positions, std::vector<
   return mesh;
 }
 
-std::size_t remesh_mesh::valence(std::uint32_t v) const {
+std::size_t remesh_mesh::fan_faces(std::uint32_t v) const {
   std::size_t count = 0;
   const std::uint32_t start = outgoing_[v];
   std::uint32_t h = start;
   do {
     ++count;
     h = rotate(h);
-  } while (h != start && count <= corner_.size());
+  } while (h != start && h != no_index && count <= corner_.size());
   return count;
+}
+
+std::size_t remesh_mesh::valence(std::uint32_t v) const {
+  // An open fan of k faces has k + 1 neighbours.
+  return fan_faces(v) + (on_boundary(v) ? 1 : 0);
 }
 
 void remesh_mesh::one_ring(std::uint32_t v, std::vector<std::uint32_t>& out) const {
   out.clear();
   const std::uint32_t start = outgoing_[v];
-  std::uint32_t h = start;
+  std::uint32_t h = start, last = start;
   do {
     out.push_back(to(h));
+    last = h;
     h = rotate(h);
-  } while (h != start);
+  } while (h != start && h != no_index);
+  if (h == no_index) out.push_back(apex(last));  // the far end of an open fan
 }
 
 std::uint32_t remesh_mesh::find_halfedge(std::uint32_t a, std::uint32_t b) const {
@@ -100,7 +126,7 @@ std::uint32_t remesh_mesh::find_halfedge(std::uint32_t a, std::uint32_t b) const
   do {
     if (to(h) == b) return h;
     h = rotate(h);
-  } while (h != start);
+  } while (h != start && h != no_index);
   return no_index;
 }
 
@@ -118,6 +144,7 @@ std::uint32_t remesh_mesh::add_vertex(const vec3& position, const vec3& normal) 
   outgoing_.push_back(no_index);
   protection_.push_back(vertex_protection::free);
   placed_.push_back(1);
+  origin_.push_back(no_index);
   vertex_removed_.push_back(0);
   ++live_vertices_;
   return vertex_slots() - 1;
@@ -217,6 +244,7 @@ std::vector<std::uint32_t> remesh_mesh::compact() {
     outgoing_[kept_vertices] = outgoing_[v];
     protection_[kept_vertices] = protection_[v];
     placed_[kept_vertices] = placed_[v];
+    origin_[kept_vertices] = origin_[v];
     ++kept_vertices;
   }
   std::vector<std::uint32_t> face_map(face_slots(), no_index);
@@ -224,7 +252,9 @@ std::vector<std::uint32_t> remesh_mesh::compact() {
   for (std::uint32_t f = 0; f < face_slots(); ++f) {
     if (!face_removed(f)) face_map[f] = kept_faces++;
   }
-  const auto map_halfedge = [&](std::uint32_t h) { return 3 * face_map[face_of(h)] + h % 3; };
+  const auto map_halfedge = [&](std::uint32_t h) {
+    return h == no_index ? no_index : 3 * face_map[face_of(h)] + h % 3;
+  };
   for (std::uint32_t f = 0; f < face_slots(); ++f) {
     if (face_removed(f)) continue;
     for (std::uint32_t i = 0; i < 3; ++i) {
@@ -240,6 +270,7 @@ std::vector<std::uint32_t> remesh_mesh::compact() {
   outgoing_.resize(kept_vertices);
   protection_.resize(kept_vertices);
   placed_.resize(kept_vertices);
+  origin_.resize(kept_vertices);
   vertex_removed_.assign(kept_vertices, 0);
   corner_.resize(3 * std::size_t{kept_faces});
   opposite_.resize(3 * std::size_t{kept_faces});

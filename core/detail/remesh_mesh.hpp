@@ -6,6 +6,10 @@
 /// Half-edge h = 3·f + i of face f runs from the face's corner i to corner (i + 1) mod 3; faces are counter-
 /// clockwise seen from outside. Removed faces and vertices stay in the arrays (flagged) until compact().
 /// Callers check an edit's preconditions (link condition, valences, see each edit); the edits do not.
+///
+/// A patch (a piece of a closed mesh, see remesh_chunks.hpp) may be built with boundary edges: their half-edges
+/// have no opposite, and their vertices are frozen (remesh.hpp): no edit ever touches them, so their fans never
+/// change. Navigation handles their open fans; edits must never be asked to touch them.
 
 #include <array>
 #include <cstdint>
@@ -33,8 +37,10 @@ class remesh_mesh {
   /// Builds the corner table of `triangles` over `positions`; `normals` (one per vertex) travel with the vertices.
   /// errc::invalid_argument when an index is out of range, a face repeats a vertex, a vertex is unreferenced, or
   /// the mesh is not closed, edge- and vertex-manifold and consistently oriented.
+  /// With `allow_boundary`, boundary edges are accepted (each boundary vertex on one fan) and their vertices are
+  /// made frozen. Every vertex's origin() is its index here.
   static result<remesh_mesh> build(std::vector<vec3> positions, std::vector<vec3> normals,
-                                   const triangle_list& triangles);
+                                   const triangle_list& triangles, bool allow_boundary = false);
 
   // --- sizes (including removed slots) ---------------------------------------------------------------------
   std::uint32_t vertex_slots() const { return static_cast<std::uint32_t>(position_.size()); }
@@ -52,10 +58,13 @@ class remesh_mesh {
   /// The vertex of h's face that is not on h.
   std::uint32_t apex(std::uint32_t h) const { return corner_[prev(h)]; }
   std::uint32_t opposite(std::uint32_t h) const { return opposite_[h]; }
-  /// One half-edge leaving v.
+  /// One half-edge leaving v; for a boundary vertex, the first of its open fan (the one without an opposite).
   std::uint32_t outgoing(std::uint32_t v) const { return outgoing_[v]; }
-  /// The next half-edge leaving from(h), turning around from(h) (visits every face of its fan once).
+  /// The next half-edge leaving from(h), turning around from(h) (visits every face of its fan once); no_index past
+  /// the last face of an open fan.
   std::uint32_t rotate(std::uint32_t h) const { return opposite_[prev(h)]; }
+  /// Whether v lies on a boundary edge (only in patches; such vertices are frozen).
+  bool on_boundary(std::uint32_t v) const { return opposite_[outgoing_[v]] == no_index; }
 
   bool face_removed(std::uint32_t f) const { return face_removed_[f] != 0; }
   bool vertex_removed(std::uint32_t v) const { return vertex_removed_[v] != 0; }
@@ -63,10 +72,13 @@ class remesh_mesh {
     return {corner_[3 * f], corner_[3 * f + 1], corner_[3 * f + 2]};
   }
 
+  /// Neighbours of v.
   std::size_t valence(std::uint32_t v) const;
+  /// Faces around v.
+  std::size_t fan_faces(std::uint32_t v) const;
   /// The neighbours of v in fan order (appends to a cleared `out`).
   void one_ring(std::uint32_t v, std::vector<std::uint32_t>& out) const;
-  /// The half-edge from a to b, or no_index when a and b are not adjacent.
+  /// The half-edge from a to b, or no_index when there is none (a and b not adjacent, or b→a a boundary edge).
   std::uint32_t find_halfedge(std::uint32_t a, std::uint32_t b) const;
 
   // --- per-vertex attributes ----------------------------------------------------------------------------------
@@ -82,6 +94,8 @@ class remesh_mesh {
   /// New vertices are free.
   vertex_protection protection(std::uint32_t v) const { return protection_[v]; }
   void set_protection(std::uint32_t v, vertex_protection p) { protection_[v] = p; }
+  /// The index v had when the mesh was built, or no_index for a vertex an edit created (kept through compact()).
+  std::uint32_t origin(std::uint32_t v) const { return origin_[v]; }
 
   // --- edits --------------------------------------------------------------------------------------------------
   /// Splits the edge of h with a new vertex (returned) at `position`; the two faces of the edge become four.
@@ -118,6 +132,7 @@ class remesh_mesh {
   std::vector<std::uint32_t> outgoing_;
   std::vector<vertex_protection> protection_;
   std::vector<std::uint8_t> placed_;
+  std::vector<std::uint32_t> origin_;
   std::vector<std::uint8_t> vertex_removed_;
   std::vector<std::uint32_t> corner_;    ///< vertex at each corner (= from() of the half-edge with that index)
   std::vector<std::uint32_t> opposite_;  ///< twin half-edge

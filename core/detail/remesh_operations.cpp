@@ -35,6 +35,12 @@ remesh_operations::remesh_operations(remesh_mesh& mesh, const gaussian_field& fi
                                      const remesh_thresholds& thresholds, const progress_token& progress)
     : mesh_(mesh), field_(field), thresholds_(thresholds), progress_(progress) {}
 
+bool remesh_operations::visits_edge(std::uint32_t h) const {
+  // Boundary half-edges (patches only) have no opposite: their edge is never edited.
+  const std::uint32_t o = mesh_.opposite(h);
+  return !mesh_.face_removed(remesh_mesh::face_of(h)) && o != no_index && o > h;
+}
+
 bool remesh_operations::stop_requested(std::size_t step) const {
   return step % poll_interval == 0 && progress_.cancelled();
 }
@@ -102,7 +108,7 @@ bool remesh_operations::split_long_edges() {
     // New half-edges are appended and visited in the same sweep.
     for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
       if (stop_requested(h)) return false;
-      if (mesh_.face_removed(remesh_mesh::face_of(h)) || mesh_.opposite(h) < h) continue;
+      if (!visits_edge(h)) continue;
       if (squared_norm(mesh_.position(mesh_.to(h)) - mesh_.position(mesh_.from(h))) <= limit2) continue;
       if (!try_split(h)) ++counts_.rejected;
     }
@@ -147,7 +153,7 @@ bool remesh_operations::collapse_short_edges(double shorter_than) {
     const std::size_t before = counts_.collapses;
     for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
       if (stop_requested(h)) return false;
-      if (mesh_.face_removed(remesh_mesh::face_of(h)) || mesh_.opposite(h) < h) continue;
+      if (!visits_edge(h)) continue;
       const std::uint32_t a = mesh_.from(h), b = mesh_.to(h);
       if (squared_norm(mesh_.position(b) - mesh_.position(a)) >= limit2) continue;
       if (mesh_.protection(a) != vertex_protection::free || mesh_.protection(b) != vertex_protection::free) continue;
@@ -244,7 +250,7 @@ bool remesh_operations::flip_edges_for_valence() {
   }
   for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
     if (stop_requested(h)) return false;
-    if (mesh_.face_removed(remesh_mesh::face_of(h)) || mesh_.opposite(h) < h) continue;
+    if (!visits_edge(h)) continue;
     try_flip(h, valences);
   }
   return true;

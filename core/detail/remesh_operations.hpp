@@ -90,6 +90,8 @@ class remesh_operations {
   /// flip against old.normal.
   bool acceptable(const oriented_triangle& t, const replaced_triangle& old, bool small_change = false) const;
   bool stop_requested(std::size_t step) const;
+  /// Whether a sweep handles the edge of h at h: a live interior edge, visited once (at its larger half-edge).
+  bool visits_edge(std::uint32_t h) const;
   /// A free vertex's relaxed position, or false when it should stay.
   bool relaxed_position(std::uint32_t v, vec3& position, vec3& normal) const;
 

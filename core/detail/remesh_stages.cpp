@@ -40,8 +40,10 @@ void add_counts(operation_counts& total, const operation_counts& c) {
 }  // namespace
 
 verified_stages::verified_stages(const gaussian_field& field, const remesh_thresholds& thresholds,
-                                 const stage_limits& limits, progress_token& progress)
-    : field_(field), thresholds_(thresholds), limits_(limits), progress_(progress) {}
+                                 const stage_limits& limits, progress_token& progress, offending_finder finder)
+    : field_(field), thresholds_(thresholds), limits_(limits), progress_(progress), finder_(std::move(finder)) {
+  if (!finder_) finder_ = [](const remesh_mesh&, const surface_mesh& view) { return find_offending_triangles(view); };
+}
 
 result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage, bool settle) {
   for (int attempt = 0;; ++attempt) {
@@ -52,9 +54,14 @@ result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage,
     if (trial.live_face_count() > limits_.max_triangles) {
       return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
     }
+    if (!settle && !limits_.check_every_stage) {
+      state = std::move(trial);
+      add_counts(counts_, ops.counts());
+      return true;
+    }
     const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
     failure_.mesh = certificate_view(trial);
-    failure_.offending = find_offending_triangles(failure_.mesh);
+    failure_.offending = finder_(trial, failure_.mesh);
     add_triangles_at(failure_.mesh.triangles, unsettled, failure_.offending);
     if (failure_.offending.empty()) {
       state = std::move(trial);
@@ -139,12 +146,16 @@ std::size_t freeze_near(const std::vector<vec3>& points, const std::vector<vec3>
 }
 
 void protect(remesh_mesh& mesh, const std::vector<std::uint8_t>& frozen) {
-  std::vector<std::uint32_t> ring;
+  // Through the faces rather than the 1-rings: a frozen patch-boundary vertex may have several open fans.
   for (std::uint32_t v = 0; v < frozen.size(); ++v) {
-    if (!frozen[v]) continue;
-    mesh.set_protection(v, vertex_protection::frozen);
-    mesh.one_ring(v, ring);
-    for (const std::uint32_t x : ring) {
+    if (frozen[v]) mesh.set_protection(v, vertex_protection::frozen);
+  }
+  for (std::uint32_t f = 0; f < mesh.face_slots(); ++f) {
+    if (mesh.face_removed(f)) continue;
+    const auto t = mesh.face(f);
+    const bool touches_frozen = frozen[t[0]] || frozen[t[1]] || frozen[t[2]];
+    if (!touches_frozen) continue;
+    for (const std::uint32_t x : t) {
       if (!frozen[x]) mesh.set_protection(x, vertex_protection::locked);
     }
   }

@@ -33,12 +33,19 @@ struct stage_limits {
   std::size_t max_triangles = 0;  ///< errc::limit_exceeded beyond
   double freeze_radius = 0;       ///< Å, first try; doubles with every further try
   int max_retries = 4;            ///< tries after the first before the stage is skipped
+  /// When false, only settling stages are checked (the others are kept unchecked): cheaper, and enough where a
+  /// failed check redoes a whole small patch (remesh_patch.hpp).
+  bool check_every_stage = true;
 };
+
+/// The triangles of `view` (the compacted `mesh`) that would fail the certificate; find_offending_triangles by
+/// default, or that plus the pairs with the fixed triangles around a patch.
+using offending_finder = std::function<std::vector<std::uint32_t>(const remesh_mesh& mesh, const surface_mesh& view)>;
 
 class verified_stages {
  public:
   verified_stages(const gaussian_field& field, const remesh_thresholds& thresholds, const stage_limits& limits,
-                  progress_token& progress);
+                  progress_token& progress, offending_finder finder = {});
 
   /// Runs `stage` (then, when `settle`, settle_vertices()) on copies of `state` until one passes the certificate's
   /// tests (degenerate triangles, exact self-intersection, unsettled vertices), freezing the vertices of `state`
@@ -57,6 +64,7 @@ class verified_stages {
   remesh_thresholds thresholds_;
   stage_limits limits_;
   progress_token& progress_;
+  offending_finder finder_;
   operation_counts counts_;
   std::size_t retried_ = 0;
   check_failure failure_;
