@@ -17,6 +17,7 @@
 #include "core/detail/remesh_intersections.hpp"
 #include "core/detail/remesh_mesh.hpp"
 #include "core/detail/remesh_operations.hpp"
+#include "core/detail/remesh_patch.hpp"
 #include "core/detail/remesh_stages.hpp"
 #include "core/mesh_analysis.hpp"
 #include "support/analysis_meshes.hpp"
@@ -273,6 +274,34 @@ TEST(RemeshMesh, RejectsInvalidMeshes) {
   }
   for (const auto& t : second.triangles) pinched.triangles.push_back({renumber(t[0]), renumber(t[1]), renumber(t[2])});
   EXPECT_EQ(corner_table(pinched).error().code(), errc::invalid_argument);
+}
+
+TEST(RemeshMesh, BuildsAnOpenPatchWithItsBoundaryFrozen) {
+  // The octahedron's upper half: apex 4 inside, the equator 0–2–1–3 a boundary loop.
+  surface_mesh half = octahedron();
+  half.triangles.resize(4);
+  half.positions.pop_back();  // vertex 5 is no longer used
+  EXPECT_EQ(corner_table(half).error().code(), errc::invalid_argument);  // closed meshes only by default
+  auto patch = detail::remesh_mesh::build(half.positions, std::vector<vec3>(5), half.triangles, true);
+  ASSERT_TRUE(patch.ok()) << patch.error().message();
+  EXPECT_EQ(patch->protection(4), detail::vertex_protection::free);
+  EXPECT_FALSE(patch->on_boundary(4));
+  EXPECT_EQ(patch->valence(4), 4U);
+  for (std::uint32_t v = 0; v < 4; ++v) {
+    EXPECT_EQ(patch->protection(v), detail::vertex_protection::frozen) << v;
+    EXPECT_TRUE(patch->on_boundary(v));
+    EXPECT_EQ(patch->valence(v), 3U);  // two equator neighbours and the apex
+    EXPECT_EQ(patch->fan_faces(v), 2U);
+    std::vector<std::uint32_t> ring;
+    patch->one_ring(v, ring);
+    std::sort(ring.begin(), ring.end());
+    EXPECT_EQ(ring.size(), 3U);
+    EXPECT_TRUE(std::binary_search(ring.begin(), ring.end(), 4U));
+    EXPECT_EQ(patch->origin(v), v);
+  }
+  // The equator edge 0→2 has its face; 2→0 would be outside the patch.
+  EXPECT_NE(patch->find_halfedge(0, 2), detail::no_index);
+  EXPECT_EQ(patch->find_halfedge(2, 0), detail::no_index);
 }
 
 TEST(RemeshMesh, EditsKeepTheCornerTableConsistent) {
@@ -581,6 +610,85 @@ TEST(RemeshSurface, IsDeterministicWhateverTheThreadCount) {
   EXPECT_EQ(one.mesh.atom_index, two.mesh.atom_index);
   EXPECT_EQ(two.mesh.positions, again.mesh.positions);
   EXPECT_EQ(one.stats.relaxations, two.stats.relaxations);
+}
+
+/// A small protein-like cluster: 18 atoms on a bent 3 × 3 × 2 grid, overlapping, with crevices between them.
+gaussian_field cluster_field() {
+  std::vector<std::pair<vec3, double>> atoms;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      for (int k = 0; k < 2; ++k) {
+        atoms.push_back({{2.4 * i + 0.3 * j, 2.5 * j + 0.2 * (i % 2), 2.6 * k + 0.25 * i * j}, 1.3 + 0.1 * ((i + j + k) % 3)});
+      }
+    }
+  }
+  return gaussian_field(make_molecule(atoms), -1.0, 1.0);
+}
+
+/// Options that cut a small mesh into several chunks (see remesh_chunks.hpp).
+remesh_options chunked_options(double edge) {
+  remesh_options options = options_for(edge);
+  options.single_patch_triangles = 0;
+  options.chunk_edges = 16;
+  return options;
+}
+
+TEST(RemeshSurface, ChunkedPassKeepsTheCertificateAndReachesTheQuality) {
+  const gaussian_field field = cluster_field();
+  const surface_mesh input = marching_tetrahedra(field, 0.35);
+  const mesh_report before = analyze_mesh(input);
+  ASSERT_TRUE(before.topologically_certified());
+  const remesh_run run = remesh_ok(input, field, chunked_options(0.4));
+  EXPECT_GE(run.stats.patches, 4U);  // ~10 Å across; chunks of ~10 Å (cells at least twice the longest edge)
+  EXPECT_EQ(run.stats.unchanged_patches, 0U);
+  EXPECT_FALSE(run.stats.input_returned);
+  expect_valid(run.mesh, field, before);
+  expect_quality(run.mesh, 0.4);
+  // The chunk seams are remeshed too: no trace of the marching-tetrahedra slivers is left anywhere.
+  EXPECT_GT(analyze_mesh(run.mesh).quality.edge_ratio_min, 0.1);
+}
+
+TEST(RemeshSurface, ChunkedPassIsDeterministicWhateverTheThreadCount) {
+  const gaussian_field field = cluster_field();
+  const surface_mesh input = marching_tetrahedra(field, 0.35);
+  const auto run_with = [&](int threads) {
+    tbb::task_arena arena(threads);
+    remesh_run run;
+    arena.execute([&] { run = remesh_ok(input, field, chunked_options(0.4)); });
+    return run;
+  };
+  const remesh_run one = run_with(1), two = run_with(2);
+  EXPECT_EQ(one.mesh.triangles, two.mesh.triangles);
+  EXPECT_EQ(one.mesh.positions, two.mesh.positions);  // bitwise
+  EXPECT_EQ(one.mesh.normals, two.mesh.normals);
+  EXPECT_EQ(one.stats.patches, two.stats.patches);
+}
+
+TEST(RemeshPatch, KeepsAPatchThatWouldCutItsContext) {
+  // A patch whose input already crosses a fixed context triangle can never pass its check: it comes back as it was.
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.5}}), -1.0, 1.0);
+  const surface_mesh sphere = marching_tetrahedra(field, 0.4);
+  detail::remesh_patch_input patch;
+  patch.positions = sphere.positions;
+  for (const vec3& p : sphere.positions) patch.normals.push_back(detail::field_normal(field, p));
+  patch.triangles = sphere.triangles;
+  detail::remesh_patch_context context;
+  const auto n = static_cast<std::uint32_t>(patch.positions.size());
+  context.positions = {{-5, -5, 0.01}, {5, -5, 0.01}, {0, 5, 0.01}};  // a plane through the sphere
+  context.triangles = {{n, n + 1, n + 2}};
+  progress_token progress;
+  auto cut = detail::remesh_patch(patch, context, field, options_for(0.45), progress);
+  ASSERT_TRUE(cut.ok()) << cut.error().message();
+  EXPECT_TRUE(cut->stats.input_returned);
+  EXPECT_EQ(cut->mesh.triangles, patch.triangles);
+  EXPECT_EQ(cut->mesh.positions, patch.positions);
+
+  // The same patch with the context moved away is remeshed.
+  context.positions = {{-5, -5, 9}, {5, -5, 9}, {0, 5, 9}};
+  auto free = detail::remesh_patch(patch, context, field, options_for(0.45), progress);
+  ASSERT_TRUE(free.ok());
+  EXPECT_FALSE(free->stats.input_returned);
+  EXPECT_LT(free->mesh.triangles.size(), patch.triangles.size());
 }
 
 TEST(RemeshSurface, HonoursCancellation) {
