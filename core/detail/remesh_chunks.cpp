@@ -22,6 +22,9 @@ constexpr std::int64_t cells_per_chunk = 8;
 constexpr std::int64_t patch_growth = 1;
 constexpr std::int64_t context_growth = 1;
 /// Cell coordinates take 21 bits per axis so that a cell packs into 64 bits.
+/// A patch's vertices this many rings or more from its boundary, and not frozen, are done: later patches that reach
+/// them keep them frozen instead of remeshing them again (they only need to remesh the band along their boundary).
+constexpr int boundary_rings = 3;
 constexpr int coordinate_bits = 21;
 constexpr std::int64_t max_coordinate = (std::int64_t{1} << coordinate_bits) - 1;
 
@@ -104,6 +107,7 @@ class chunked_mesh {
   chunked_mesh(surface_mesh& mesh, const cell_grid& grid) : mesh_(mesh), grid_(grid) {
     alive_.assign(mesh.triangles.size(), 1);
     incident_.assign(mesh.positions.size(), 0);
+    done_.assign(mesh.positions.size(), 0);
     live_triangles_ = mesh.triangles.size();
     for (std::uint32_t t = 0; t < mesh.triangles.size(); ++t) enter(t);
   }
@@ -148,9 +152,10 @@ class chunked_mesh {
   }
 
   /// The patch of the chunk `chunk` and its context; `vertices` receives the patch's vertex indices (sorted: local
-  /// index = rank), `triangles` its triangle indices.
+  /// index = rank), `triangles` its triangle indices, `boundary` whether each vertex has triangles outside.
   void extract(const cell& chunk, remesh_patch_input& patch, remesh_patch_context& context,
-               std::vector<std::uint32_t>& vertices, std::vector<std::uint32_t>& triangles) const {
+               std::vector<std::uint32_t>& vertices, std::vector<std::uint32_t>& triangles,
+               std::vector<std::uint8_t>& boundary) const {
     cell lo{}, hi{}, outer_lo{}, outer_hi{};
     for (int axis = 0; axis < 3; ++axis) {
       lo[axis] = chunk[axis] * cells_per_chunk - patch_growth;
@@ -185,8 +190,12 @@ class chunked_mesh {
     }
     // Vertices with triangles outside the patch are on its boundary (remesh_mesh finds most of them by their open
     // edges; this also catches a vertex whose fan the patch cuts without cutting any of its edges' both faces).
+    boundary.assign(vertices.size(), 0);
     patch.frozen.assign(vertices.size(), 0);
-    for (std::size_t i = 0; i < vertices.size(); ++i) patch.frozen[i] = uses[i] < incident_[vertices[i]];
+    for (std::size_t i = 0; i < vertices.size(); ++i) {
+      boundary[i] = uses[i] < incident_[vertices[i]];
+      patch.frozen[i] = boundary[i] || done_[vertices[i]];
+    }
 
     context.triangles.clear();
     context.positions.clear();
@@ -212,9 +221,10 @@ class chunked_mesh {
     context.reach = {patch_box.lo - vec3{margin, margin, margin}, patch_box.hi + vec3{margin, margin, margin}};
   }
 
-  /// Replaces the patch's triangles by its output (see remesh_patch_output).
+  /// Replaces the patch's triangles by its output (see remesh_patch_output) and marks its vertices far from its
+  /// boundary done.
   void merge(const std::vector<std::uint32_t>& vertices, const std::vector<std::uint32_t>& triangles,
-             const remesh_patch_output& out) {
+             const std::vector<std::uint8_t>& boundary, const remesh_patch_output& out) {
     for (const std::uint32_t t : triangles) {
       alive_[t] = 0;
       for (const std::uint32_t v : mesh_.triangles[t]) --incident_[v];
@@ -231,8 +241,11 @@ class chunked_mesh {
         mesh_.positions.push_back(out.mesh.positions[v]);
         mesh_.normals.push_back(out.mesh.normals[v]);
         incident_.push_back(0);
+        done_.push_back(0);
       }
     }
+    const std::vector<std::uint8_t> near = near_boundary(out, boundary);
+    for (std::size_t v = 0; v < global.size(); ++v) done_[global[v]] |= !near[v] && !out.frozen[v];
     for (const auto& t : out.mesh.triangles) {
       mesh_.triangles.push_back({global[t[0]], global[t[1]], global[t[2]]});
       alive_.push_back(1);
@@ -251,11 +264,13 @@ class chunked_mesh {
       mesh_.positions[kept] = mesh_.positions[v];
       mesh_.normals[kept] = mesh_.normals[v];
       incident_[kept] = incident_[v];
+      done_[kept] = done_[v];
       ++kept;
     }
     mesh_.positions.resize(kept);
     mesh_.normals.resize(kept);
     incident_.resize(kept);
+    done_.resize(kept);
     std::size_t kept_triangles = 0;
     for (std::size_t t = 0; t < mesh_.triangles.size(); ++t) {
       if (!alive_[t]) continue;
@@ -269,6 +284,21 @@ class chunked_mesh {
   }
 
  private:
+  /// The output vertices within boundary_rings rings of the patch boundary.
+  static std::vector<std::uint8_t> near_boundary(const remesh_patch_output& out,
+                                                 const std::vector<std::uint8_t>& boundary) {
+    std::vector<std::uint8_t> near(out.mesh.positions.size(), 0);
+    for (std::size_t v = 0; v < near.size(); ++v) near[v] = out.origin[v] != no_index && boundary[out.origin[v]];
+    for (int ring = 0; ring < boundary_rings; ++ring) {
+      std::vector<std::uint8_t> grown = near;
+      for (const auto& t : out.mesh.triangles) {
+        if (near[t[0]] || near[t[1]] || near[t[2]]) grown[t[0]] = grown[t[1]] = grown[t[2]] = 1;
+      }
+      near.swap(grown);
+    }
+    return near;
+  }
+
   static cell unpack(std::uint64_t key) {
     return {static_cast<std::int64_t>(key >> (2 * coordinate_bits)),
             static_cast<std::int64_t>((key >> coordinate_bits) & max_coordinate),
@@ -285,6 +315,7 @@ class chunked_mesh {
   cell_grid grid_;
   std::vector<std::uint8_t> alive_;
   std::vector<std::uint32_t> incident_;
+  std::vector<std::uint8_t> done_;
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
   std::size_t live_triangles_ = 0;
 };
@@ -363,6 +394,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
     }
     struct patch_job {
       std::vector<std::uint32_t> vertices, triangles;
+      std::vector<std::uint8_t> boundary;
       result<remesh_patch_output> out = status{errc::cancelled, "remesh: cancelled"};
     };
     std::vector<patch_job> jobs(batch.size());
@@ -370,7 +402,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
       if (progress.cancelled()) return;
       remesh_patch_input patch;
       remesh_patch_context context;
-      chunks.extract(batch[k], patch, context, jobs[k].vertices, jobs[k].triangles);
+      chunks.extract(batch[k], patch, context, jobs[k].vertices, jobs[k].triangles, jobs[k].boundary);
       if (patch.triangles.empty()) {
         jobs[k].out = remesh_patch_output{};
         return;
@@ -386,7 +418,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
       }
       if (job.triangles.empty()) continue;
       add_stats(total, job.out->stats);
-      if (!job.out->stats.input_returned) chunks.merge(job.vertices, job.triangles, job.out.value());
+      if (!job.out->stats.input_returned) chunks.merge(job.vertices, job.triangles, job.boundary, job.out.value());
       if (chunks.live_triangles() > options.max_triangles) {
         failure = status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
         break;

@@ -206,6 +206,7 @@ remesh_patch_output unchanged_output(const remesh_patch_input& input, remesh_sta
   out.mesh.triangles = input.triangles;
   out.origin.resize(input.positions.size());
   std::iota(out.origin.begin(), out.origin.end(), 0U);
+  out.frozen.assign(input.positions.size(), 1);
   out.stats = stats;
   return out;
 }
@@ -281,6 +282,7 @@ result<remesh_patch_output> remesh_patch(const remesh_patch_input& input, const 
       remesh_patch_output result_patch;
       result_patch.mesh = std::move(out);
       result_patch.origin = std::move(origin);
+      result_patch.frozen = frozen_flags(state);
       result_patch.stats = stats;
       return result_patch;
     }

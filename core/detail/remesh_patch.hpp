@@ -44,6 +44,7 @@ struct remesh_patch_context {
 struct remesh_patch_output {
   surface_mesh mesh;                  ///< positions, normals and triangles (atom_index left empty)
   std::vector<std::uint32_t> origin;  ///< per output vertex: its input index, or no_index for a new vertex
+  std::vector<std::uint8_t> frozen;   ///< per output vertex: whether it was frozen in the round kept
   remesh_stats stats;
 };
 
