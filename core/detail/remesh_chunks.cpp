@@ -1,5 +1,6 @@
 #include "core/detail/remesh_chunks.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -66,6 +67,15 @@ status validate_closed(const surface_mesh& mesh) {
     }
   }
   return status::success();
+}
+
+bool meets(const box3& b, const vec3& p, const vec3& q, const vec3& r) {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (std::max({p[axis], q[axis], r[axis]}) < b.lo[axis] || std::min({p[axis], q[axis], r[axis]}) > b.hi[axis]) {
+      return false;
+    }
+  }
+  return true;
 }
 
 /// The cubic cells that chunks are made of, numbered from a corner below every vertex.
@@ -151,11 +161,12 @@ class chunked_mesh {
     return out;
   }
 
-  /// The patch of the chunk `chunk` and its context; `vertices` receives the patch's vertex indices (sorted: local
-  /// index = rank), `triangles` its triangle indices, `boundary` whether each vertex has triangles outside.
+  /// The patch of the chunk `chunk` and its context; `vertices` receives the patch's vertex indices (in order of
+  /// first use: local index = position), `triangles` its triangle indices (sorted), `boundary` whether each vertex
+  /// has triangles outside. `scratch` is the caller's (one per thread): all no_index, left so.
   void extract(const cell& chunk, remesh_patch_input& patch, remesh_patch_context& context,
                std::vector<std::uint32_t>& vertices, std::vector<std::uint32_t>& triangles,
-               std::vector<std::uint8_t>& boundary) const {
+               std::vector<std::uint8_t>& boundary, std::vector<std::uint32_t>& scratch) const {
     cell lo{}, hi{}, outer_lo{}, outer_hi{};
     for (int axis = 0; axis < 3; ++axis) {
       lo[axis] = chunk[axis] * cells_per_chunk - patch_growth;
@@ -163,62 +174,57 @@ class chunked_mesh {
       outer_lo[axis] = lo[axis] - context_growth;
       outer_hi[axis] = hi[axis] + context_growth;
     }
+    if (scratch.size() < mesh_.positions.size()) scratch.resize(mesh_.positions.size(), no_index);
+    // scratch[v]: v's local index while extracting.
+    const auto local = [&](std::uint32_t v, std::vector<std::uint32_t>& list) {
+      if (scratch[v] == no_index) {
+        scratch[v] = static_cast<std::uint32_t>(list.size());
+        list.push_back(v);
+      }
+      return scratch[v];
+    };
     triangles = triangles_in(lo, hi, hi, hi);
     vertices.clear();
-    for (const std::uint32_t t : triangles) {
-      for (const std::uint32_t v : mesh_.triangles[t]) vertices.push_back(v);
+    patch.triangles.resize(triangles.size());
+    for (std::size_t k = 0; k < triangles.size(); ++k) {
+      for (int i = 0; i < 3; ++i) patch.triangles[k][i] = local(mesh_.triangles[triangles[k]][i], vertices);
     }
-    std::sort(vertices.begin(), vertices.end());
-    vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
-    const auto local = [&](std::uint32_t v) {
-      const auto it = std::lower_bound(vertices.begin(), vertices.end(), v);
-      return it != vertices.end() && *it == v ? static_cast<std::uint32_t>(it - vertices.begin()) : no_index;
-    };
-    patch.positions.resize(vertices.size());
-    patch.normals.resize(vertices.size());
-    for (std::size_t i = 0; i < vertices.size(); ++i) {
+    const std::size_t n = vertices.size();
+    patch.positions.resize(n);
+    patch.normals.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
       patch.positions[i] = mesh_.positions[vertices[i]];
       patch.normals[i] = mesh_.normals[vertices[i]];
     }
-    patch.triangles.resize(triangles.size());
-    std::vector<std::uint32_t> uses(vertices.size(), 0);
-    for (std::size_t k = 0; k < triangles.size(); ++k) {
-      for (int i = 0; i < 3; ++i) {
-        patch.triangles[k][i] = local(mesh_.triangles[triangles[k]][i]);
-        ++uses[patch.triangles[k][i]];
-      }
+    std::vector<std::uint32_t> uses(n, 0);
+    for (const auto& t : patch.triangles) {
+      for (const std::uint32_t v : t) ++uses[v];
     }
     // Vertices with triangles outside the patch are on its boundary (remesh_mesh finds most of them by their open
     // edges; this also catches a vertex whose fan the patch cuts without cutting any of its edges' both faces).
-    boundary.assign(vertices.size(), 0);
-    patch.frozen.assign(vertices.size(), 0);
-    for (std::size_t i = 0; i < vertices.size(); ++i) {
+    boundary.assign(n, 0);
+    patch.frozen.assign(n, 0);
+    for (std::size_t i = 0; i < n; ++i) {
       boundary[i] = uses[i] < incident_[vertices[i]];
       patch.frozen[i] = boundary[i] || done_[vertices[i]];
     }
 
-    context.triangles.clear();
-    context.positions.clear();
-    std::unordered_map<std::uint32_t, std::uint32_t> context_vertex;
-    const auto patch_vertices = static_cast<std::uint32_t>(vertices.size());
-    for (const std::uint32_t t : triangles_in(outer_lo, outer_hi, lo, hi)) {
-      std::array<std::uint32_t, 3> mapped{};
-      for (int i = 0; i < 3; ++i) {
-        const std::uint32_t v = mesh_.triangles[t][i];
-        mapped[i] = local(v);
-        if (mapped[i] != no_index) continue;
-        const auto [it, added] = context_vertex.try_emplace(v, patch_vertices + context.positions.size());
-        if (added) context.positions.push_back(mesh_.positions[v]);
-        mapped[i] = it->second;
-      }
-      context.triangles.push_back(mapped);
-    }
-    // Every fixed triangle meeting this box has its centroid in the context's cells (triangles are smaller than
-    // half a cell, see remesh_in_chunks).
+    // The context: the fixed triangles that meet the reach box. Every one has its centroid in the context's cells,
+    // since triangles are shorter than half a cell (see make_grid).
     const box3 patch_box = grid_.box(lo, hi);
     const double margin = grid_.size() / 2;
     context.bounded = true;
     context.reach = {patch_box.lo - vec3{margin, margin, margin}, patch_box.hi + vec3{margin, margin, margin}};
+    context.triangles.clear();
+    std::vector<std::uint32_t> all = vertices;  // then the context vertices outside the patch
+    for (const std::uint32_t t : triangles_in(outer_lo, outer_hi, lo, hi)) {
+      const auto& tri = mesh_.triangles[t];
+      if (!meets(context.reach, mesh_.positions[tri[0]], mesh_.positions[tri[1]], mesh_.positions[tri[2]])) continue;
+      context.triangles.push_back({local(tri[0], all), local(tri[1], all), local(tri[2], all)});
+    }
+    context.positions.resize(all.size() - n);
+    for (std::size_t i = n; i < all.size(); ++i) context.positions[i - n] = mesh_.positions[all[i]];
+    for (const std::uint32_t v : all) scratch[v] = no_index;
   }
 
   /// Replaces the patch's triangles by its output (see remesh_patch_output) and marks its vertices far from its
@@ -384,6 +390,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
   chunked_mesh chunks(mesh, make_grid(mesh, options));
   const std::vector<cell> all_chunks = chunks.chunks();
   std::atomic<std::size_t> done{0};
+  tbb::enumerable_thread_specific<std::vector<std::uint32_t>> scratches;
   status failure = status::success();
   for (int colour = 0; colour < 8 && failure.ok(); ++colour) {
     std::vector<cell> batch;
@@ -400,9 +407,10 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
     std::vector<patch_job> jobs(batch.size());
     tbb::parallel_for(std::size_t{0}, batch.size(), [&](std::size_t k) {
       if (progress.cancelled()) return;
+      std::vector<std::uint32_t>& scratch = scratches.local();
       remesh_patch_input patch;
       remesh_patch_context context;
-      chunks.extract(batch[k], patch, context, jobs[k].vertices, jobs[k].triangles, jobs[k].boundary);
+      chunks.extract(batch[k], patch, context, jobs[k].vertices, jobs[k].triangles, jobs[k].boundary, scratch);
       if (patch.triangles.empty()) {
         jobs[k].out = remesh_patch_output{};
         return;
