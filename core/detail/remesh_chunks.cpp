@@ -115,7 +115,7 @@ class cell_grid {
 class chunked_mesh {
  public:
   chunked_mesh(surface_mesh& mesh, const cell_grid& grid) : mesh_(mesh), grid_(grid) {
-    alive_.assign(mesh.triangles.size(), 1);
+    alive_.assign(mesh.triangles.size(), 0);
     incident_.assign(mesh.positions.size(), 0);
     done_.assign(mesh.positions.size(), 0);
     live_triangles_ = mesh.triangles.size();
@@ -231,31 +231,29 @@ class chunked_mesh {
   /// boundary done.
   void merge(const std::vector<std::uint32_t>& vertices, const std::vector<std::uint32_t>& triangles,
              const std::vector<std::uint8_t>& boundary, const remesh_patch_output& out) {
-    for (const std::uint32_t t : triangles) {
-      alive_[t] = 0;
-      for (const std::uint32_t v : mesh_.triangles[t]) --incident_[v];
-    }
+    // Slots of removed triangles and vertices are reused (last freed, first taken): the arrays never grow past
+    // the input's size by much, where appending would double their capacity.
+    for (const std::uint32_t t : triangles) leave(t);
     live_triangles_ -= triangles.size();
+    std::vector<std::uint8_t> kept(vertices.size(), 0);
+    for (const std::uint32_t o : out.origin) {
+      if (o != no_index) kept[o] = 1;
+    }
+    for (std::size_t i = 0; i < vertices.size(); ++i) {
+      if (!kept[i]) free_vertices_.push_back(vertices[i]);
+    }
     std::vector<std::uint32_t> global(out.mesh.positions.size());
     for (std::size_t v = 0; v < global.size(); ++v) {
-      if (out.origin[v] != no_index) {
-        global[v] = vertices[out.origin[v]];
-        mesh_.positions[global[v]] = out.mesh.positions[v];
-        mesh_.normals[global[v]] = out.mesh.normals[v];
-      } else {
-        global[v] = static_cast<std::uint32_t>(mesh_.positions.size());
-        mesh_.positions.push_back(out.mesh.positions[v]);
-        mesh_.normals.push_back(out.mesh.normals[v]);
-        incident_.push_back(0);
-        done_.push_back(0);
-      }
+      global[v] = out.origin[v] != no_index ? vertices[out.origin[v]] : new_vertex();
+      mesh_.positions[global[v]] = out.mesh.positions[v];
+      mesh_.normals[global[v]] = out.mesh.normals[v];
     }
     const std::vector<std::uint8_t> near = near_boundary(out, boundary);
     for (std::size_t v = 0; v < global.size(); ++v) done_[global[v]] |= !near[v] && !out.frozen[v];
     for (const auto& t : out.mesh.triangles) {
-      mesh_.triangles.push_back({global[t[0]], global[t[1]], global[t[2]]});
-      alive_.push_back(1);
-      enter(static_cast<std::uint32_t>(mesh_.triangles.size() - 1));
+      const std::uint32_t slot = new_triangle();
+      mesh_.triangles[slot] = {global[t[0]], global[t[1]], global[t[2]]};
+      enter(slot);
     }
     live_triangles_ += out.mesh.triangles.size();
   }
@@ -310,11 +308,49 @@ class chunked_mesh {
             static_cast<std::int64_t>((key >> coordinate_bits) & max_coordinate),
             static_cast<std::int64_t>(key & max_coordinate)};
   }
-  void enter(std::uint32_t t) {
+  std::uint64_t cell_key_of(std::uint32_t t) const {
     const auto& tri = mesh_.triangles[t];
-    for (const std::uint32_t v : tri) ++incident_[v];
     const vec3 centroid = (mesh_.positions[tri[0]] + mesh_.positions[tri[1]] + mesh_.positions[tri[2]]) / 3.0;
-    cells_[cell_grid::key(grid_.of(centroid))].push_back(t);
+    return cell_grid::key(grid_.of(centroid));
+  }
+  void enter(std::uint32_t t) {
+    alive_[t] = 1;
+    for (const std::uint32_t v : mesh_.triangles[t]) ++incident_[v];
+    cells_[cell_key_of(t)].push_back(t);
+  }
+  /// A triangle's vertices have not moved since it entered (only a patch holding it moves them, and then it
+  /// leaves first), so its centroid finds its cell again.
+  void leave(std::uint32_t t) {
+    alive_[t] = 0;
+    for (const std::uint32_t v : mesh_.triangles[t]) --incident_[v];
+    std::vector<std::uint32_t>& bucket = cells_.at(cell_key_of(t));
+    *std::find(bucket.begin(), bucket.end(), t) = bucket.back();
+    bucket.pop_back();
+    free_triangles_.push_back(t);
+  }
+  std::uint32_t new_vertex() {
+    if (!free_vertices_.empty()) {
+      const std::uint32_t v = free_vertices_.back();
+      free_vertices_.pop_back();
+      incident_[v] = 0;
+      done_[v] = 0;
+      return v;
+    }
+    mesh_.positions.emplace_back();
+    mesh_.normals.emplace_back();
+    incident_.push_back(0);
+    done_.push_back(0);
+    return static_cast<std::uint32_t>(mesh_.positions.size() - 1);
+  }
+  std::uint32_t new_triangle() {
+    if (!free_triangles_.empty()) {
+      const std::uint32_t t = free_triangles_.back();
+      free_triangles_.pop_back();
+      return t;
+    }
+    mesh_.triangles.emplace_back();
+    alive_.push_back(0);
+    return static_cast<std::uint32_t>(mesh_.triangles.size() - 1);
   }
 
   surface_mesh& mesh_;
@@ -322,6 +358,7 @@ class chunked_mesh {
   std::vector<std::uint8_t> alive_;
   std::vector<std::uint32_t> incident_;
   std::vector<std::uint8_t> done_;
+  std::vector<std::uint32_t> free_vertices_, free_triangles_;
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;
   std::size_t live_triangles_ = 0;
 };

@@ -101,15 +101,35 @@ bool remesh_operations::acceptable(const oriented_triangle& t, const replaced_tr
 
 // --- split ------------------------------------------------------------------------------------------------------
 
+void remesh_operations::start_sweep(int sweep) {
+  // Sweep 0 looks at every edge; a repeated sweep only at edges with an end point whose neighbourhood an edit
+  // changed during the sweep before (an edge refused then is refused again otherwise).
+  changed_before_.swap(changed_now_);
+  changed_now_.assign(mesh_.vertex_slots(), 0);
+  if (sweep == 0) changed_before_.assign(mesh_.vertex_slots(), 1);
+}
+
+bool remesh_operations::worth_visiting(std::uint32_t a, std::uint32_t b) const {
+  const auto changed = [&](std::uint32_t v) { return v >= changed_before_.size() || changed_before_[v] != 0; };
+  return changed(a) || changed(b);
+}
+
+void remesh_operations::mark_changed(std::uint32_t v) {
+  if (v >= changed_now_.size()) changed_now_.resize(mesh_.vertex_slots(), 0);
+  changed_now_[v] = 1;
+}
+
 bool remesh_operations::split_long_edges() {
   const double limit2 = thresholds_.split_above * thresholds_.split_above;
   for (int sweep = 0; sweep < max_repeated_sweeps; ++sweep) {
     const std::size_t before = counts_.splits;
+    start_sweep(sweep);
     // New half-edges are appended and visited in the same sweep.
     for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
       if (stop_requested(h)) return false;
       if (!visits_edge(h)) continue;
       if (squared_norm(mesh_.position(mesh_.to(h)) - mesh_.position(mesh_.from(h))) <= limit2) continue;
+      if (!worth_visiting(mesh_.from(h), mesh_.to(h))) continue;
       if (!try_split(h)) ++counts_.rejected;
     }
     if (counts_.splits == before) break;
@@ -140,7 +160,8 @@ bool remesh_operations::try_split(std::uint32_t h) {
       !acceptable(with_midpoint(bad, 1), old_bad) || !acceptable(with_midpoint(bad, 0), old_bad)) {
     return false;
   }
-  mesh_.split_edge(h, p, n);
+  const std::uint32_t m = mesh_.split_edge(h, p, n);
+  for (const std::uint32_t v : {a, b, c, d, m}) mark_changed(v);
   ++counts_.splits;
   return true;
 }
@@ -151,12 +172,14 @@ bool remesh_operations::collapse_short_edges(double shorter_than) {
   const double limit2 = shorter_than * shorter_than;
   for (int sweep = 0; sweep < max_repeated_sweeps; ++sweep) {
     const std::size_t before = counts_.collapses;
+    start_sweep(sweep);
     for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
       if (stop_requested(h)) return false;
       if (!visits_edge(h)) continue;
       const std::uint32_t a = mesh_.from(h), b = mesh_.to(h);
       if (squared_norm(mesh_.position(b) - mesh_.position(a)) >= limit2) continue;
       if (mesh_.protection(a) != vertex_protection::free || mesh_.protection(b) != vertex_protection::free) continue;
+      if (!worth_visiting(a, b)) continue;
       if (!try_collapse(h)) ++counts_.rejected;
     }
     if (counts_.collapses == before) break;
@@ -189,6 +212,7 @@ bool remesh_operations::try_collapse(std::uint32_t h) {
     } else {
       mesh_.collapse_edge(o, pb, nb);
     }
+    mark_collapsed(a, b);
     ++counts_.collapses;
     return true;
   }
@@ -201,8 +225,17 @@ bool remesh_operations::try_collapse(std::uint32_t h) {
   };
   if (!midpoint_acceptable() || !project(p, n) || !midpoint_acceptable()) return false;
   mesh_.collapse_edge(h, p, n);
+  mark_collapsed(a, b);
   ++counts_.collapses;
   return true;
+}
+
+void remesh_operations::mark_collapsed(std::uint32_t a, std::uint32_t b) {
+  // Every vertex whose fan or neighbour moved: the two end points and both 1-rings (taken before the collapse).
+  mark_changed(a);
+  mark_changed(b);
+  for (const std::uint32_t x : ring_a_) mark_changed(x);
+  for (const std::uint32_t x : ring_b_) mark_changed(x);
 }
 
 double remesh_operations::collapse_outcome(std::uint32_t kept, const vec3& p, const vec3& n, std::uint32_t removed,

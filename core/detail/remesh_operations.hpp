@@ -95,12 +95,19 @@ class remesh_operations {
   /// A free vertex's relaxed position, or false when it should stay.
   bool relaxed_position(std::uint32_t v, vec3& position, vec3& normal) const;
 
+  /// Repeated split and collapse sweeps skip edges whose neighbourhood nothing changed (see start_sweep).
+  void start_sweep(int sweep);
+  bool worth_visiting(std::uint32_t a, std::uint32_t b) const;
+  void mark_changed(std::uint32_t v);
+  void mark_collapsed(std::uint32_t a, std::uint32_t b);
+
   remesh_mesh& mesh_;
   const gaussian_field& field_;
   remesh_thresholds thresholds_;
   const progress_token& progress_;
   operation_counts counts_;
   std::vector<std::uint32_t> ring_a_, ring_b_;  // scratch
+  std::vector<std::uint8_t> changed_before_, changed_now_;  // per vertex slot, see start_sweep
 };
 
 /// Greedy colouring of the free vertices in index order (no two adjacent vertices share a colour); the vertices
