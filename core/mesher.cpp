@@ -1,6 +1,7 @@
 #include "core/mesher.hpp"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -72,11 +73,47 @@ result<lattice> make_lattice(const gaussian_field& field, double spacing, const 
   return lattice(spacing, origin);
 }
 
+/// A polygon corner kept as its edge's place in the block, ((di·n + dj)·n + dk)·7 + direction with n = block_points:
+/// the edges of a block's cubes start at its n³ lattice points. 16 bits instead of a 64-bit key (a million-atom
+/// capsid has 15 million polygons, held until every root is known).
+using block_edge = std::uint16_t;
+constexpr int edge_direction_count = 7;
+static_assert(block_points * block_points * block_points * edge_direction_count <= 65536);
+
+std::uint64_t block_key(const lattice& lat, const lattice_index& block) {
+  return lat.edge_key({block.i * lattice::block_cells, block.j * lattice::block_cells, block.k * lattice::block_cells},
+                      0);
+}
+
+/// Keys are linear in their fields (lattice::edge_key_offset), so an edge's key less its block's splits into them.
+block_edge block_edge_of(std::uint64_t key, std::uint64_t first_key) {
+  constexpr std::uint64_t mask = (1ULL << 20) - 1;
+  const std::uint64_t offset = key - first_key;
+  const std::uint64_t di = (offset >> 43) & mask, dj = (offset >> 23) & mask, dk = (offset >> 3) & mask;
+  return static_cast<block_edge>(((di * block_points + dj) * block_points + dk) * edge_direction_count + (offset & 7));
+}
+
+std::uint64_t edge_key_of(block_edge edge, std::uint64_t first_key) {
+  const int direction = edge % edge_direction_count, point = edge / edge_direction_count;
+  const int dk = point % block_points, dj = (point / block_points) % block_points, di = point / (block_points * block_points);
+  return first_key + lattice::edge_key_offset(di, dj, dk, direction);
+}
+
 /// What one block contributes: its polygons and the roots on the cut edges it owns.
 struct block_output {
-  block_polygons polygons;
+  std::vector<std::array<block_edge, 3>> triangles;
+  std::vector<std::array<block_edge, 4>> quads;  ///< cyclic order; split later along the shorter diagonal
   std::vector<edge_vertex> roots;
 };
+
+template <std::size_t corners>
+void store_polygons(const std::vector<std::array<std::uint64_t, corners>>& polygons, std::uint64_t first_key,
+                    std::vector<std::array<block_edge, corners>>& out) {
+  out.resize(polygons.size());
+  for (std::size_t p = 0; p < polygons.size(); ++p) {
+    for (std::size_t c = 0; c < corners; ++c) out[p][c] = block_edge_of(polygons[p][c], first_key);
+  }
+}
 
 /// Samples every block, meshes it and solves its roots (in block order: deterministic).
 result<std::vector<block_output>> process_blocks(const gaussian_field& field, const lattice& lat,
@@ -87,11 +124,17 @@ result<std::vector<block_output>> process_blocks(const gaussian_field& field, co
     if (progress.cancelled()) return;
     std::vector<std::uint32_t> atoms;
     std::vector<double> values;
+    block_polygons polygons;
     for (std::size_t n = r.begin(); n != r.end(); ++n) {
       field.atoms_near_box(lat.block_box(blocks[n]), atoms);
       sample_block(field, lat, blocks[n], atoms, values);
-      triangulate_block(lat, blocks[n], values, field.t0(), outputs[n].polygons);
+      polygons.clear();
+      triangulate_block(lat, blocks[n], values, field.t0(), polygons);
+      const std::uint64_t first_key = block_key(lat, blocks[n]);
+      store_polygons(polygons.triangles, first_key, outputs[n].triangles);
+      store_polygons(polygons.quads, first_key, outputs[n].quads);
       solve_block_roots(field, lat, blocks[n], atoms, values, outputs[n].roots);
+      outputs[n].roots.shrink_to_fit();
     }
     const std::size_t finished = done += r.size();
     progress.report(mesh_stage::sampling, static_cast<double>(finished) / blocks.size());
@@ -103,18 +146,21 @@ result<std::vector<block_output>> process_blocks(const gaussian_field& field, co
 /// All roots sorted by edge key: vertex n is the root on edge keys[n].
 void collect_vertices(std::vector<block_output>& outputs, std::vector<std::uint64_t>& keys,
                       std::vector<vec3>& positions) {
+  std::size_t total = 0;
+  for (const auto& out : outputs) total += out.roots.size();
   std::vector<edge_vertex> roots;
+  roots.reserve(total);  // exactly: growing by doubling would hold up to twice the roots of a million atoms
   for (auto& out : outputs) {
     roots.insert(roots.end(), out.roots.begin(), out.roots.end());
     std::vector<edge_vertex>().swap(out.roots);
   }
-  std::sort(roots.begin(), roots.end(), [](const edge_vertex& a, const edge_vertex& b) { return a.key < b.key; });
+  tbb::parallel_sort(roots.begin(), roots.end(), [](const edge_vertex& a, const edge_vertex& b) { return a.key < b.key; });
   keys.resize(roots.size());
   positions.resize(roots.size());
-  for (std::size_t n = 0; n < roots.size(); ++n) {
+  tbb::parallel_for(std::size_t{0}, roots.size(), [&](std::size_t n) {
     keys[n] = roots[n].key;
     positions[n] = roots[n].position;
-  }
+  });
 }
 
 std::uint32_t vertex_of(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
@@ -122,22 +168,22 @@ std::uint32_t vertex_of(const std::vector<std::uint64_t>& keys, std::uint64_t ke
 }
 
 /// Triangles from the block polygons; quadrilaterals split along their shorter diagonal.
-void assemble_triangles(const std::vector<block_output>& outputs, const std::vector<std::uint64_t>& keys,
+void assemble_triangles(const lattice& lat, const std::vector<lattice_index>& blocks,
+                        const std::vector<block_output>& outputs, const std::vector<std::uint64_t>& keys,
                         const std::vector<vec3>& positions, surface_mesh& mesh) {
   std::vector<std::size_t> offsets(outputs.size() + 1, 0);
   for (std::size_t n = 0; n < outputs.size(); ++n) {
-    offsets[n + 1] = offsets[n] + outputs[n].polygons.triangles.size() + 2 * outputs[n].polygons.quads.size();
+    offsets[n + 1] = offsets[n] + outputs[n].triangles.size() + 2 * outputs[n].quads.size();
   }
   mesh.triangles.resize(offsets.back());
   tbb::parallel_for(std::size_t{0}, outputs.size(), [&](std::size_t n) {
-    const block_polygons& polygons = outputs[n].polygons;
+    const std::uint64_t first_key = block_key(lat, blocks[n]);
+    const auto vertex = [&](block_edge e) { return vertex_of(keys, edge_key_of(e, first_key)); };
     std::size_t out = offsets[n];
-    for (const auto& t : polygons.triangles) {
-      mesh.triangles[out++] = {vertex_of(keys, t[0]), vertex_of(keys, t[1]), vertex_of(keys, t[2])};
-    }
-    for (const auto& q : polygons.quads) {
+    for (const auto& t : outputs[n].triangles) mesh.triangles[out++] = {vertex(t[0]), vertex(t[1]), vertex(t[2])};
+    for (const auto& q : outputs[n].quads) {
       std::array<std::uint32_t, 4> v{};
-      for (int c = 0; c < 4; ++c) v[c] = vertex_of(keys, q[c]);
+      for (int c = 0; c < 4; ++c) v[c] = vertex(q[c]);
       if (squared_norm(positions[v[0]] - positions[v[2]]) <= squared_norm(positions[v[1]] - positions[v[3]])) {
         mesh.triangles[out++] = {v[0], v[1], v[2]};
         mesh.triangles[out++] = {v[0], v[2], v[3]};
@@ -208,8 +254,10 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   if (keys.empty()) return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
   clock.finish(mesh_stage::roots);
 
-  assemble_triangles(*outputs, keys, out.mesh.positions, out.mesh);
+  assemble_triangles(*lat, *blocks, *outputs, keys, out.mesh.positions, out.mesh);
   outputs->clear();
+  outputs->shrink_to_fit();
+  std::vector<std::uint64_t>().swap(keys);
   if (out.mesh.triangles.size() > limits.max_triangles) {
     return status{errc::limit_exceeded, "mesh has " + std::to_string(out.mesh.triangles.size()) +
                                             " triangles (limit " + std::to_string(limits.max_triangles) + ")"};
