@@ -5,6 +5,9 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -163,6 +166,14 @@ void collect_vertices(std::vector<block_output>& outputs, std::vector<std::uint6
   });
 }
 
+/// Hands the front end's freed memory back to the system before the quality pass allocates its own: the million
+/// small polygon and root arrays of the blocks leave glibc's arenas fragmented (capsid: peak RSS 1.55 → 1.40 GB).
+void release_freed_memory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 std::uint32_t vertex_of(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
   return static_cast<std::uint32_t>(std::lower_bound(keys.begin(), keys.end(), key) - keys.begin());
 }
@@ -258,6 +269,7 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   outputs->clear();
   outputs->shrink_to_fit();
   std::vector<std::uint64_t>().swap(keys);
+  release_freed_memory();
   if (out.mesh.triangles.size() > limits.max_triangles) {
     return status{errc::limit_exceeded, "mesh has " + std::to_string(out.mesh.triangles.size()) +
                                             " triangles (limit " + std::to_string(limits.max_triangles) + ")"};
