@@ -31,7 +31,7 @@ namespace tracemesh {
 
 struct remesh_options {
   double target_edge = 1.0;        ///< L, Å. The mesher derives it from the density: L = √(2 / (√3 · density)).
-  int iterations = 5;              ///< outer iterations of split / collapse / flip / relax
+  int iterations = 3;              ///< outer iterations of split / collapse / flip / relax
   double split_above = 4.0 / 3.0;  ///< split edges longer than this × L
   double collapse_below = 4.0 / 5.0;  ///< collapse edges shorter than this × L (never creating one > split_above × L)
   double tiny_edge_below = 0.2;       ///< edges shorter than this × L are collapsed in a first, separate sweep

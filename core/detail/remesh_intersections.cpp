@@ -135,8 +135,11 @@ class triangle_grid {
 
 }  // namespace
 
-std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh,
-                                                   const std::vector<triangle_defect>& defects) {
+std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                                   const std::vector<std::uint8_t>& groups) {
+  const auto known_apart = [&](std::uint32_t s, std::uint32_t t) {
+    return !groups.empty() && groups[s] != 0 && groups[s] == groups[t];
+  };
   const std::vector<vec3>& positions = mesh.positions;
   const auto& triangles = mesh.triangles;
   if (triangles.size() < 2) return {};
@@ -158,6 +161,7 @@ std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh,
         if (defects[s] != triangle_defect::none) continue;
         for (std::size_t j = i + 1; j < starts[c + 1]; ++j) {
           const std::uint32_t t = entries[j].triangle;
+          if (known_apart(s, t)) continue;
           if (defects[t] != triangle_defect::none || !boxes_overlap(boxes[s], boxes[t])) continue;
           // Test each pair once: in the cell holding the lowest corner of the two boxes' intersection.
           const vec3 corner{std::max(boxes[s].lo.x, boxes[t].lo.x), std::max(boxes[s].lo.y, boxes[t].lo.y),
@@ -175,13 +179,13 @@ std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh,
   return pairs;
 }
 
-std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh) {
+std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh, const std::vector<std::uint8_t>& groups) {
   const std::vector<triangle_defect> defects = classify_triangles(mesh);
   std::vector<std::uint32_t> offending;
   for (std::uint32_t t = 0; t < defects.size(); ++t) {
     if (defects[t] != triangle_defect::none) offending.push_back(t);
   }
-  for (const triangle_pair& pair : find_intersecting_pairs(mesh, defects)) {
+  for (const triangle_pair& pair : find_intersecting_pairs(mesh, defects, groups)) {
     offending.insert(offending.end(), pair.begin(), pair.end());
   }
   std::sort(offending.begin(), offending.end());

@@ -16,13 +16,16 @@ namespace tracemesh::detail {
 using triangle_pair = std::array<std::uint32_t, 2>;
 
 /// Every pair {i, j} (i < j, sorted) of triangles without defect that count as a self-intersection (see
-/// count_self_intersections). `defects`: classify_triangles(mesh). Grid-accelerated and parallel; the result does
-/// not depend on the thread count.
-std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh,
-                                                   const std::vector<triangle_defect>& defects);
+/// count_self_intersections). `defects`: classify_triangles(mesh). `groups`, when not empty, has one entry per
+/// triangle: 0 for a triangle to test against all, k > 0 for one of a group known not to meet itself (checked
+/// before); pairs within one such group are not tested. Grid-accelerated and parallel; the result does not depend on
+/// the thread count.
+std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                                   const std::vector<std::uint8_t>& groups = {});
 
 /// The triangles that would fail the certificate: those with a defect and both members of every intersecting
-/// pair. Sorted, without repeats.
-std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh);
+/// pair (`groups` as for find_intersecting_pairs). Sorted, without repeats.
+std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh,
+                                                    const std::vector<std::uint8_t>& groups = {});
 
 }  // namespace tracemesh::detail

@@ -22,6 +22,8 @@ constexpr int target_valence = 6;
 /// Splits and collapses may leave their worst triangle at this fraction of the worst one they replace (when under
 /// the quality floor): dissolving a cluster of slivers makes some neighbouring thin triangle marginally thinner.
 constexpr double topological_quality_slack = 0.5;
+/// Relaxation leaves a vertex whose move would be shorter than this fraction of the collapse length (about L).
+constexpr double settled_move = 0.05;
 /// How much worse (in cosine) a triangle's agreement with its corner normals may get when it barely moves.
 constexpr double small_change_agreement_slack = 0.2;
 
@@ -33,7 +35,11 @@ bool contains(const std::vector<std::uint32_t>& list, std::uint32_t value) {
 
 remesh_operations::remesh_operations(remesh_mesh& mesh, const gaussian_field& field,
                                      const remesh_thresholds& thresholds, const progress_token& progress)
-    : mesh_(mesh), field_(field), thresholds_(thresholds), progress_(progress) {}
+    : mesh_(mesh),
+      field_(field),
+      thresholds_(thresholds),
+      progress_(progress),
+      settled_move2_(std::pow(settled_move * thresholds.collapse_below, 2)) {}
 
 bool remesh_operations::visits_edge(std::uint32_t h) const {
   // Boundary half-edges (patches only) have no opposite: their edge is never edited.
@@ -350,7 +356,8 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
   const vec3& n = mesh_.normal(v);
   vec3 move = weighted / total_area - p;
   move -= n * dot(n, move);  // stay in the tangent plane; the projection below follows the curvature
-  if (squared_norm(move) == 0) return false;
+  // A vertex already (almost) where its ring wants it stays: its move would cost a field evaluation for nothing.
+  if (squared_norm(move) <= settled_move2_) return false;
   vec3 q = p + move, nq;
   if (!newton_step_to_surface(field_, q, nq, thresholds_.max_move)) return false;
 

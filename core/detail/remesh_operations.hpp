@@ -108,6 +108,7 @@ class remesh_operations {
   operation_counts counts_;
   std::vector<std::uint32_t> ring_a_, ring_b_;  // scratch
   std::vector<std::uint8_t> changed_before_, changed_now_;  // per vertex slot, see start_sweep
+  double settled_move2_;  ///< Å²: relaxation moves shorter than this are skipped
 };
 
 /// Greedy colouring of the free vertices in index order (no two adjacent vertices share a colour); the vertices

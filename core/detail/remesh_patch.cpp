@@ -108,6 +108,11 @@ bool overlaps(const box3& b, const std::array<vec3, 3>& t) {
   return true;
 }
 
+bool all_frozen(const remesh_mesh& mesh, const std::array<std::uint32_t, 3>& t) {
+  return mesh.protection(t[0]) == vertex_protection::frozen && mesh.protection(t[1]) == vertex_protection::frozen &&
+         mesh.protection(t[2]) == vertex_protection::frozen;
+}
+
 /// The certificate's check of a patch, extended by the pairs of its triangles with the context triangles that
 /// meet its bounding box (no other can cut it).
 offending_finder finder_with(const remesh_patch_context& context, std::uint32_t input_vertices) {
@@ -123,6 +128,13 @@ offending_finder finder_with(const remesh_patch_context& context, std::uint32_t 
     for (std::uint32_t v = 0; v < mesh.vertex_slots(); ++v) {
       if (!mesh.vertex_removed(v) && mesh.origin(v) != no_index) current[mesh.origin(v)] = v;
     }
+    // Patch triangles with three frozen corners were neither made nor unmade (no edit touches a frozen vertex's
+    // faces): like the context triangles, they are known not to meet each other.
+    enum group : std::uint8_t { moving, unchanged_patch, fixed_context };
+    std::vector<std::uint8_t> groups(view.triangles.size(), moving);
+    for (std::uint32_t t = 0; t < view.triangles.size(); ++t) {
+      if (all_frozen(mesh, view.triangles[t])) groups[t] = unchanged_patch;
+    }
     surface_mesh combined;
     combined.positions = view.positions;
     combined.positions.insert(combined.positions.end(), context.positions.begin(), context.positions.end());
@@ -136,9 +148,10 @@ offending_finder finder_with(const remesh_patch_context& context, std::uint32_t 
       }
       if (overlaps(extent, {combined.positions[mapped[0]], combined.positions[mapped[1]], combined.positions[mapped[2]]})) {
         combined.triangles.push_back(mapped);
+        groups.push_back(fixed_context);
       }
     }
-    std::vector<std::uint32_t> offending = find_offending_triangles(combined);
+    std::vector<std::uint32_t> offending = find_offending_triangles(combined, groups);
     const auto own = static_cast<std::uint32_t>(view.triangles.size());
     offending.erase(std::lower_bound(offending.begin(), offending.end(), own), offending.end());
     return offending;
