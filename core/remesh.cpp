@@ -53,8 +53,7 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
     if (!done) return done.error();
     stats = done.value();
   }
-  mesh.atom_index.resize(mesh.positions.size());
-  parallel_over(mesh.positions.size(), [&](std::size_t v) { mesh.atom_index[v] = field.dominant_atom(mesh.positions[v]); });
+  mesh.atom_index.clear();  // the caller's to fill (the mesher does, with the certificate's field probe)
   return stats;
 }
 

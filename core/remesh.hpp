@@ -83,7 +83,8 @@ struct remesh_stats {
 ///                 from outside), no degenerate triangle, no self-intersection, no unreferenced vertex, vertices on
 ///                 {φ = t0}. Postcondition: the same properties, the same number of components and the same genus
 ///                 per component, every moved or new vertex within 1e-4 Å of the surface; mesh.normals
-///                 (−∇φ/|∇φ|) and mesh.atom_index (field.dominant_atom) filled for the final vertices.
+///                 (−∇φ/|∇φ|) filled for the final vertices, mesh.atom_index cleared (it is the caller's to fill:
+///                 the mesher probes the field at every vertex for its certificate anyway).
 /// @param field    the field whose surface {φ = field.t0()} the mesh approximates.
 /// @param options  target edge length and thresholds (see remesh_options).
 /// @param progress polled between sweeps and every few thousand operations (stage mesh_stage::refining).

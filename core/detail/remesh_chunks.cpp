@@ -149,15 +149,18 @@ class chunked_mesh {
           const bool skipped = x >= skip_lo[0] && x < skip_hi[0] && y >= skip_lo[1] && y < skip_hi[1] &&
                                z >= skip_lo[2] && z < skip_hi[2];
           if (skipped) continue;
-          const auto it = cells_.find(cell_grid::key({x, y, z}));
+          const std::uint64_t key = cell_grid::key({x, y, z});
+          const auto it = cells_.find(key);
           if (it == cells_.end()) continue;
+          // Entries are not removed when their triangle is (see leave): skip the stale ones.
           for (const std::uint32_t t : it->second) {
-            if (alive_[t]) out.push_back(t);
+            if (alive_[t] && cell_key_of(t) == key) out.push_back(t);
           }
         }
       }
     }
     std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());  // a slot reused in the same cell is listed twice
     return out;
   }
 
@@ -318,14 +321,13 @@ class chunked_mesh {
     for (const std::uint32_t v : mesh_.triangles[t]) ++incident_[v];
     cells_[cell_key_of(t)].push_back(t);
   }
-  /// A triangle's vertices have not moved since it entered (only a patch holding it moves them, and then it
-  /// leaves first), so its centroid finds its cell again.
+  /// The triangle's entry stays in its cell (finding it there costs more than skipping it later): triangles_in
+  /// skips entries whose triangle is dead or whose slot now holds a triangle of another cell. A live triangle's
+  /// vertices have not moved since it entered (only a patch holding it moves them, and then it leaves first), so its
+  /// centroid still finds its cell.
   void leave(std::uint32_t t) {
     alive_[t] = 0;
     for (const std::uint32_t v : mesh_.triangles[t]) --incident_[v];
-    std::vector<std::uint32_t>& bucket = cells_.at(cell_key_of(t));
-    *std::find(bucket.begin(), bucket.end(), t) = bucket.back();
-    bucket.pop_back();
     free_triangles_.push_back(t);
   }
   std::uint32_t new_vertex() {
