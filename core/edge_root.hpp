@@ -22,6 +22,7 @@ inline constexpr double edge_root_margin = 1e-4;
 struct edge_vertex {
   std::uint64_t key;  ///< lattice edge key
   vec3 position;      ///< the root of φ = t0 on that edge
+  vec3 normal;        ///< −∇φ/|∇φ| there (zero where ∇φ vanishes), from the same atoms the root was solved on
 };
 
 /// Roots on the cut edges owned by the block's cubes: each cube owns the seven edges leaving its lowest corner, so

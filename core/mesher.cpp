@@ -146,9 +146,9 @@ result<std::vector<block_output>> process_blocks(const gaussian_field& field, co
   return outputs;
 }
 
-/// All roots sorted by edge key: vertex n is the root on edge keys[n].
+/// All roots sorted by edge key: vertex n is the root on edge keys[n], with its field normal.
 void collect_vertices(std::vector<block_output>& outputs, std::vector<std::uint64_t>& keys,
-                      std::vector<vec3>& positions) {
+                      std::vector<vec3>& positions, std::vector<vec3>& normals) {
   std::size_t total = 0;
   for (const auto& out : outputs) total += out.roots.size();
   std::vector<edge_vertex> roots;
@@ -160,9 +160,11 @@ void collect_vertices(std::vector<block_output>& outputs, std::vector<std::uint6
   tbb::parallel_sort(roots.begin(), roots.end(), [](const edge_vertex& a, const edge_vertex& b) { return a.key < b.key; });
   keys.resize(roots.size());
   positions.resize(roots.size());
+  normals.resize(roots.size());
   tbb::parallel_for(std::size_t{0}, roots.size(), [&](std::size_t n) {
     keys[n] = roots[n].key;
     positions[n] = roots[n].position;
+    normals[n] = roots[n].normal;
   });
 }
 
@@ -261,7 +263,7 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   clock.finish(mesh_stage::sampling);
 
   std::vector<std::uint64_t> keys;
-  collect_vertices(*outputs, keys, out.mesh.positions);
+  collect_vertices(*outputs, keys, out.mesh.positions, out.mesh.normals);
   if (keys.empty()) return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
   clock.finish(mesh_stage::roots);
 
@@ -278,6 +280,7 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
 
   remesh_options refine;
   refine.target_edge = edge;
+  refine.trust_input_normals = true;  // the root solver's
   refine.max_triangles = limits.max_triangles;
   auto refined = remesh_surface(out.mesh, field, refine, progress);
   if (!refined) return refined.error();
