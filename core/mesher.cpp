@@ -1,16 +1,18 @@
 #include "core/mesher.hpp"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
+#include <tuple>
 
 #include "core/band_culling.hpp"
 #include "core/edge_root.hpp"
@@ -106,7 +108,8 @@ std::uint64_t edge_key_of(block_edge edge, std::uint64_t first_key) {
 struct block_output {
   std::vector<std::array<block_edge, 3>> triangles;
   std::vector<std::array<block_edge, 4>> quads;  ///< cyclic order; split later along the shorter diagonal
-  std::vector<edge_vertex> roots;
+  std::vector<edge_vertex> roots;  ///< sorted by key; emptied once they are in the mesh
+  std::vector<std::uint64_t> keys;  ///< the roots' keys, kept to find them by
 };
 
 template <std::size_t corners>
@@ -136,8 +139,10 @@ result<std::vector<block_output>> process_blocks(const gaussian_field& field, co
       const std::uint64_t first_key = block_key(lat, blocks[n]);
       store_polygons(polygons.triangles, first_key, outputs[n].triangles);
       store_polygons(polygons.quads, first_key, outputs[n].quads);
-      solve_block_roots(field, lat, blocks[n], atoms, values, outputs[n].roots);
-      outputs[n].roots.shrink_to_fit();
+      std::vector<edge_vertex>& roots = outputs[n].roots;
+      solve_block_roots(field, lat, blocks[n], atoms, values, roots);
+      std::sort(roots.begin(), roots.end(), [](const edge_vertex& a, const edge_vertex& b) { return a.key < b.key; });
+      roots.shrink_to_fit();
     }
     const std::size_t finished = done += r.size();
     progress.report(mesh_stage::sampling, static_cast<double>(finished) / blocks.size());
@@ -146,26 +151,47 @@ result<std::vector<block_output>> process_blocks(const gaussian_field& field, co
   return outputs;
 }
 
-/// All roots sorted by edge key: vertex n is the root on edge keys[n], with its field normal.
-void collect_vertices(std::vector<block_output>& outputs, std::vector<std::uint64_t>& keys,
-                      std::vector<vec3>& positions, std::vector<vec3>& normals) {
-  std::size_t total = 0;
-  for (const auto& out : outputs) total += out.roots.size();
-  std::vector<edge_vertex> roots;
-  roots.reserve(total);  // exactly: growing by doubling would hold up to twice the roots of a million atoms
-  for (auto& out : outputs) {
-    roots.insert(roots.end(), out.roots.begin(), out.roots.end());
-    std::vector<edge_vertex>().swap(out.roots);
+/// Puts the roots into the mesh block by block (vertex = the block's first vertex + the root's rank in its block)
+/// and keeps only their keys, freeing each block's roots as it goes: no array of every root is ever made (a
+/// million-atom capsid has ten million). Returns each block's first vertex.
+std::vector<std::uint32_t> number_vertices(std::vector<block_output>& outputs, surface_mesh& mesh) {
+  std::vector<std::uint32_t> first(outputs.size() + 1, 0);
+  for (std::size_t n = 0; n < outputs.size(); ++n) {
+    first[n + 1] = first[n] + static_cast<std::uint32_t>(outputs[n].roots.size());
   }
-  tbb::parallel_sort(roots.begin(), roots.end(), [](const edge_vertex& a, const edge_vertex& b) { return a.key < b.key; });
-  keys.resize(roots.size());
-  positions.resize(roots.size());
-  normals.resize(roots.size());
-  tbb::parallel_for(std::size_t{0}, roots.size(), [&](std::size_t n) {
-    keys[n] = roots[n].key;
-    positions[n] = roots[n].position;
-    normals[n] = roots[n].normal;
+  mesh.positions.resize(first.back());
+  mesh.normals.resize(first.back());
+  tbb::parallel_for(std::size_t{0}, outputs.size(), [&](std::size_t n) {
+    std::vector<edge_vertex>& roots = outputs[n].roots;
+    outputs[n].keys.resize(roots.size());
+    for (std::size_t r = 0; r < roots.size(); ++r) {
+      outputs[n].keys[r] = roots[r].key;
+      mesh.positions[first[n] + r] = roots[r].position;
+      mesh.normals[first[n] + r] = roots[r].normal;
+    }
+    std::vector<edge_vertex>().swap(roots);
   });
+  return first;
+}
+
+/// For each block, the index of the block that owns the edges starting on its upper faces, per combination of
+/// faces (bit 0: +i, 1: +j, 2: +k; entry 0 is the block itself); no_block where culling dropped it.
+constexpr std::uint32_t no_block = std::numeric_limits<std::uint32_t>::max();
+
+std::vector<std::array<std::uint32_t, 8>> upper_neighbours(const std::vector<lattice_index>& blocks) {
+  const auto before = [](const lattice_index& a, const lattice_index& b) {
+    return std::tie(a.i, a.j, a.k) < std::tie(b.i, b.j, b.k);
+  };
+  std::vector<std::array<std::uint32_t, 8>> neighbours(blocks.size());
+  tbb::parallel_for(std::size_t{0}, blocks.size(), [&](std::size_t n) {
+    for (int bits = 0; bits < 8; ++bits) {
+      const lattice_index b{blocks[n].i + (bits & 1), blocks[n].j + ((bits >> 1) & 1), blocks[n].k + ((bits >> 2) & 1)};
+      const auto it = std::lower_bound(blocks.begin(), blocks.end(), b, before);
+      const bool found = it != blocks.end() && it->i == b.i && it->j == b.j && it->k == b.k;
+      neighbours[n][static_cast<std::size_t>(bits)] = found ? static_cast<std::uint32_t>(it - blocks.begin()) : no_block;
+    }
+  });
+  return neighbours;
 }
 
 /// Hands the front end's freed memory back to the system before the quality pass allocates its own: the million
@@ -176,22 +202,34 @@ void release_freed_memory() {
 #endif
 }
 
-std::uint32_t vertex_of(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
-  return static_cast<std::uint32_t>(std::lower_bound(keys.begin(), keys.end(), key) - keys.begin());
-}
-
-/// Triangles from the block polygons; quadrilaterals split along their shorter diagonal.
-void assemble_triangles(const lattice& lat, const std::vector<lattice_index>& blocks,
-                        const std::vector<block_output>& outputs, const std::vector<std::uint64_t>& keys,
+/// Triangles from the block polygons; quadrilaterals split along their shorter diagonal. Each corner's vertex is
+/// found in the block that owns its edge (the cube at the edge's lower end); false if that block holds no root there
+/// (culling dropped a block with a cut edge: cannot happen, its bounds are conservative).
+bool assemble_triangles(const lattice& lat, const std::vector<lattice_index>& blocks,
+                        const std::vector<block_output>& outputs, const std::vector<std::uint32_t>& first_vertex,
                         const std::vector<vec3>& positions, surface_mesh& mesh) {
+  const std::vector<std::array<std::uint32_t, 8>> neighbours = upper_neighbours(blocks);
   std::vector<std::size_t> offsets(outputs.size() + 1, 0);
   for (std::size_t n = 0; n < outputs.size(); ++n) {
     offsets[n + 1] = offsets[n] + outputs[n].triangles.size() + 2 * outputs[n].quads.size();
   }
   mesh.triangles.resize(offsets.back());
+  std::atomic<bool> all_found{true};
   tbb::parallel_for(std::size_t{0}, outputs.size(), [&](std::size_t n) {
     const std::uint64_t first_key = block_key(lat, blocks[n]);
-    const auto vertex = [&](block_edge e) { return vertex_of(keys, edge_key_of(e, first_key)); };
+    const auto vertex = [&](block_edge e) -> std::uint32_t {
+      const int point = e / edge_direction_count;
+      const int dk = point % block_points, dj = (point / block_points) % block_points;
+      const int di = point / (block_points * block_points);
+      constexpr int top = lattice::block_cells;
+      const std::uint32_t owner = neighbours[n][(di == top) | (dj == top) << 1 | (dk == top) << 2];
+      if (owner == no_block) return all_found = false, 0;
+      const std::vector<std::uint64_t>& keys = outputs[owner].keys;
+      const std::uint64_t key = edge_key_of(e, first_key);
+      const auto it = std::lower_bound(keys.begin(), keys.end(), key);
+      if (it == keys.end() || *it != key) return all_found = false, 0;
+      return first_vertex[owner] + static_cast<std::uint32_t>(it - keys.begin());
+    };
     std::size_t out = offsets[n];
     for (const auto& t : outputs[n].triangles) mesh.triangles[out++] = {vertex(t[0]), vertex(t[1]), vertex(t[2])};
     for (const auto& q : outputs[n].quads) {
@@ -206,6 +244,7 @@ void assemble_triangles(const lattice& lat, const std::vector<lattice_index>& bl
       }
     }
   });
+  return all_found;
 }
 
 /// Outward unit normals (−∇φ/|∇φ|) and the dominant atom of every vertex; returns the largest distance of a vertex
@@ -262,16 +301,17 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   if (!outputs) return outputs.error();
   clock.finish(mesh_stage::sampling);
 
-  std::vector<std::uint64_t> keys;
-  collect_vertices(*outputs, keys, out.mesh.positions, out.mesh.normals);
-  if (keys.empty()) return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
+  const std::vector<std::uint32_t> first_vertex = number_vertices(*outputs, out.mesh);
+  if (out.mesh.positions.empty()) {
+    return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
+  }
   clock.finish(mesh_stage::roots);
 
-  assemble_triangles(*lat, *blocks, *outputs, keys, out.mesh.positions, out.mesh);
+  const bool assembled = assemble_triangles(*lat, *blocks, *outputs, first_vertex, out.mesh.positions, out.mesh);
   outputs->clear();
   outputs->shrink_to_fit();
-  std::vector<std::uint64_t>().swap(keys);
   release_freed_memory();
+  if (!assembled) return status{errc::internal_error, "a cut lattice edge has no root (its block was culled)"};
   if (out.mesh.triangles.size() > limits.max_triangles) {
     return status{errc::limit_exceeded, "mesh has " + std::to_string(out.mesh.triangles.size()) +
                                             " triangles (limit " + std::to_string(limits.max_triangles) + ")"};
