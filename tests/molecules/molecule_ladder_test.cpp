@@ -68,6 +68,27 @@ INSTANTIATE_TEST_SUITE_P(
                       ladder_case{"2buk_12asu.pqr", 2}),
     case_name);
 
+// mache at density 1 is large enough to be remeshed in chunks (remesh_chunks.hpp): patches run on whichever
+// thread is free, yet the mesh must not depend on the thread count (the service's cache keys on it).
+TEST(mesh_determinism, chunked_molecule_is_identical_whatever_the_thread_count) {
+  auto mol = read_pqr_file(testing::molecule_path("mache.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  const auto run = [&](unsigned threads) {
+    mesh_params params;
+    params.threads = threads;
+    progress_token progress;
+    auto out = mesh_molecule(*mol, params, {}, progress);
+    EXPECT_TRUE(out.ok()) << out.error().message();
+    return out.ok() ? std::move(out->mesh) : surface_mesh{};
+  };
+  const surface_mesh one = run(1), two = run(2);
+  ASSERT_GT(one.triangles.size(), 30000u);
+  EXPECT_EQ(one.positions, two.positions);  // bitwise
+  EXPECT_EQ(one.triangles, two.triangles);
+  EXPECT_EQ(one.normals, two.normals);
+  EXPECT_EQ(one.atom_index, two.atom_index);
+}
+
 // Area and volume converge to a much finer reference as the density grows (fas2, 906 atoms).
 TEST(mesh_convergence, area_and_volume_approach_a_fine_reference) {
   auto mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
