@@ -1,5 +1,6 @@
 #include "core/detail/remesh_chunks.hpp"
 
+#include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
@@ -59,13 +60,18 @@ status validate_closed(const surface_mesh& mesh) {
   const auto count = [&](std::uint32_t from, std::uint32_t to) {
     return std::count(targets.begin() + begin[from], targets.begin() + begin[from + 1], to);
   };
-  for (std::uint32_t a = 0; a < n; ++a) {
-    for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
-      const std::uint32_t b = targets[k];
-      if (count(a, b) != 1) return invalid_mesh("has a non-manifold or inconsistently oriented edge");
-      if (count(b, a) != 1) return invalid_mesh("is not closed (boundary edge)");
+  std::atomic<bool> repeated{false}, open{false};
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, static_cast<std::uint32_t>(n)), [&](const auto& range) {
+    for (std::uint32_t a = range.begin(); a != range.end(); ++a) {
+      for (std::uint32_t k = begin[a]; k < begin[a + 1]; ++k) {
+        const std::uint32_t b = targets[k];
+        if (count(a, b) != 1) repeated = true;
+        if (count(b, a) != 1) open = true;
+      }
     }
-  }
+  });
+  if (repeated) return invalid_mesh("has a non-manifold or inconsistently oriented edge");
+  if (open) return invalid_mesh("is not closed (boundary edge)");
   return status::success();
 }
 
@@ -230,10 +236,10 @@ class chunked_mesh {
     for (const std::uint32_t v : all) scratch[v] = no_index;
   }
 
-  /// Replaces the patch's triangles by its output (see remesh_patch_output) and marks its vertices far from its
-  /// boundary done.
+  /// Replaces the patch's triangles by its output (see remesh_patch_output) and marks the output vertices flagged
+  /// in `done` (see done_vertices) done.
   void merge(const std::vector<std::uint32_t>& vertices, const std::vector<std::uint32_t>& triangles,
-             const std::vector<std::uint8_t>& boundary, const remesh_patch_output& out) {
+             const std::vector<std::uint8_t>& done, const remesh_patch_output& out) {
     // Slots of removed triangles and vertices are reused (last freed, first taken): the arrays never grow past
     // the input's size by much, where appending would double their capacity.
     for (const std::uint32_t t : triangles) leave(t);
@@ -251,8 +257,7 @@ class chunked_mesh {
       mesh_.positions[global[v]] = out.mesh.positions[v];
       mesh_.normals[global[v]] = out.mesh.normals[v];
     }
-    const std::vector<std::uint8_t> near = near_boundary(out, boundary);
-    for (std::size_t v = 0; v < global.size(); ++v) done_[global[v]] |= !near[v] && !out.frozen[v];
+    for (std::size_t v = 0; v < global.size(); ++v) done_[global[v]] |= done[v];
     for (const auto& t : out.mesh.triangles) {
       const std::uint32_t slot = new_triangle();
       mesh_.triangles[slot] = {global[t[0]], global[t[1]], global[t[2]]};
@@ -291,21 +296,6 @@ class chunked_mesh {
   }
 
  private:
-  /// The output vertices within boundary_rings rings of the patch boundary.
-  static std::vector<std::uint8_t> near_boundary(const remesh_patch_output& out,
-                                                 const std::vector<std::uint8_t>& boundary) {
-    std::vector<std::uint8_t> near(out.mesh.positions.size(), 0);
-    for (std::size_t v = 0; v < near.size(); ++v) near[v] = out.origin[v] != no_index && boundary[out.origin[v]];
-    for (int ring = 0; ring < boundary_rings; ++ring) {
-      std::vector<std::uint8_t> grown = near;
-      for (const auto& t : out.mesh.triangles) {
-        if (near[t[0]] || near[t[1]] || near[t[2]]) grown[t[0]] = grown[t[1]] = grown[t[2]] = 1;
-      }
-      near.swap(grown);
-    }
-    return near;
-  }
-
   static cell unpack(std::uint64_t key) {
     return {static_cast<std::int64_t>(key >> (2 * coordinate_bits)),
             static_cast<std::int64_t>((key >> coordinate_bits) & max_coordinate),
@@ -389,6 +379,21 @@ cell_grid make_grid(const surface_mesh& mesh, const remesh_options& options) {
   return cell_grid(bounds.lo - vec3{2 * size, 2 * size, 2 * size}, size);
 }
 
+/// The output vertices of a patch that are done: neither frozen nor within boundary_rings rings of its boundary.
+std::vector<std::uint8_t> done_vertices(const remesh_patch_output& out, const std::vector<std::uint8_t>& boundary) {
+  std::vector<std::uint8_t> near(out.mesh.positions.size(), 0);
+  for (std::size_t v = 0; v < near.size(); ++v) near[v] = out.origin[v] != no_index && boundary[out.origin[v]];
+  for (int ring = 0; ring < boundary_rings; ++ring) {
+    std::vector<std::uint8_t> grown = near;
+    for (const auto& t : out.mesh.triangles) {
+      if (near[t[0]] || near[t[1]] || near[t[2]]) grown[t[0]] = grown[t[1]] = grown[t[2]] = 1;
+    }
+    near.swap(grown);
+  }
+  for (std::size_t v = 0; v < near.size(); ++v) near[v] = !near[v] && !out.frozen[v];
+  return near;
+}
+
 void add_stats(remesh_stats& total, const remesh_stats& s) {
   total.splits += s.splits;
   total.collapses += s.collapses;
@@ -440,7 +445,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
     }
     struct patch_job {
       std::vector<std::uint32_t> vertices, triangles;
-      std::vector<std::uint8_t> boundary;
+      std::vector<std::uint8_t> boundary, done;
       result<remesh_patch_output> out = status{errc::cancelled, "remesh: cancelled"};
     };
     std::vector<patch_job> jobs(batch.size());
@@ -455,6 +460,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
         return;
       }
       jobs[k].out = remesh_patch(patch, context, field, options, progress);
+      if (jobs[k].out) jobs[k].done = done_vertices(jobs[k].out.value(), jobs[k].boundary);
       const double fraction = static_cast<double>(++done) / static_cast<double>(all_chunks.size());
       progress.report(mesh_stage::refining, fraction);
     });
@@ -465,7 +471,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
       }
       if (job.triangles.empty()) continue;
       add_stats(total, job.out->stats);
-      if (!job.out->stats.input_returned) chunks.merge(job.vertices, job.triangles, job.boundary, job.out.value());
+      if (!job.out->stats.input_returned) chunks.merge(job.vertices, job.triangles, job.done, job.out.value());
       if (chunks.live_triangles() > options.max_triangles) {
         failure = status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
         break;
