@@ -19,7 +19,7 @@
 namespace tracemesh::detail {
 namespace {
 
-constexpr std::int64_t cells_per_chunk = 8;
+constexpr std::int64_t cells_per_chunk = 16;
 /// A chunk's patch reaches this many cells beyond it; its context this many more.
 constexpr std::int64_t patch_growth = 1;
 constexpr std::int64_t context_growth = 1;
@@ -355,7 +355,7 @@ class chunked_mesh {
   std::size_t live_triangles_ = 0;
 };
 
-/// Cells of chunk_edges·L / 8, but at least twice the longest triangle edge (so that a context of one cell holds
+/// Cells of chunk_edges·L / cells_per_chunk, but at least twice the longest triangle edge (so that a context of one cell holds
 /// every triangle that may meet a patch) and few enough per axis for the packed keys.
 cell_grid make_grid(const surface_mesh& mesh, const remesh_options& options) {
   box3 bounds{mesh.positions.front(), mesh.positions.front()};

@@ -610,15 +610,11 @@ TEST(RemeshSurface, IsDeterministicWhateverTheThreadCount) {
   EXPECT_EQ(one.stats.relaxations, two.stats.relaxations);
 }
 
-/// A small protein-like cluster: 18 atoms on a bent 3 × 3 × 2 grid, overlapping, with crevices between them.
-gaussian_field cluster_field() {
+/// A protein-like chain: 24 overlapping atoms wound along x over ~55 Å, with crevices between them.
+gaussian_field chain_field() {
   std::vector<std::pair<vec3, double>> atoms;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      for (int k = 0; k < 2; ++k) {
-        atoms.push_back({{2.4 * i + 0.3 * j, 2.5 * j + 0.2 * (i % 2), 2.6 * k + 0.25 * i * j}, 1.3 + 0.1 * ((i + j + k) % 3)});
-      }
-    }
+  for (int i = 0; i < 24; ++i) {
+    atoms.push_back({{2.2 * i, 1.2 * std::sin(i), 1.0 * std::cos(1.3 * i)}, 1.3 + 0.1 * (i % 3)});
   }
   return gaussian_field(make_molecule(atoms), -1.0, 1.0);
 }
@@ -632,12 +628,12 @@ remesh_options chunked_options(double edge) {
 }
 
 TEST(RemeshSurface, ChunkedPassKeepsTheCertificateAndReachesTheQuality) {
-  const gaussian_field field = cluster_field();
+  const gaussian_field field = chain_field();
   const surface_mesh input = marching_tetrahedra(field, 0.35);
   const mesh_report before = analyze_mesh(input);
   ASSERT_TRUE(before.topologically_certified());
   const remesh_run run = remesh_ok(input, field, chunked_options(0.4));
-  EXPECT_GE(run.stats.patches, 4U);  // ~10 Å across; chunks of ~10 Å (cells at least twice the longest edge)
+  EXPECT_GE(run.stats.patches, 3U);  // ~55 Å long; chunks of ~20 Å (cells at least twice the longest edge)
   EXPECT_EQ(run.stats.unchanged_patches, 0U);
   EXPECT_FALSE(run.stats.input_returned);
   expect_valid(run.mesh, field, before);
@@ -647,7 +643,7 @@ TEST(RemeshSurface, ChunkedPassKeepsTheCertificateAndReachesTheQuality) {
 }
 
 TEST(RemeshSurface, ChunkedPassIsDeterministicWhateverTheThreadCount) {
-  const gaussian_field field = cluster_field();
+  const gaussian_field field = chain_field();
   const surface_mesh input = marching_tetrahedra(field, 0.35);
   const auto run_with = [&](int threads) {
     tbb::task_arena arena(threads);
