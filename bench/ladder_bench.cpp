@@ -76,7 +76,8 @@ int main(int argc, char** argv) {
   const auto& r = last.report;
   std::printf("| %s | %zu | %g | %.2f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.0f | %zu | %zu | %.2f | %.3f | %.2f%% | %s |\n",
               name.c_str(), mol->atoms.size(), density, read_seconds, stage(tracemesh::mesh_stage::culling),
-              stage(tracemesh::mesh_stage::sampling) + stage(tracemesh::mesh_stage::roots), stage(tracemesh::mesh_stage::triangulating),
+              stage(tracemesh::mesh_stage::sampling) + stage(tracemesh::mesh_stage::roots),
+              stage(tracemesh::mesh_stage::triangulating),
               stage(tracemesh::mesh_stage::refining), stage(tracemesh::mesh_stage::certifying), median(totals),
               peak_rss_mb(), r.vertices, r.triangles, r.achieved_density, r.quality.edge_ratio_mean,
               100 * r.quality.fraction_below_0_2, last.certified ? "yes" : "NO");
