@@ -526,6 +526,15 @@ remesh_run remesh_ok(surface_mesh mesh, const gaussian_field& field, const remes
   return {std::move(mesh), stats.ok() ? stats.value() : remesh_stats{}};
 }
 
+/// remesh_ok in an arena of `threads` threads.
+remesh_run remesh_on_threads(const surface_mesh& input, const gaussian_field& field, const remesh_options& options,
+                             int threads) {
+  tbb::task_arena arena(threads);
+  remesh_run run;
+  arena.execute([&] { run = remesh_ok(input, field, options); });
+  return run;
+}
+
 remesh_options options_for(double edge) {
   remesh_options options;
   options.target_edge = edge;
@@ -596,12 +605,7 @@ TEST(RemeshSurface, IsDeterministicWhateverTheThreadCount) {
   const gaussian_field field(make_molecule({{{0, 0, 0}, 1.6}, {{2.1, 0.4, 0}, 1.3}, {{0.9, 1.8, 0.6}, 1.1}}), -1.0,
                              1.0);
   const surface_mesh input = marching_tetrahedra(field, 0.35);
-  const auto run_with = [&](int threads) {
-    tbb::task_arena arena(threads);
-    remesh_run run;
-    arena.execute([&] { run = remesh_ok(input, field, options_for(0.4)); });
-    return run;
-  };
+  const auto run_with = [&](int threads) { return remesh_on_threads(input, field, options_for(0.4), threads); };
   const remesh_run one = run_with(1), two = run_with(2), again = run_with(2);
   EXPECT_EQ(one.mesh.triangles, two.mesh.triangles);
   EXPECT_EQ(one.mesh.positions, two.mesh.positions);  // bitwise
@@ -645,12 +649,7 @@ TEST(RemeshSurface, ChunkedPassKeepsTheCertificateAndReachesTheQuality) {
 TEST(RemeshSurface, ChunkedPassIsDeterministicWhateverTheThreadCount) {
   const gaussian_field field = chain_field();
   const surface_mesh input = marching_tetrahedra(field, 0.35);
-  const auto run_with = [&](int threads) {
-    tbb::task_arena arena(threads);
-    remesh_run run;
-    arena.execute([&] { run = remesh_ok(input, field, chunked_options(0.4)); });
-    return run;
-  };
+  const auto run_with = [&](int threads) { return remesh_on_threads(input, field, chunked_options(0.4), threads); };
   const remesh_run one = run_with(1), two = run_with(2);
   EXPECT_EQ(one.mesh.triangles, two.mesh.triangles);
   EXPECT_EQ(one.mesh.positions, two.mesh.positions);  // bitwise

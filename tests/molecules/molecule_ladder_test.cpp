@@ -27,6 +27,17 @@ std::string case_name(const ::testing::TestParamInfo<ladder_case>& info) {
 
 bool sanitized_build() { return std::getenv("TRACEMESH_SANITIZED") != nullptr; }
 
+/// Meshes `mol` with default parameters but `density` and `threads` (0: all), expecting success.
+result<mesh_output> mesh_at(const molecule& mol, double density, unsigned threads = 0) {
+  mesh_params params;
+  params.density = density;
+  params.threads = threads;
+  progress_token progress;
+  auto out = mesh_molecule(mol, params, {}, progress);
+  EXPECT_TRUE(out.ok()) << out.error().message();
+  return out;
+}
+
 class molecule_ladder : public ::testing::TestWithParam<ladder_case> {};
 
 TEST_P(molecule_ladder, mesh_is_certified_and_well_shaped) {
@@ -34,11 +45,8 @@ TEST_P(molecule_ladder, mesh_is_certified_and_well_shaped) {
   auto mol = read_pqr_file(testing::molecule_path(c.file));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
   if (sanitized_build() && mol->atoms.size() > 10000) GTEST_SKIP() << "large molecules run in the Release suite only";
-  mesh_params params;
-  params.density = c.density;
-  progress_token progress;
-  auto out = mesh_molecule(*mol, params, {}, progress);
-  ASSERT_TRUE(out.ok()) << out.error().message();
+  auto out = mesh_at(*mol, c.density);
+  ASSERT_TRUE(out.ok());
   const mesh_report& r = out->report;
   EXPECT_TRUE(out->certified);
   EXPECT_EQ(r.boundary_edges, 0u);
@@ -74,11 +82,7 @@ TEST(mesh_determinism, chunked_molecule_is_identical_whatever_the_thread_count) 
   auto mol = read_pqr_file(testing::molecule_path("mache.pqr"));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
   const auto run = [&](unsigned threads) {
-    mesh_params params;
-    params.threads = threads;
-    progress_token progress;
-    auto out = mesh_molecule(*mol, params, {}, progress);
-    EXPECT_TRUE(out.ok()) << out.error().message();
+    auto out = mesh_at(*mol, 1.0, threads);
     return out.ok() ? std::move(out->mesh) : surface_mesh{};
   };
   const surface_mesh one = run(1), two = run(2);
@@ -94,12 +98,8 @@ TEST(mesh_convergence, area_and_volume_approach_a_fine_reference) {
   auto mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
   const auto measure = [&](double density) {
-    mesh_params params;
-    params.density = density;
-    progress_token progress;
-    auto out = mesh_molecule(*mol, params, {}, progress);
-    EXPECT_TRUE(out.ok()) << out.error().message();
-    return std::pair{out->report.area, out->report.volume};
+    auto out = mesh_at(*mol, density);
+    return out.ok() ? std::pair{out->report.area, out->report.volume} : std::pair{0.0, 0.0};
   };
   const auto [reference_area, reference_volume] = measure(8.0);
   const auto [area1, volume1] = measure(1.0);
