@@ -289,7 +289,7 @@ struct api_handlers::upload_request {
   route_id route;
   proto::mesh_request request;
   std::string pqr;
-  std::shared_ptr<upload_ticket> ticket;  // released when the upload has been parsed and queued
+  std::shared_ptr<upload_ticket> ticket;  // released as soon as the upload has been parsed
   reply_sink done;
   clock::time_point received;
 };
@@ -472,6 +472,10 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
     if (!text.ok()) return text.error();
     return parse_pqr(*text, deps_.config.limits.mesh);
   }();
+  // The upload is over once parsed (its bytes are freed above): release its admission before anything can answer
+  // the client, or a client that sends its next upload as soon as this one is answered could find the slot taken
+  // (the job may finish and reply on a worker before this thread gets past submit()).
+  upload->ticket.reset();
   if (!mol.ok()) {
     log_event(deps_.log, spdlog::level::info, "upload_rejected",
               {{"route", route}, {"bytes", upload_bytes}, {"error", errc_name(mol.error().code())}});

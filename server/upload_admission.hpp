@@ -5,7 +5,7 @@
 ///
 /// An upload asks for a ticket when its header arrives, declaring its Content-Length (or 0 when the body is
 /// chunked and its size unknown); a chunked body then grows its reservation as bytes arrive. The ticket holds
-/// the reservation until the last owner drops it (after the upload was parsed and its job queued).
+/// the reservation until the last owner drops it (as soon as the upload has been parsed, before any reply).
 ///
 /// One upload is always admitted when none is in flight, whatever its size: the byte bound may then be smaller
 /// than the per-upload limit without making large uploads impossible (they are simply served one at a time).
