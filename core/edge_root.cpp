@@ -32,9 +32,16 @@ struct cube_columns {
   std::size_t count = 0;
 };
 
-/// φ, dφ/dt and d²φ/dt² at one t.
+/// φ, dφ/dt and d²φ/dt² at one t, and the direction of ∇φ there (unscaled).
 struct edge_sample {
   double value, slope, curvature;
+  vec3 gradient_direction;
+};
+
+/// A root on an edge: its parameter and the field normal −∇φ/|∇φ| there.
+struct edge_solution {
+  double t;
+  vec3 normal;
 };
 
 std::size_t padded_size(std::size_t n) { return (n + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes; }
@@ -113,14 +120,20 @@ template <int W>
   }
 }
 
-/// φ(t), φ'(t), φ''(t) along the edge, each atom cut off exactly as gaussian_field does (r² < cutoff²).
-/// With g(t) = (d/r²)·r²(t): kernel' = g'·kernel and kernel'' = (g'' + g'²)·kernel.
+/// φ(t), φ'(t), φ''(t) along the edge and ∇φ at origin + tΔ, each atom cut off exactly as gaussian_field does
+/// (r² < cutoff²). With g(t) = (d/r²)·r²(t): kernel' = g'·kernel and kernel'' = (g'' + g'²)·kernel; ∇ of the kernel
+/// is 2(d/r²)(p − c)·kernel with p − c = o + tΔ. The gradient rides along with the exponentials already paid for:
+/// the last evaluation of a root gives its normal, which saves the remesher a field evaluation per vertex.
 template <int W>
-[[gnu::always_inline]] inline edge_sample evaluate_edge(const cube_columns& cube, double c, double scale, double t) {
+[[gnu::always_inline]] inline edge_sample evaluate_edge(const cube_columns& cube, const vec3& delta, double c,
+                                                        double scale, double t) {
   using F = typename simd::pack<W>::f64;
-  F value{}, slope{}, curvature{};
+  F value{}, slope{}, curvature{}, gx{}, gy{}, gz{};
   for (std::size_t k = 0; k < cube.count; k += W) {
-    F a, b, d_inv_r2, cutoff2;
+    F ox, oy, oz, a, b, d_inv_r2, cutoff2;
+    simd::load(ox, cube.ox.data() + k);
+    simd::load(oy, cube.oy.data() + k);
+    simd::load(oz, cube.oz.data() + k);
     simd::load(a, cube.a.data() + k);
     simd::load(b, cube.b.data() + k);
     simd::load(d_inv_r2, cube.d_inv_r2.data() + k);
@@ -133,35 +146,13 @@ template <int W>
     value += kernel;
     slope += g1 * kernel;
     curvature += (2 * c * d_inv_r2 + g1 * g1) * kernel;
-  }
-  return {scale * simd::lane_sum(value), scale * simd::lane_sum(slope), scale * simd::lane_sum(curvature)};
-}
-
-/// −∇φ/|∇φ| at origin + tΔ: ∇ of exp(g) with g = (d/r²)·|p − c|² is 2(d/r²)(p − c)·kernel, and p − c = o + tΔ. One
-/// more pass over the cube's atoms saves the remesher a full field evaluation (with its neighbour search) per root.
-template <int W>
-[[gnu::always_inline]] inline vec3 edge_normal(const cube_columns& cube, const vec3& delta, double t) {
-  using F = typename simd::pack<W>::f64;
-  F gx{}, gy{}, gz{};
-  for (std::size_t k = 0; k < cube.count; k += W) {
-    F ox, oy, oz, a, b, d_inv_r2, cutoff2;
-    simd::load(ox, cube.ox.data() + k);
-    simd::load(oy, cube.oy.data() + k);
-    simd::load(oz, cube.oz.data() + k);
-    simd::load(a, cube.a.data() + k);
-    simd::load(b, cube.b.data() + k);
-    simd::load(d_inv_r2, cube.d_inv_r2.data() + k);
-    simd::load(cutoff2, cube.cutoff2.data() + k);
-    const F r2 = a + t * (2 * b + t * squared_norm(delta));
-    F kernel = d_inv_r2 * r2;
-    simd::exp_in_place(kernel);
-    simd::keep_lanes(kernel, r2 < cutoff2);
     const F s = 2 * d_inv_r2 * kernel;
     gx += s * (ox + t * delta.x);
     gy += s * (oy + t * delta.y);
     gz += s * (oz + t * delta.z);
   }
-  return normalized(-vec3{simd::lane_sum(gx), simd::lane_sum(gy), simd::lane_sum(gz)});
+  return {scale * simd::lane_sum(value), scale * simd::lane_sum(slope), scale * simd::lane_sum(curvature),
+          vec3{simd::lane_sum(gx), simd::lane_sum(gy), simd::lane_sum(gz)}};
 }
 
 /// The root in t ∈ [0, 1] of the parabola through (s0, l0), (s0 + 1, l1), (s0 + 2, l2) equal to `level`
@@ -198,13 +189,17 @@ double first_guess(double v0, double v1, double third, int third_t, double t0) {
 /// Root of φ = t0 on [0, 1] where φ(inside_t) ≥ t0 > φ(outside_t), from `guess`. Each step solves the quadratic
 /// Taylor model of L(t) = ln(φ/t0) (from φ, φ', φ''; exact for one atom, third-order in general): from the
 /// interpolated guess, two or three field evaluations. Steps stay inside the shrinking bracket, bisecting when
-/// one would leave it.
+/// one would leave it. The normal is that of the last evaluation, at most final_step (in units of the edge) from
+/// the root returned.
 template <int W>
-[[gnu::always_inline]] inline double solve_edge(const cube_columns& cube, double c, double scale, double t0,
-                                                double inside_t, double outside_t, double guess) {
+[[gnu::always_inline]] inline edge_solution solve_edge(const cube_columns& cube, const vec3& delta, double c,
+                                                       double scale, double t0, double inside_t, double outside_t,
+                                                       double guess) {
   double t = guess;
+  vec3 gradient{};
   for (int iteration = 0; iteration < max_root_iterations; ++iteration) {
-    const edge_sample s = evaluate_edge<W>(cube, c, scale, t);
+    const edge_sample s = evaluate_edge<W>(cube, delta, c, scale, t);
+    gradient = s.gradient_direction;
     const double residual = s.value - t0;
     if (residual == 0) break;
     (residual > 0 ? inside_t : outside_t) = t;
@@ -223,7 +218,7 @@ template <int W>
     t = next;
     if (converged) break;
   }
-  return std::clamp(t, edge_root_margin, 1 - edge_root_margin);
+  return {std::clamp(t, edge_root_margin, 1 - edge_root_margin), normalized(-gradient)};
 }
 
 template <int W>
@@ -279,9 +274,9 @@ template <int W>
           const double c = squared_norm(delta);
           const line_neighbour third = neighbour_of(x, y, z, dir);
           const double guess = first_guess(v0, v1, third.value, third.t, t0);
-          const double t = v0 >= t0 ? solve_edge<W>(cube_atoms, c, scale, t0, 0.0, 1.0, guess)
-                                    : solve_edge<W>(cube_atoms, c, scale, t0, 1.0, 0.0, guess);
-          out.push_back({lat.edge_key(p, direction), origin + delta * t, edge_normal<W>(cube_atoms, delta, t)});
+          const edge_solution root = v0 >= t0 ? solve_edge<W>(cube_atoms, delta, c, scale, t0, 0.0, 1.0, guess)
+                                              : solve_edge<W>(cube_atoms, delta, c, scale, t0, 1.0, 0.0, guess);
+          out.push_back({lat.edge_key(p, direction), origin + delta * root.t, root.normal});
         }
       }
     }

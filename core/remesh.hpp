@@ -47,7 +47,9 @@ struct remesh_options {
   double hard_quality_floor = 1e-6;
   /// Å: every new or moved vertex ends within this first-order distance |φ − t0| / |∇φ| of the surface.
   double surface_tolerance = 1e-5;
-  int final_relaxations = 2;  ///< extra tangential relaxation sweeps after the last iteration
+  /// Extra tangential relaxation sweeps after the last iteration. 1: a second took 2.6% longer on 2buk_capsid for
+  /// an edge-ratio mean of 0.840 instead of 0.839.
+  int final_relaxations = 1;
   /// After a failed check, vertices within freeze_radius × L of an offending triangle are frozen; the radius doubles
   /// with every further try.
   double freeze_radius = 1.0;

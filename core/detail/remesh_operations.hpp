@@ -79,8 +79,9 @@ class remesh_operations {
   double collapse_outcome(std::uint32_t kept, const vec3& p, const vec3& n, std::uint32_t removed, std::uint32_t f0,
                           std::uint32_t f1, const std::vector<std::uint32_t>& removed_ring);
   bool try_flip(std::uint32_t h, std::vector<int>& valences);
-  /// Moves p onto the surface and sets n to the field normal there; false when that fails.
-  bool project(vec3& p, vec3& n) const;
+  /// Moves p to within `tolerance` Å (first order) of the surface and sets n to the field normal there; false when
+  /// that fails.
+  bool project(vec3& p, vec3& n, double tolerance) const;
   /// The face of h, starting at from(h).
   oriented_triangle triangle_of(std::uint32_t h) const;
   replaced_triangle replaced(const oriented_triangle& t, double worst_quality) const;
@@ -95,19 +96,12 @@ class remesh_operations {
   /// A free vertex's relaxed position, or false when it should stay.
   bool relaxed_position(std::uint32_t v, vec3& position, vec3& normal) const;
 
-  /// Repeated split and collapse sweeps skip edges whose neighbourhood nothing changed (see start_sweep).
-  void start_sweep(int sweep);
-  bool worth_visiting(std::uint32_t a, std::uint32_t b) const;
-  void mark_changed(std::uint32_t v);
-  void mark_collapsed(std::uint32_t a, std::uint32_t b);
-
   remesh_mesh& mesh_;
   const gaussian_field& field_;
   remesh_thresholds thresholds_;
   const progress_token& progress_;
   operation_counts counts_;
   std::vector<std::uint32_t> ring_a_, ring_b_;  // scratch
-  std::vector<std::uint8_t> changed_before_, changed_now_;  // per vertex slot, see start_sweep
   double settled_move2_;  ///< Å²: relaxation moves shorter than this are skipped
 };
 
