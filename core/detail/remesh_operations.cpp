@@ -60,37 +60,26 @@ bool remesh_operations::project(vec3& p, vec3& n, double tolerance) const {
 
 // --- acceptance of new triangles ------------------------------------------------------------------------------
 
-namespace {
-
-/// The worst agreement between the triangle's normal and the field normals at its corners: min over corners of
-/// cos(angle); 0 for a degenerate triangle.
-template <class Triangle>
-double agreement(const Triangle& t) {
-  const vec3 normal = normalized(area_vector(t.p[0], t.p[1], t.p[2]));
-  return std::min({dot(normal, t.n[0]), dot(normal, t.n[1]), dot(normal, t.n[2])});
-}
-
-template <class Triangle>
-double quality(const Triangle& t) {
-  return triangle_quality(t.p[0], t.p[1], t.p[2]);
-}
-
-}  // namespace
-
 remesh_operations::oriented_triangle remesh_operations::triangle_of(std::uint32_t h) const {
   const std::uint32_t a = mesh_.from(h), b = mesh_.to(h), c = mesh_.apex(h);
   return {{mesh_.position(a), mesh_.position(b), mesh_.position(c)},
           {mesh_.normal(a), mesh_.normal(b), mesh_.normal(c)}};
 }
 
-remesh_operations::replaced_triangle remesh_operations::replaced(const oriented_triangle& t,
-                                                                 double worst_quality) const {
-  const bool meaningful = quality(t) >= meaningful_normal_quality;
-  return {worst_quality, agreement(t), meaningful ? normalized(area_vector(t.p[0], t.p[1], t.p[2])) : vec3{}};
+remesh_operations::triangle_shape remesh_operations::shape_of(const oriented_triangle& t) {
+  const vec3 area = area_vector(t.p[0], t.p[1], t.p[2]);
+  const double edges = squared_norm(t.p[1] - t.p[0]) + squared_norm(t.p[2] - t.p[1]) + squared_norm(t.p[0] - t.p[2]);
+  const double quality = edges > 0 ? 2 * std::sqrt(3.0) * norm(area) / edges : 0;  // as triangle_quality
+  const vec3 unit = normalized(area);
+  return {quality, unit, std::min({dot(unit, t.n[0]), dot(unit, t.n[1]), dot(unit, t.n[2])})};
 }
 
-bool remesh_operations::acceptable(const oriented_triangle& t, const replaced_triangle& old, bool small_change) const {
-  const double q = quality(t);
+remesh_operations::replaced_triangle remesh_operations::replaced(const triangle_shape& t, double worst_quality) {
+  return {worst_quality, t.agreement, t.quality >= meaningful_normal_quality ? t.unit_normal : vec3{}};
+}
+
+bool remesh_operations::acceptable(const triangle_shape& t, const replaced_triangle& old, bool small_change) const {
+  const double q = t.quality;
   if (!(q >= thresholds_.hard_quality_floor) || q < std::min(thresholds_.quality_floor, old.quality)) return false;
   // Face the way the surface does at every corner (checked at the vertices, where the field normal is exact and
   // known, rather than at the off-surface centroid), or at least no worse than the triangle replaced where the
@@ -104,8 +93,8 @@ bool remesh_operations::acceptable(const oriented_triangle& t, const replaced_tr
   } else if (q < meaningful_normal_quality) {
     required = no_worse;
   }
-  if (agreement(t) < required) return false;
-  return dot(normalized(area_vector(t.p[0], t.p[1], t.p[2])), old.normal) >= 0;
+  if (t.agreement < required) return false;
+  return dot(t.unit_normal, old.normal) >= 0;
 }
 
 // --- split ------------------------------------------------------------------------------------------------------
@@ -135,12 +124,13 @@ bool remesh_operations::try_split(std::uint32_t h) {
 
   // (a, b, c) becomes (a, p, c) + (p, b, c); (b, a, d) becomes (b, p, d) + (p, a, d).
   const oriented_triangle abc = triangle_of(h), bad = triangle_of(o);
-  const double worst = topological_quality_slack * std::min(quality(abc), quality(bad));
-  const replaced_triangle old_abc = replaced(abc, worst), old_bad = replaced(bad, worst);
+  const triangle_shape abc_shape = shape_of(abc), bad_shape = shape_of(bad);
+  const double worst = topological_quality_slack * std::min(abc_shape.quality, bad_shape.quality);
+  const replaced_triangle old_abc = replaced(abc_shape, worst), old_bad = replaced(bad_shape, worst);
   const auto with_midpoint = [&](oriented_triangle t, int corner) {
     t.p[corner] = p;
     t.n[corner] = n;
-    return t;
+    return shape_of(t);
   };
   if (!acceptable(with_midpoint(abc, 1), old_abc) || !acceptable(with_midpoint(abc, 0), old_abc) ||
       !acceptable(with_midpoint(bad, 1), old_bad) || !acceptable(with_midpoint(bad, 0), old_bad)) {
@@ -226,26 +216,29 @@ double remesh_operations::collapse_outcome(std::uint32_t kept, const vec3& p, co
   const double tiny2 = thresholds_.tiny_below * thresholds_.tiny_below;
   const bool small_change = squared_norm(p - mesh_.position(removed)) < tiny2;
   double worst = 1;
+  fan_shapes_.clear();
   const std::uint32_t start = mesh_.outgoing(removed);
   std::uint32_t g = start;
   do {
-    worst = std::min(worst, topological_quality_slack * quality(triangle_of(g)));
+    fan_shapes_.push_back(shape_of(triangle_of(g)));
+    worst = std::min(worst, topological_quality_slack * fan_shapes_.back().quality);
     g = mesh_.rotate(g);
   } while (g != start);
   double worst_new = 1;
   g = start;
-  do {
+  for (std::size_t k = 0;; ++k) {
     const std::uint32_t f = remesh_mesh::face_of(g);
     if (f != f0 && f != f1) {
-      const oriented_triangle old = triangle_of(g);
-      oriented_triangle moved = old;
+      oriented_triangle moved = triangle_of(g);
       moved.p[0] = p;
       moved.n[0] = n;
-      if (!acceptable(moved, replaced(old, worst), small_change)) return -1;
-      worst_new = std::min(worst_new, quality(moved));
+      const triangle_shape moved_shape = shape_of(moved);
+      if (!acceptable(moved_shape, replaced(fan_shapes_[k], worst), small_change)) return -1;
+      worst_new = std::min(worst_new, moved_shape.quality);
     }
     g = mesh_.rotate(g);
-  } while (g != start);
+    if (g == start) break;
+  }
   return worst_new;
 }
 
@@ -286,11 +279,13 @@ bool remesh_operations::try_flip(std::uint32_t h, std::vector<int>& valences) {
   const oriented_triangle abc = triangle_of(h), bad = triangle_of(o);
   const oriented_triangle adc{{abc.p[0], bad.p[2], abc.p[2]}, {abc.n[0], bad.n[2], abc.n[2]}};
   const oriented_triangle dbc{{bad.p[2], abc.p[1], abc.p[2]}, {bad.n[2], abc.n[1], abc.n[2]}};
-  const double worst = std::min(quality(abc), quality(bad));
-  const double worst_agreement = std::min(agreement(abc), agreement(bad));
-  const replaced_triangle against_dbc{worst, worst_agreement, normalized(area_vector(dbc.p[0], dbc.p[1], dbc.p[2]))};
-  const replaced_triangle against_adc{worst, worst_agreement, normalized(area_vector(adc.p[0], adc.p[1], adc.p[2]))};
-  if (!acceptable(adc, against_dbc) || !acceptable(dbc, against_adc)) {
+  const triangle_shape abc_shape = shape_of(abc), bad_shape = shape_of(bad);
+  const triangle_shape adc_shape = shape_of(adc), dbc_shape = shape_of(dbc);
+  const double worst = std::min(abc_shape.quality, bad_shape.quality);
+  const double worst_agreement = std::min(abc_shape.agreement, bad_shape.agreement);
+  const replaced_triangle against_dbc{worst, worst_agreement, dbc_shape.unit_normal};
+  const replaced_triangle against_adc{worst, worst_agreement, adc_shape.unit_normal};
+  if (!acceptable(adc_shape, against_dbc) || !acceptable(dbc_shape, against_adc)) {
     ++counts_.rejected;
     return false;
   }
@@ -317,7 +312,7 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
     const double area = norm(area_vector(t.p[0], t.p[1], t.p[2]));
     weighted += (t.p[0] + t.p[1] + t.p[2]) * (area / 3);
     total_area += area;
-    worst = std::min(worst, quality(t));
+    worst = std::min(worst, triangle_quality(t.p[0], t.p[1], t.p[2]));
     g = mesh_.rotate(g);
   } while (g != start);
   if (!(total_area > 0)) return false;
@@ -336,7 +331,7 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
     oriented_triangle moved = old;
     moved.p[0] = q;
     moved.n[0] = nq;
-    if (!acceptable(moved, replaced(old, worst))) return false;
+    if (!acceptable(shape_of(moved), replaced(shape_of(old), worst))) return false;
     g = mesh_.rotate(g);
   } while (g != start);
   position = q;

@@ -65,6 +65,12 @@ class remesh_operations {
     std::array<vec3, 3> p;
     std::array<vec3, 3> n;
   };
+  /// What the acceptance test needs of a triangle, all from one cross product.
+  struct triangle_shape {
+    double quality;    ///< triangle_quality: 1 equilateral, 0 degenerate
+    vec3 unit_normal;  ///< zero for a degenerate triangle
+    double agreement;  ///< worst cosine between unit_normal and the corner normals (0 for a degenerate triangle)
+  };
   /// What a new triangle may not be worse than: see acceptable().
   struct replaced_triangle {
     double quality;    ///< worst shape quality among the triangles replaced (the bound is min(floor, this))
@@ -84,12 +90,13 @@ class remesh_operations {
   bool project(vec3& p, vec3& n, double tolerance) const;
   /// The face of h, starting at from(h).
   oriented_triangle triangle_of(std::uint32_t h) const;
-  replaced_triangle replaced(const oriented_triangle& t, double worst_quality) const;
+  static triangle_shape shape_of(const oriented_triangle& t);
+  static replaced_triangle replaced(const triangle_shape& t, double worst_quality);
   /// May `t` replace `old`? Its quality must reach min(quality_floor, old.quality) (and the hard floor), its normal
   /// must agree with the field normals at its corners at least as well as min(max deviation, old.agreement)
   /// allows and, unless `t` is a sliver or a `small_change` (a move under tiny_below), within 90°; it may not
   /// flip against old.normal.
-  bool acceptable(const oriented_triangle& t, const replaced_triangle& old, bool small_change = false) const;
+  bool acceptable(const triangle_shape& t, const replaced_triangle& old, bool small_change = false) const;
   bool stop_requested(std::size_t step) const;
   /// Whether a sweep handles the edge of h at h: a live interior edge, visited once (at its larger half-edge).
   bool visits_edge(std::uint32_t h) const;
@@ -102,6 +109,7 @@ class remesh_operations {
   const progress_token& progress_;
   operation_counts counts_;
   std::vector<std::uint32_t> ring_a_, ring_b_;  // scratch
+  std::vector<triangle_shape> fan_shapes_;      // scratch of collapse_outcome
   double settled_move2_;  ///< Å²: relaxation moves shorter than this are skipped
 };
 
