@@ -264,9 +264,27 @@ namespace {
 template <int W>
 struct inside_atoms {
   static constexpr int capacity = 256;
-  std::array<std::uint32_t, capacity + W> index;  // W spare entries: the screening writes whole vectors
+  // Spare entries: the screening writes whole groups of four.
+  std::array<std::uint32_t, capacity + (W > 4 ? W : 4)> index;
   int count = 0;
 };
+
+using index4 = std::uint32_t __attribute__((vector_size(16)));
+
+/// For each 4-bit lane mask, the numbers of its set lanes in increasing order (then anything): storing
+/// first + table[mask] and advancing by popcount(mask) appends the selected lanes in one store, where appending
+/// lane by lane made every entry wait for the previous count (6% of a capsid's run time in that one line).
+constexpr std::array<std::array<std::uint32_t, 4>, 16> make_compress_table() {
+  std::array<std::array<std::uint32_t, 4>, 16> table{};
+  for (unsigned mask = 0; mask < 16; ++mask) {
+    int out = 0;
+    for (unsigned lane = 0; lane < 4; ++lane) {
+      if (mask & (1U << lane)) table[mask][out++] = lane;
+    }
+  }
+  return table;
+}
+constexpr std::array<std::array<std::uint32_t, 4>, 16> compress_table = make_compress_table();
 
 /// Appends to `inside` the atoms of [begin, end) within their cutoff of p, W at a time (branch-free).
 template <int W>
@@ -285,9 +303,14 @@ template <int W>
     dz = p.z - dz;
     M within = dx * dx + dy * dy + dz * dz < cutoff2;
     simd::clear_lanes_from(within, k, end);
-    for (int j = 0; j < W; ++j) {
-      inside.index[static_cast<std::size_t>(inside.count)] = k + static_cast<std::uint32_t>(j);
-      inside.count += static_cast<int>(within[j] & 1);
+    for (int group = 0; group < W; group += 4) {
+      unsigned mask = 0;
+      for (int j = group; j < std::min(group + 4, W); ++j) mask |= static_cast<unsigned>(within[j] & 1) << (j - group);
+      index4 selected;
+      __builtin_memcpy(&selected, compress_table[mask].data(), sizeof selected);
+      selected += k + static_cast<std::uint32_t>(group);
+      __builtin_memcpy(&inside.index[static_cast<std::size_t>(inside.count)], &selected, sizeof selected);
+      inside.count += __builtin_popcount(mask);
     }
   }
 }
