@@ -1,6 +1,8 @@
 #include "core/detail/analysis_fan_pairs.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -94,9 +96,12 @@ std::uint32_t smallest_shared_vertex(const std::array<std::uint32_t, 3>& t, cons
   return smallest;
 }
 
-/// Intersecting pairs of the fan of `vertex` whose smallest shared vertex is `vertex`.
+/// Intersecting pairs of the fan of `vertex` whose smallest shared vertex is `vertex`, but those `groups` (when given)
+/// says are apart; each is also appended to `found` when given.
 std::size_t count_in_fan(const surface_mesh& mesh, const std::vector<triangle_defect>& defects, std::uint32_t vertex,
-                         std::span<const std::uint32_t> around, fan_scratch& scratch) {
+                         std::span<const std::uint32_t> around, fan_scratch& scratch,
+                         const std::vector<std::uint8_t>* groups = nullptr,
+                         std::vector<triangle_pair>* found = nullptr) {
   if (fan_is_embedded_star(mesh, defects, vertex, around, scratch)) return 0;
   std::size_t count = 0;
   for (std::size_t i = 0; i < around.size(); ++i) {
@@ -106,7 +111,10 @@ std::size_t count_in_fan(const surface_mesh& mesh, const std::vector<triangle_de
       if (defects[around[j]] != triangle_defect::none) continue;
       const std::array<std::uint32_t, 3>& u = mesh.triangles[around[j]];
       if (smallest_shared_vertex(t, u) != vertex) continue;  // that pair belongs to a smaller vertex's fan
-      if (mesh_triangles_intersect(mesh.positions, t, u)) ++count;
+      if (groups != nullptr && known_apart_groups{*groups}(around[i], around[j])) continue;
+      if (!mesh_triangles_intersect(mesh.positions, t, u)) continue;
+      ++count;
+      if (found != nullptr) found->push_back({std::min(around[i], around[j]), std::max(around[i], around[j])});
     }
   }
   return count;
@@ -132,6 +140,23 @@ std::size_t count_intersecting_fan_pairs(const surface_mesh& mesh, const std::ve
         return count;
       },
       std::plus<>());
+}
+
+std::vector<triangle_pair> find_intersecting_fan_pairs(const surface_mesh& mesh,
+                                                       const std::vector<triangle_defect>& defects,
+                                                       const vertex_fans& fans, const std::vector<std::uint8_t>& groups) {
+  tbb::enumerable_thread_specific<std::vector<triangle_pair>> found;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.positions.size(), 1024), [&](const auto& vertices) {
+    fan_scratch scratch;
+    std::vector<triangle_pair>& out = found.local();
+    for (std::size_t v = vertices.begin(); v != vertices.end(); ++v) {
+      count_in_fan(mesh, defects, static_cast<std::uint32_t>(v), fans.around(v), scratch, &groups, &out);
+    }
+  });
+  std::vector<triangle_pair> pairs;
+  found.combine_each([&](const std::vector<triangle_pair>& part) { pairs.insert(pairs.end(), part.begin(), part.end()); });
+  std::sort(pairs.begin(), pairs.end());  // the schedule decides the order found
+  return pairs;
 }
 
 }  // namespace tracemesh::detail

@@ -10,10 +10,12 @@
 /// real meshes, slow only for vertices shared by thousands of triangles that do not form a proper star).
 
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
 #include "core/detail/analysis_geometry.hpp"
+#include "core/detail/analysis_self_intersection.hpp"
 #include "core/detail/analysis_topology.hpp"
 #include "core/mesh.hpp"
 
@@ -29,5 +31,10 @@ bool fan_is_embedded_star(const surface_mesh& mesh, const std::vector<triangle_d
 /// one vertex. Each pair is considered once, in the fan of the smallest vertex it shares.
 std::size_t count_intersecting_fan_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
                                          const vertex_fans& fans);
+
+/// The pairs count_intersecting_fan_pairs counts, but those `groups` says are apart (known_apart_groups), sorted.
+std::vector<triangle_pair> find_intersecting_fan_pairs(const surface_mesh& mesh,
+                                                       const std::vector<triangle_defect>& defects,
+                                                       const vertex_fans& fans, const std::vector<std::uint8_t>& groups);
 
 }  // namespace tracemesh::detail

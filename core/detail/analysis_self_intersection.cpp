@@ -1,6 +1,8 @@
 #include "core/detail/analysis_self_intersection.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -307,10 +309,13 @@ bool share_a_vertex(const std::array<std::uint32_t, 3>& t, const std::array<std:
 /// Cells with more triangles than this are swept along x instead of testing every pair of boxes.
 constexpr std::size_t sweep_threshold = 32;
 
+/// Counts the intersecting pairs cell by cell; with `groups` it skips the pairs known apart, with `found` it also
+/// lists the pairs it counts.
 class cell_pair_counter {
  public:
-  cell_pair_counter(const surface_mesh& mesh, const std::vector<bounds>& boxes, const uniform_grid& grid)
-      : mesh_(mesh), boxes_(boxes), grid_(grid) {}
+  cell_pair_counter(const surface_mesh& mesh, const std::vector<bounds>& boxes, const uniform_grid& grid,
+                    const std::vector<std::uint8_t>* groups = nullptr, std::vector<triangle_pair>* found = nullptr)
+      : mesh_(mesh), boxes_(boxes), grid_(grid), groups_(groups), found_(found) {}
 
   /// Intersecting pairs tested in the cell of entries[begin, end).
   std::size_t count(const std::vector<grid_entry>& entries, std::size_t begin, std::size_t end) {
@@ -338,10 +343,13 @@ class cell_pair_counter {
   /// Pairs sharing a vertex are left to the fan pass (analysis_fan_pairs.hpp).
   std::size_t count_if_intersecting(const candidate& a, const candidate& b) const {
     if (share_a_vertex(a.vertices, b.vertices)) return 0;
+    if (groups_ != nullptr && known_apart_groups{*groups_}(a.triangle, b.triangle)) return 0;
     const auto corners = [this](const std::array<std::uint32_t, 3>& t) {
       return triangle_corners{mesh_.positions[t[0]], mesh_.positions[t[1]], mesh_.positions[t[2]]};
     };
-    return triangles_intersect(corners(a.vertices), corners(b.vertices)) ? 1 : 0;
+    if (!triangles_intersect(corners(a.vertices), corners(b.vertices))) return 0;
+    if (found_ != nullptr) found_->push_back({std::min(a.triangle, b.triangle), std::max(a.triangle, b.triangle)});
+    return 1;
   }
 
   /// For each candidate, the later ones examined with it are first collected as bits of a word without branching,
@@ -379,29 +387,66 @@ class cell_pair_counter {
   const surface_mesh& mesh_;
   const std::vector<bounds>& boxes_;
   const uniform_grid& grid_;
+  const std::vector<std::uint8_t>* groups_;
+  std::vector<triangle_pair>* found_;
   std::vector<candidate> candidates_;
 };
+
+/// The sorted grid of the tested triangles' boxes, ready for a cell_pair_counter.
+struct separate_pairs_grid {
+  std::vector<bounds> boxes;
+  uniform_grid grid;
+  std::vector<grid_entry> entries;
+  std::vector<std::size_t> starts;  ///< see cell_starts
+};
+
+/// Empty (no cells) when fewer than two triangles are tested.
+separate_pairs_grid make_separate_pairs_grid(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
+  std::vector<bounds> boxes = all_triangle_bounds(mesh, defects);
+  const tested_set tested_triangles = survey(boxes, defects);
+  if (tested_triangles.triangles < 2) {
+    bounds point;
+    point.include(vec3{});
+    return {std::move(boxes), uniform_grid(point, 1), {}, {0}};
+  }
+  std::vector<std::uint64_t> chunk_entries;
+  const uniform_grid grid = choose_grid(boxes, defects, tested_triangles, chunk_entries);
+  std::vector<grid_entry> entries = fill_grid(boxes, defects, grid, chunk_entries);
+  std::vector<std::size_t> starts = cell_starts(entries);
+  return {std::move(boxes), grid, std::move(entries), std::move(starts)};
+}
 
 }  // namespace
 
 std::size_t count_intersecting_separate_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects) {
-  const std::vector<bounds> boxes = all_triangle_bounds(mesh, defects);
-  const tested_set tested_triangles = survey(boxes, defects);
-  if (tested_triangles.triangles < 2) return 0;
-  std::vector<std::uint64_t> chunk_entries;
-  const uniform_grid grid = choose_grid(boxes, defects, tested_triangles, chunk_entries);
-  const std::vector<grid_entry> entries = fill_grid(boxes, defects, grid, chunk_entries);
-  const std::vector<std::size_t> starts = cell_starts(entries);
+  const separate_pairs_grid g = make_separate_pairs_grid(mesh, defects);
   return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, starts.size() - 1, 64), std::size_t{0},
+      tbb::blocked_range<std::size_t>(0, g.starts.size() - 1, 64), std::size_t{0},
       [&](const tbb::blocked_range<std::size_t>& cells, std::size_t count) {
-        cell_pair_counter counter(mesh, boxes, grid);
+        cell_pair_counter counter(mesh, g.boxes, g.grid);
         for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
-          count += counter.count(entries, starts[cell], starts[cell + 1]);
+          count += counter.count(g.entries, g.starts[cell], g.starts[cell + 1]);
         }
         return count;
       },
       std::plus<>());
+}
+
+std::vector<triangle_pair> find_intersecting_separate_pairs(const surface_mesh& mesh,
+                                                            const std::vector<triangle_defect>& defects,
+                                                            const std::vector<std::uint8_t>& groups) {
+  const separate_pairs_grid g = make_separate_pairs_grid(mesh, defects);
+  tbb::enumerable_thread_specific<std::vector<triangle_pair>> found;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.starts.size() - 1, 64), [&](const auto& cells) {
+    cell_pair_counter counter(mesh, g.boxes, g.grid, &groups, &found.local());
+    for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
+      counter.count(g.entries, g.starts[cell], g.starts[cell + 1]);
+    }
+  });
+  std::vector<triangle_pair> pairs;
+  found.combine_each([&](const std::vector<triangle_pair>& part) { pairs.insert(pairs.end(), part.begin(), part.end()); });
+  std::sort(pairs.begin(), pairs.end());  // the schedule decides the order found
+  return pairs;
 }
 
 }  // namespace tracemesh::detail

@@ -10,7 +10,9 @@
 /// boxes, so it is tested exactly once however many cells both boxes share. Cells are processed in parallel; the
 /// count (an integer) does not depend on the schedule.
 
+#include <array>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "core/detail/analysis_geometry.hpp"
@@ -26,5 +28,22 @@ inline constexpr std::size_t max_grid_entries_per_triangle = 16;
 
 /// Counts the intersecting pairs among triangles with defects[t] == none that share no vertex.
 std::size_t count_intersecting_separate_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects);
+
+/// Two triangle indices, the smaller first.
+using triangle_pair = std::array<std::uint32_t, 2>;
+
+/// Which pairs need no test: `groups`, when not empty, has one entry per triangle, 0 for a triangle to test against
+/// all, k > 0 for one of a group known not to meet itself (checked before, e.g. the fixed triangles around a patch).
+struct known_apart_groups {
+  const std::vector<std::uint8_t>& groups;
+  bool operator()(std::uint32_t s, std::uint32_t t) const {
+    return !groups.empty() && groups[s] != 0 && groups[s] == groups[t];
+  }
+};
+
+/// The pairs count_intersecting_separate_pairs counts, but those `groups` says are apart, sorted.
+std::vector<triangle_pair> find_intersecting_separate_pairs(const surface_mesh& mesh,
+                                                            const std::vector<triangle_defect>& defects,
+                                                            const std::vector<std::uint8_t>& groups);
 
 }  // namespace tracemesh::detail

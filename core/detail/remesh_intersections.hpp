@@ -2,18 +2,18 @@
 /// @file remesh_intersections.hpp
 /// Where a mesh would fail its certificate: the remesher needs the offending triangles themselves (not just their
 /// number, as count_self_intersections in mesh_analysis.hpp gives) to know where to freeze the mesh. The tests are
-/// those of the certificate: classify_triangle for degeneracy and the exact mesh_triangles_intersect for pairs.
+/// those of the certificate, and so is the search: its grid for the pairs that share no vertex
+/// (analysis_self_intersection.hpp) and its fan pass for the others (analysis_fan_pairs.hpp).
 
 #include <array>
 #include <cstdint>
 #include <vector>
 
 #include "core/detail/analysis_geometry.hpp"
+#include "core/detail/analysis_self_intersection.hpp"
 #include "core/mesh.hpp"
 
 namespace tracemesh::detail {
-
-using triangle_pair = std::array<std::uint32_t, 2>;
 
 /// Every pair {i, j} (i < j, sorted) of triangles without defect that count as a self-intersection (see
 /// count_self_intersections). `defects`: classify_triangles(mesh). `groups`, when not empty, has one entry per
