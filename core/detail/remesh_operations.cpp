@@ -305,6 +305,10 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
   vec3 weighted{};
   double total_area = 0;
   double worst = 1;
+  // The fan's shapes, kept for the check of the move (fans are small; a larger one is measured again).
+  constexpr std::size_t kept_shapes = 16;
+  std::array<triangle_shape, kept_shapes> shapes;
+  std::size_t fan_size = 0;
   const std::uint32_t start = mesh_.outgoing(v);
   std::uint32_t g = start;
   do {
@@ -312,7 +316,10 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
     const double area = norm(area_vector(t.p[0], t.p[1], t.p[2]));
     weighted += (t.p[0] + t.p[1] + t.p[2]) * (area / 3);
     total_area += area;
-    worst = std::min(worst, triangle_quality(t.p[0], t.p[1], t.p[2]));
+    const triangle_shape shape = shape_of(t);
+    if (fan_size < kept_shapes) shapes[fan_size] = shape;
+    ++fan_size;
+    worst = std::min(worst, shape.quality);
     g = mesh_.rotate(g);
   } while (g != start);
   if (!(total_area > 0)) return false;
@@ -326,14 +333,15 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
   if (!newton_step_to_surface(field_, q, nq, thresholds_.max_move)) return false;
 
   g = start;
-  do {
-    const oriented_triangle old = triangle_of(g);
-    oriented_triangle moved = old;
+  for (std::size_t k = 0;; ++k) {
+    oriented_triangle moved = triangle_of(g);
+    const triangle_shape old = k < kept_shapes ? shapes[k] : shape_of(moved);
     moved.p[0] = q;
     moved.n[0] = nq;
-    if (!acceptable(shape_of(moved), replaced(shape_of(old), worst))) return false;
+    if (!acceptable(shape_of(moved), replaced(old, worst))) return false;
     g = mesh_.rotate(g);
-  } while (g != start);
+    if (g == start) break;
+  }
   position = q;
   normal = nq;
   return true;
