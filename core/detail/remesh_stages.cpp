@@ -46,6 +46,16 @@ verified_stages::verified_stages(const gaussian_field& field, const remesh_thres
 }
 
 result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage, bool settle) {
+  if (!settle && !limits_.check_every_stage) {  // kept unchecked: no copy to fall back on is needed
+    remesh_operations ops(state, field_, thresholds_, progress_);
+    if (!stage(state, ops)) return status{errc::cancelled, "remesh: cancelled"};
+    state.compact();
+    if (state.live_face_count() > limits_.max_triangles) {
+      return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
+    }
+    add_counts(counts_, ops.counts());
+    return true;
+  }
   for (int attempt = 0;; ++attempt) {
     remesh_mesh trial = state;
     remesh_operations ops(trial, field_, thresholds_, progress_);
@@ -53,11 +63,6 @@ result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage,
     trial.compact();
     if (trial.live_face_count() > limits_.max_triangles) {
       return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
-    }
-    if (!settle && !limits_.check_every_stage) {
-      state = std::move(trial);
-      add_counts(counts_, ops.counts());
-      return true;
     }
     const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
     failure_.mesh = certificate_view(trial);

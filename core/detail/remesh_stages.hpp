@@ -51,7 +51,8 @@ class verified_stages {
   /// tests (degenerate triangles, exact self-intersection, unsettled vertices), freezing the vertices of `state`
   /// near the offending triangles between tries. Returns true when `state` took the clean copy, false when the
   /// stage was skipped (`state` unchanged but for the frozen flags; last_failure() tells why); errc::cancelled or
-  /// errc::limit_exceeded.
+  /// errc::limit_exceeded. A stage that is not checked (neither `settle` nor limits.check_every_stage) runs on
+  /// `state` itself, which an error then leaves partly edited.
   result<bool> run(remesh_mesh& state, const remesh_stage& stage, bool settle);
 
   /// Operations of the kept copies.
