@@ -3,7 +3,8 @@
 /// The first level of the remesher's safety (see remesh.hpp): each stage of the pass (a sweep of operations) runs
 /// on a copy of the mesh that is kept only when the certificate would accept it. When it would not, the vertices
 /// near the offending triangles are frozen and the stage is redone with a growing radius, or skipped. A skipped
-/// stage leaves the mesh exactly as it was: clean.
+/// stage leaves the mesh exactly as it was: clean. Stages that are not checked (see stage_limits) edit the mesh in
+/// place; the check at the end of the round covers them (remesh_patch.hpp).
 
 #include <cstddef>
 #include <cstdint>
