@@ -3,13 +3,13 @@
 /// The quality pass over a whole closed mesh, cut into chunks so that it runs in parallel, checks and redoes work
 /// locally, and never copies the whole mesh.
 ///
-/// Space is cut into cubic chunks of edge C = options.chunk_edges · L, each made of 16³ cells (a cell is at least
+/// Space is cut into cubic chunks of edge C = options.chunk_edges · L, each made of 12³ cells (a cell is at least
 /// twice the longest triangle edge, so C may come out larger). A chunk's patch is every triangle whose centroid
-/// lies in the chunk grown by one cell (C/16) on every side; the vertices that also
+/// lies in the chunk grown by one cell (C/12) on every side; the vertices that also
 /// have triangles outside the patch are its boundary and stay frozen (remesh_patch.hpp). The growth makes every
 /// vertex an interior vertex of its own chunk's patch, so one pass over the chunks reaches the whole surface, and
 /// the band along a chunk's faces is remeshed by both neighbours in turn. Chunks are processed in 8 colours (the
-/// parities of their coordinates): the grown chunks of one colour are 14 cells apart, so their patches run in
+/// parities of their coordinates): the grown chunks of one colour are 10 cells apart, so their patches run in
 /// parallel without meeting; their results are merged in chunk order after each colour. Every patch is checked
 /// against the triangles around it (its context), so the mesh stays free of self-intersections throughout.
 ///
