@@ -49,6 +49,6 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
                                   progress_token& progress);
 
 /// Version of the engine's output; part of every cache key. Bump when the mesh for a given input changes.
-inline constexpr const char* engine_version = "tracemesh-engine-1";
+inline constexpr const char* engine_version = "tracemesh-engine-2";
 
 }  // namespace tracemesh
