@@ -1,8 +1,6 @@
 #include "core/detail/analysis_fan_pairs.hpp"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -11,6 +9,7 @@
 #include <functional>
 #include <limits>
 
+#include "core/detail/analysis_parallel.hpp"
 #include "core/detail/analysis_predicates.hpp"
 #include "core/detail/triangle_intersection.hpp"
 
@@ -145,18 +144,17 @@ std::size_t count_intersecting_fan_pairs(const surface_mesh& mesh, const std::ve
 std::vector<triangle_pair> find_intersecting_fan_pairs(const surface_mesh& mesh,
                                                        const std::vector<triangle_defect>& defects,
                                                        const vertex_fans& fans, const std::vector<std::uint8_t>& groups) {
-  tbb::enumerable_thread_specific<std::vector<triangle_pair>> found;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.positions.size(), 1024), [&](const auto& vertices) {
-    fan_scratch scratch;
-    std::vector<triangle_pair>& out = found.local();
-    for (std::size_t v = vertices.begin(); v != vertices.end(); ++v) {
-      count_in_fan(mesh, defects, static_cast<std::uint32_t>(v), fans.around(v), scratch, &groups, &out);
-    }
-  });
-  std::vector<triangle_pair> pairs;
-  found.combine_each([&](const std::vector<triangle_pair>& part) { pairs.insert(pairs.end(), part.begin(), part.end()); });
-  std::sort(pairs.begin(), pairs.end());  // the schedule decides the order found
-  return pairs;
+  return deterministic_reduce(
+      mesh.positions.size(), std::vector<triangle_pair>{},
+      [&](std::size_t begin, std::size_t end) {
+        std::vector<triangle_pair> found;
+        fan_scratch scratch;
+        for (std::size_t v = begin; v < end; ++v) {
+          count_in_fan(mesh, defects, static_cast<std::uint32_t>(v), fans.around(v), scratch, &groups, &found);
+        }
+        return found;
+      },
+      append_pairs, pair_search_chunk);
 }
 
 }  // namespace tracemesh::detail

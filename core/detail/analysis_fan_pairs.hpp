@@ -32,7 +32,8 @@ bool fan_is_embedded_star(const surface_mesh& mesh, const std::vector<triangle_d
 std::size_t count_intersecting_fan_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
                                          const vertex_fans& fans);
 
-/// The pairs count_intersecting_fan_pairs counts, but those `groups` says are apart (known_apart_groups), sorted.
+/// The pairs count_intersecting_fan_pairs counts, but those `groups` says are apart (known_apart_groups), in an
+/// order that does not depend on the thread count.
 std::vector<triangle_pair> find_intersecting_fan_pairs(const surface_mesh& mesh,
                                                        const std::vector<triangle_defect>& defects,
                                                        const vertex_fans& fans, const std::vector<std::uint8_t>& groups);

@@ -1,8 +1,6 @@
 #include "core/detail/analysis_self_intersection.hpp"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -436,17 +434,15 @@ std::vector<triangle_pair> find_intersecting_separate_pairs(const surface_mesh& 
                                                             const std::vector<triangle_defect>& defects,
                                                             const std::vector<std::uint8_t>& groups) {
   const separate_pairs_grid g = make_separate_pairs_grid(mesh, defects);
-  tbb::enumerable_thread_specific<std::vector<triangle_pair>> found;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.starts.size() - 1, 64), [&](const auto& cells) {
-    cell_pair_counter counter(mesh, g.boxes, g.grid, &groups, &found.local());
-    for (std::size_t cell = cells.begin(); cell != cells.end(); ++cell) {
-      counter.count(g.entries, g.starts[cell], g.starts[cell + 1]);
-    }
-  });
-  std::vector<triangle_pair> pairs;
-  found.combine_each([&](const std::vector<triangle_pair>& part) { pairs.insert(pairs.end(), part.begin(), part.end()); });
-  std::sort(pairs.begin(), pairs.end());  // the schedule decides the order found
-  return pairs;
+  return deterministic_reduce(
+      g.starts.size() - 1, std::vector<triangle_pair>{},
+      [&](std::size_t begin, std::size_t end) {
+        std::vector<triangle_pair> found;
+        cell_pair_counter counter(mesh, g.boxes, g.grid, &groups, &found);
+        for (std::size_t cell = begin; cell < end; ++cell) counter.count(g.entries, g.starts[cell], g.starts[cell + 1]);
+        return found;
+      },
+      append_pairs, pair_search_chunk);
 }
 
 }  // namespace tracemesh::detail

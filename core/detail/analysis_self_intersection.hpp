@@ -41,7 +41,17 @@ struct known_apart_groups {
   }
 };
 
-/// The pairs count_intersecting_separate_pairs counts, but those `groups` says are apart, sorted.
+/// Appends `part` to `pairs` (the combine step of the pair searches' deterministic_reduce).
+inline std::vector<triangle_pair> append_pairs(std::vector<triangle_pair> pairs, const std::vector<triangle_pair>& part) {
+  pairs.insert(pairs.end(), part.begin(), part.end());
+  return pairs;
+}
+/// Cells or vertices per chunk of the pair searches: patches of the quality pass hold a few thousand cells, and
+/// analysis_chunk_size would leave one core idle on them.
+inline constexpr std::size_t pair_search_chunk = 1024;
+
+/// The pairs count_intersecting_separate_pairs counts, but those `groups` says are apart, in an order that does not
+/// depend on the thread count.
 std::vector<triangle_pair> find_intersecting_separate_pairs(const surface_mesh& mesh,
                                                             const std::vector<triangle_defect>& defects,
                                                             const std::vector<std::uint8_t>& groups);

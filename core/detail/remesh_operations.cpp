@@ -58,6 +58,10 @@ bool remesh_operations::project(vec3& p, vec3& n, double tolerance) const {
   return project_onto_surface(field_, p, n, thresholds_.max_move, tolerance);
 }
 
+bool remesh_operations::project_new_vertex(vec3& p, vec3& n) const {
+  return project(p, n, std::max(edit_surface_tolerance, thresholds_.surface_tolerance));
+}
+
 // --- acceptance of new triangles ------------------------------------------------------------------------------
 
 remesh_operations::oriented_triangle remesh_operations::triangle_of(std::uint32_t h) const {
@@ -120,7 +124,7 @@ bool remesh_operations::try_split(std::uint32_t h) {
   }
   if (c == d) return false;
   vec3 p = (mesh_.position(a) + mesh_.position(b)) * 0.5, n;
-  if (!project(p, n, std::max(edit_surface_tolerance, thresholds_.surface_tolerance))) return false;
+  if (!project_new_vertex(p, n)) return false;
 
   // (a, b, c) becomes (a, p, c) + (p, b, c); (b, a, d) becomes (b, p, d) + (p, a, d).
   const oriented_triangle abc = triangle_of(h), bad = triangle_of(o);
@@ -194,10 +198,7 @@ bool remesh_operations::try_collapse(std::uint32_t h) {
   const auto midpoint_acceptable = [&] {
     return collapse_outcome(a, p, n, b, f0, f1, ring_b_) >= 0 && collapse_outcome(b, p, n, a, f0, f1, ring_a_) >= 0;
   };
-  if (!midpoint_acceptable() || !project(p, n, std::max(edit_surface_tolerance, thresholds_.surface_tolerance)) ||
-      !midpoint_acceptable()) {
-    return false;
-  }
+  if (!midpoint_acceptable() || !project_new_vertex(p, n) || !midpoint_acceptable()) return false;
   mesh_.collapse_edge(h, p, n);
   ++counts_.collapses;
   return true;

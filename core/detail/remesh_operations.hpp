@@ -88,6 +88,8 @@ class remesh_operations {
   /// Moves p to within `tolerance` Å (first order) of the surface and sets n to the field normal there; false when
   /// that fails.
   bool project(vec3& p, vec3& n, double tolerance) const;
+  /// project() for a vertex a split or a collapse creates (see edit_surface_tolerance).
+  bool project_new_vertex(vec3& p, vec3& n) const;
   /// The face of h, starting at from(h).
   oriented_triangle triangle_of(std::uint32_t h) const;
   static triangle_shape shape_of(const oriented_triangle& t);

@@ -29,6 +29,15 @@ void add_triangles_at(const triangle_list& all, const std::vector<std::uint32_t>
   triangles.erase(std::unique(triangles.begin(), triangles.end()), triangles.end());
 }
 
+/// Drops what a stage removed; limit_exceeded when the stage left more than `max_triangles` faces.
+status compact_within(remesh_mesh& mesh, std::size_t max_triangles) {
+  mesh.compact();
+  if (mesh.live_face_count() > max_triangles) {
+    return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
+  }
+  return status::success();
+}
+
 void add_counts(operation_counts& total, const operation_counts& c) {
   total.splits += c.splits;
   total.collapses += c.collapses;
@@ -49,10 +58,7 @@ result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage,
   if (!settle && !limits_.check_every_stage) {  // kept unchecked: no copy to fall back on is needed
     remesh_operations ops(state, field_, thresholds_, progress_);
     if (!stage(state, ops)) return status{errc::cancelled, "remesh: cancelled"};
-    state.compact();
-    if (state.live_face_count() > limits_.max_triangles) {
-      return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
-    }
+    if (status s = compact_within(state, limits_.max_triangles); !s) return s;
     add_counts(counts_, ops.counts());
     return true;
   }
@@ -60,10 +66,7 @@ result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage,
     remesh_mesh trial = state;
     remesh_operations ops(trial, field_, thresholds_, progress_);
     if (!stage(trial, ops)) return status{errc::cancelled, "remesh: cancelled"};
-    trial.compact();
-    if (trial.live_face_count() > limits_.max_triangles) {
-      return status{errc::limit_exceeded, "remesh: more than max_triangles triangles"};
-    }
+    if (status s = compact_within(trial, limits_.max_triangles); !s) return s;
     const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
     failure_.mesh = certificate_view(trial);
     failure_.offending = finder_(trial, failure_.mesh);
