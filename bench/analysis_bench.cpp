@@ -3,7 +3,7 @@
 //   build/bin/analysis_bench --benchmark_min_time=0.1
 #include <benchmark/benchmark.h>
 
-#include "core/mesh_analysis.hpp"
+#include "core/analysis/mesh_analysis.hpp"
 #include "support/analysis_meshes.hpp"
 
 namespace {

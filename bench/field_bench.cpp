@@ -16,12 +16,12 @@
 #include <string>
 #include <vector>
 
-#include "core/band_culling.hpp"
-#include "core/edge_root.hpp"
-#include "core/gaussian_field.hpp"
-#include "core/lattice_sampler.hpp"
-#include "core/marching_tetrahedra.hpp"
-#include "core/pqr_reader.hpp"
+#include "core/field/band_culling.hpp"
+#include "core/lattice/edge_root.hpp"
+#include "core/field/gaussian_field.hpp"
+#include "core/lattice/lattice_sampler.hpp"
+#include "core/lattice/marching_tetrahedra.hpp"
+#include "core/io/pqr_reader.hpp"
 
 namespace tracemesh {
 namespace {

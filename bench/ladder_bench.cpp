@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "core/mesher.hpp"
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 
 namespace {
 

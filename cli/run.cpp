@@ -7,7 +7,7 @@
 
 #include "cli/atomic_file.hpp"
 #include "core/mesher.hpp"
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 #include "proto/mesh_encoders.hpp"
 #include "proto/report_json.hpp"
 

@@ -33,6 +33,15 @@ struct parameter_ranges {
   static constexpr double max_d = -0.05;
   static constexpr double min_t0 = 1e-3;       ///< isovalue t0 (> 0)
   static constexpr double max_t0 = 100.0;
+  // The trace path's knobs (trace_parameters.hpp).
+  static constexpr int min_legendre_degree = 2;
+  static constexpr int max_legendre_degree = 30;
+  static constexpr double min_trace_step_fraction = 0.05;  ///< h₁ / h̃
+  static constexpr double max_trace_step_fraction = 2.0;
+  static constexpr double min_trace_cos_bound = 0.5;       ///< δ: the normal may turn by at most 60°…
+  static constexpr double max_trace_cos_bound = 0.9999;    ///< …and at least 0.8° per step
+  static constexpr double min_extreme_tolerance = 1e-4;    ///< ε, relative to |∇φ|
+  static constexpr double max_extreme_tolerance = 0.2;
 };
 
 }  // namespace tracemesh

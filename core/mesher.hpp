@@ -4,32 +4,50 @@
 /// Used identically by the `tracemesh` command and the `tracemeshd` service.
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/limits.hpp"
 #include "core/mesh.hpp"
-#include "core/mesh_analysis.hpp"
+#include "core/analysis/mesh_analysis.hpp"
 #include "core/molecule.hpp"
 #include "core/progress.hpp"
+#include "core/stage_clock.hpp"
 #include "core/status.hpp"
+#include "core/trace/trace_parameters.hpp"
 
 namespace tracemesh {
+
+/// How surface points are connected into polygons.
+enum class mesh_method {
+  trace,    ///< the paper's: roots on x-parallel lines (eq. 6), traced contours (Algorithm 1), polygons (Algorithm 2)
+  lattice,  ///< roots on the edges of a tetrahedral lattice, polygons by marching tetrahedra
+};
+/// What happens to the polygons' triangles before the certificate.
+enum class refine_mode {
+  none,  ///< the triangulated polygons as they are (trace), or the marching-tetrahedra triangles (lattice)
+  full,  ///< the quality pass (remesh.hpp)
+};
+/// Stable names ("trace", "lattice"; "none", "full") used by the CLI, the service and the report.
+const char* method_name(mesh_method method) noexcept;
+const char* refine_name(refine_mode refine) noexcept;
+/// Parses those names; false (and `out` unchanged) for anything else.
+bool parse_method(std::string_view name, mesh_method& out) noexcept;
+bool parse_refine(std::string_view name, refine_mode& out) noexcept;
 
 /// Per-job parameters (ranges in parameter_ranges).
 struct mesh_params {
   double density = 1.0;  ///< requested vertices per Å² (sets the sampling step h̃ ≈ 1/√density)
   double d = -1.0;       ///< kernel decay rate, < 0
   double t0 = 1.0;       ///< isovalue, > 0
+  mesh_method method = mesh_method::lattice;
+  refine_mode refine = refine_mode::full;
+  trace_parameters trace;  ///< used by mesh_method::trace only
   unsigned threads = 0;  ///< worker threads; 0 = all cores. Never changes the output.
 };
 
 /// errc::invalid_argument naming the parameter when one is NaN or outside its range.
 status validate(const mesh_params& params);
-
-struct stage_timing {
-  mesh_stage stage;
-  double seconds;
-};
 
 struct mesh_output {
   surface_mesh mesh;
@@ -40,6 +58,9 @@ struct mesh_output {
   double max_surface_distance = 0;     ///< max over vertices of |φ(v) − t0| / |∇φ(v)|, Å
   double field_cutoff_error = 0;       ///< bound on |φ_cutoff − φ| relative to t0 (see gaussian_field.hpp)
   bool certified = false;              ///< report.topologically_certified() and max_surface_distance ≤ 1e-3 Å
+  mesh_method method = mesh_method::lattice;  ///< as requested
+  refine_mode refine = refine_mode::full;     ///< as requested
+  trace_stats trace;                   ///< filled by mesh_method::trace
 };
 
 /// Meshes the Gaussian surface {φ = t0} of `mol`. Deterministic: the same input gives the same mesh whatever

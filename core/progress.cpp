@@ -8,6 +8,7 @@ const char* stage_name(mesh_stage stage) noexcept {
     case mesh_stage::culling: return "culling";
     case mesh_stage::sampling: return "sampling";
     case mesh_stage::roots: return "roots";
+    case mesh_stage::tracing: return "tracing";
     case mesh_stage::triangulating: return "triangulating";
     case mesh_stage::refining: return "refining";
     case mesh_stage::certifying: return "certifying";

@@ -12,7 +12,9 @@
 namespace tracemesh {
 
 /// Pipeline stages, in order, as reported to progress listeners.
-enum class mesh_stage { reading, culling, sampling, roots, triangulating, refining, certifying, encoding, done };
+/// The lattice path runs sampling → roots → triangulating; the trace path roots (line roots, eq. 6) → tracing
+/// (Algorithm 1) → triangulating (Algorithm 2 and the polygons' triangulation).
+enum class mesh_stage { reading, culling, sampling, roots, tracing, triangulating, refining, certifying, encoding, done };
 const char* stage_name(mesh_stage stage) noexcept;
 
 class progress_token {

@@ -9,7 +9,7 @@
 #include <boost/beast/core/string.hpp>
 #include <nlohmann/json.hpp>
 
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 #include "proto/api_types.hpp"
 #include "proto/openapi.hpp"
 #include "server/content_hash.hpp"

@@ -13,7 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/limits.hpp"
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 
 namespace tracemesh::server {
 

@@ -6,7 +6,7 @@
 #include <random>
 
 #include "cgal/cgal_check.hpp"
-#include "core/mesh_analysis.hpp"
+#include "core/analysis/mesh_analysis.hpp"
 #include "support/analysis_meshes.hpp"
 
 namespace tracemesh::testing {

@@ -9,7 +9,7 @@
 
 #include "cgal/cgal_check.hpp"
 #include "core/mesher.hpp"
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {

@@ -137,9 +137,26 @@ TEST(mesher, extent_beyond_the_lattice_limit_is_refused) {
 TEST(mesher, bad_parameters_are_refused_with_their_name) {
   const molecule mol = atoms({{{0, 0, 0}, 1.5, 0}});
   progress_token progress;
+  const auto basic = [](double density, double d, double t0) {
+    mesh_params params;
+    params.density = density;
+    params.d = d;
+    params.t0 = t0;
+    return params;
+  };
+  const auto with_trace = [](auto change) {
+    mesh_params params;
+    params.method = mesh_method::trace;
+    change(params.trace);
+    return params;
+  };
   for (const auto& [params, name] : std::vector<std::pair<mesh_params, std::string>>{
-           {{0.0, -1, 1, 0}, "density"}, {{NAN, -1, 1, 0}, "density"}, {{1, 0.5, 1, 0}, "d"},
-           {{1, -1, -1, 0}, "t0"}, {{1, -1, INFINITY, 0}, "t0"}}) {
+           {basic(0.0, -1, 1), "density"}, {basic(NAN, -1, 1), "density"}, {basic(1, 0.5, 1), "d"},
+           {basic(1, -1, -1), "t0"}, {basic(1, -1, INFINITY), "t0"},
+           {with_trace([](trace_parameters& t) { t.legendre_degree = 1; }), "trace_degree"},
+           {with_trace([](trace_parameters& t) { t.step_fraction = 0; }), "trace_step"},
+           {with_trace([](trace_parameters& t) { t.cos_bound = 1; }), "trace_cos_bound"},
+           {with_trace([](trace_parameters& t) { t.extreme_tolerance = NAN; }), "trace_extreme_tolerance"}}) {
     auto out = mesh_molecule(mol, params, {}, progress);
     ASSERT_FALSE(out.ok());
     EXPECT_EQ(out.error().code(), errc::invalid_argument);

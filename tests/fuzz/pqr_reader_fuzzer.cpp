@@ -12,7 +12,7 @@
 #include <string>
 #include <string_view>
 
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 
 namespace {
 

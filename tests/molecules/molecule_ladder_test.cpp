@@ -7,7 +7,7 @@
 #include <string>
 
 #include "core/mesher.hpp"
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {

@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/pqr_reader.hpp"
+#include "core/io/pqr_reader.hpp"
 #include "server/content_hash.hpp"
 
 namespace tracemesh::server {

@@ -1,0 +1,270 @@
+#include "core/io/pqr_reader.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <system_error>
+
+#include "core/io/pqr_gzip.hpp"
+#include "core/io/pqr_text.hpp"
+
+namespace tracemesh {
+
+namespace {
+
+using detail::format_number;
+using detail::quote_bytes;
+
+constexpr std::string_view utf8_bom = "\xEF\xBB\xBF";
+constexpr std::array<const char*, detail::record_number_count> record_number_names = {
+    "x coordinate", "y coordinate", "z coordinate", "charge", "radius"};
+enum record_number_index : std::size_t { x_index, y_index, z_index, charge_index, radius_index };
+/// Bytes of PQR text per atom line, at least; only sizes the first allocation of the atom array.
+constexpr std::size_t min_bytes_per_atom_line = 64;
+
+bool is_line_terminator(char c) { return c == '\n' || c == '\r'; }
+bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+/// Length of the record name ("ATOM" or "HETATM") when `line` is an atom record, else 0.
+std::size_t atom_record_name_length(std::string_view line) {
+  for (const std::string_view name : {std::string_view("ATOM"), std::string_view("HETATM")}) {
+    if (line.substr(0, name.size()) != name) continue;
+    if (line.size() == name.size()) return name.size();
+    const char next = line[name.size()];
+    if (next == ' ' || next == '\t' || is_digit(next)) return name.size();
+  }
+  return 0;
+}
+
+status line_error(std::size_t line_number, const std::string& what) {
+  return {errc::invalid_input, "line " + std::to_string(line_number) + ": " + what};
+}
+
+/// Two lower-case hex digits of `c`.
+std::string hex_byte(unsigned char c) {
+  static constexpr char digits[] = "0123456789abcdef";
+  return {digits[c >> 4], digits[c & 0xF]};
+}
+
+/// Streams over PQR text line by line, appending atoms to a molecule; stops at the first error.
+class pqr_parser {
+ public:
+  explicit pqr_parser(const mesh_limits& limits) : limits_(limits) {}
+
+  result<molecule> parse(std::string_view text) {
+    if (text.substr(0, 2) == "\xFF\xFE" || text.substr(0, 2) == "\xFE\xFF") {
+      return line_error(1, "UTF-16 byte order mark: PQR must be ASCII or UTF-8 text");
+    }
+    if (text.substr(0, utf8_bom.size()) == utf8_bom) text.remove_prefix(utf8_bom.size());
+    molecule_.atoms.reserve(std::min(limits_.max_atoms, text.size() / min_bytes_per_atom_line + 1));
+
+    std::size_t begin = 0;
+    while (begin < text.size()) {
+      ++line_number_;
+      std::size_t end = 0;
+      if (status scanned = find_line_end(text, begin, end); !scanned) return scanned;
+      if (status parsed = parse_line(text.substr(begin, end - begin)); !parsed) return parsed;
+      begin = skip_line_terminator(text, end);
+    }
+    return finish();
+  }
+
+ private:
+  /// Sets `end` to the offset of the terminator of the line starting at `begin` (or text.size()). Rejects
+  /// control bytes and lines over max_line_bytes, never scanning further than max_line_bytes + 1 bytes.
+  status find_line_end(std::string_view text, std::size_t begin, std::size_t& end) {
+    const std::size_t scan_end = begin + std::min(limits_.max_line_bytes, text.size() - begin);
+    bool non_ascii = false;
+    std::size_t i = begin;
+    for (; i < scan_end; ++i) {
+      const auto c = static_cast<unsigned char>(text[i]);
+      if (c >= 0x20 && c < 0x7F) continue;  // printable ASCII: almost every byte
+      if (is_line_terminator(static_cast<char>(c))) break;
+      if (c == '\t') continue;
+      if (c >= 0x80) {
+        non_ascii = true;
+        continue;
+      }
+      return line_error(line_number_, "control byte 0x" + hex_byte(c) + " at column " +
+                                          std::to_string(i - begin + 1) + " (binary data, not PQR text)");
+    }
+    if (i == scan_end && i < text.size() && !is_line_terminator(text[i])) {
+      return line_error(line_number_, "longer than " + std::to_string(limits_.max_line_bytes) +
+                                          " bytes (limits.max_line_bytes)");
+    }
+    end = i;
+    if (non_ascii) return check_utf8(text.substr(begin, end - begin));
+    return status::success();
+  }
+
+  status check_utf8(std::string_view line) const {
+    const std::size_t bad = detail::find_invalid_utf8(line);
+    if (bad == std::string_view::npos) return status::success();
+    return line_error(line_number_, "byte 0x" + hex_byte(static_cast<unsigned char>(line[bad])) +
+                                        " at column " + std::to_string(bad + 1) +
+                                        " is not UTF-8 (binary data, not PQR text)");
+  }
+
+  /// Offset just past the terminator at `end`: "\r\n" is one terminator, a bare "\r" or "\n" another.
+  static std::size_t skip_line_terminator(std::string_view text, std::size_t end) {
+    if (end >= text.size()) return end;
+    if (text[end] == '\r' && end + 1 < text.size() && text[end + 1] == '\n') return end + 2;
+    return end + 1;
+  }
+
+  status parse_line(std::string_view line) {
+    const std::size_t name_length = atom_record_name_length(line);
+    if (name_length == 0) return status::success();  // REMARK, TER, END, MODEL, blank...
+    if (molecule_.atoms.size() == limits_.max_atoms) {
+      return {errc::limit_exceeded, "line " + std::to_string(line_number_) + ": more than " +
+                                        std::to_string(limits_.max_atoms) + " atoms (limits.max_atoms)"};
+    }
+    return parse_atom_record(line.substr(0, name_length), line.substr(name_length));
+  }
+
+  status parse_atom_record(std::string_view record_name, std::string_view fields) {
+    detail::record_numbers_text texts;
+    if (detail::take_record_numbers(fields, texts) < detail::record_number_count) {
+      return line_error(line_number_, too_few_fields_message(record_name));
+    }
+    std::array<double, detail::record_number_count> values{};
+    for (std::size_t k = 0; k < texts.size(); ++k) {
+      if (status read = read_number(k, texts[k], values[k]); !read) return read;
+    }
+    if (status checked = check_ranges(texts, values); !checked) return checked;
+    add_atom(values);
+    return status::success();
+  }
+
+  static std::string too_few_fields_message(std::string_view record_name) {
+    return std::string(record_name) + " record has fewer than 5 numeric fields; it must end with x y z charge radius";
+  }
+
+  status read_number(std::size_t index, std::string_view text, double& value) const {
+    const detail::parsed_number parsed = detail::parse_number(text);
+    value = parsed.value;
+    if (parsed.error == detail::number_error::none) return status::success();
+    return line_error(line_number_, std::string(record_number_names[index]) + " '" + quote_bytes(text) + "' " +
+                                        describe(parsed.error));
+  }
+
+  static const char* describe(detail::number_error error) {
+    switch (error) {
+      case detail::number_error::none: return "is a number";
+      case detail::number_error::not_a_number: return "is not a decimal number (records end with x y z charge radius)";
+      case detail::number_error::out_of_range: return "is out of the range of a double";
+      case detail::number_error::not_finite: return "is not finite";
+    }
+    return "is not a number";
+  }
+
+  status check_ranges(const detail::record_numbers_text& texts,
+                      const std::array<double, detail::record_number_count>& values) const {
+    for (const std::size_t k : {x_index, y_index, z_index}) {
+      if (std::fabs(values[k]) > limits_.max_abs_coordinate) {
+        return line_error(line_number_, std::string(record_number_names[k]) + " " + quote_bytes(texts[k]) +
+                                            " is beyond +-" + format_number(limits_.max_abs_coordinate) +
+                                            " Angstrom (limits.max_abs_coordinate)");
+      }
+    }
+    const double radius = values[radius_index];
+    if (std::signbit(radius)) {  // also -0.0: a sign on a radius is a format error, not a zero radius
+      return line_error(line_number_, "radius " + quote_bytes(texts[radius_index]) + " is negative");
+    }
+    if (radius > limits_.max_radius) {
+      return line_error(line_number_, "radius " + quote_bytes(texts[radius_index]) + " is larger than " +
+                                          format_number(limits_.max_radius) + " Angstrom (limits.max_radius)");
+    }
+    return status::success();
+  }
+
+  void add_atom(const std::array<double, detail::record_number_count>& values) {
+    atom new_atom;
+    new_atom.center = {values[x_index], values[y_index], values[z_index]};
+    new_atom.charge = values[charge_index];
+    new_atom.radius = values[radius_index];
+    if (new_atom.radius == 0) ++molecule_.zero_radius_atoms;
+    molecule_.atoms.push_back(new_atom);
+  }
+
+  result<molecule> finish() {
+    if (molecule_.atoms.empty()) {
+      return status{errc::nothing_to_mesh, "no atoms with radius > 0: the input has no ATOM or HETATM record"};
+    }
+    if (molecule_.zero_radius_atoms == molecule_.atoms.size()) {
+      return status{errc::nothing_to_mesh, "no atoms with radius > 0: all " +
+                                               std::to_string(molecule_.atoms.size()) + " atoms have radius 0"};
+    }
+    return std::move(molecule_);
+  }
+
+  const mesh_limits& limits_;
+  std::size_t line_number_ = 0;
+  molecule molecule_;
+};
+
+std::string describe_errno(int error) { return std::error_code(error, std::generic_category()).message(); }
+
+/// The whole file, or an error: io_error when it cannot be opened or read, limit_exceeded past max_bytes.
+result<std::string> read_file_bounded(const std::filesystem::path& path, std::size_t max_bytes) {
+  const std::string shown_path = quote_bytes(path.string(), std::numeric_limits<std::size_t>::max());
+  errno = 0;
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
+  if (!file) return status{errc::io_error, "cannot open " + shown_path + ": " + describe_errno(errno)};
+
+  std::string bytes;
+  std::error_code size_error;
+  const auto size_hint = std::filesystem::file_size(path, size_error);  // only a hint: the file may change
+  if (!size_error) bytes.reserve(static_cast<std::size_t>(std::min<std::uintmax_t>(size_hint, max_bytes)));
+
+  std::array<char, 1 << 16> chunk;
+  for (;;) {
+    const std::size_t count = std::fread(chunk.data(), 1, chunk.size(), file.get());
+    if (count > max_bytes - bytes.size()) {
+      return status{errc::limit_exceeded, shown_path + " is larger than " + std::to_string(max_bytes) +
+                                              " bytes (limits.max_atoms x " +
+                                              std::to_string(pqr_max_bytes_per_atom) + ")"};
+    }
+    bytes.append(chunk.data(), count);
+    if (count < chunk.size()) break;
+  }
+  if (std::ferror(file.get())) {
+    return status{errc::io_error, "cannot read " + shown_path + ": " + describe_errno(errno)};
+  }
+  return bytes;
+}
+
+}  // namespace
+
+std::size_t max_pqr_text_bytes(const mesh_limits& limits) noexcept {
+  constexpr std::size_t largest = std::numeric_limits<std::size_t>::max();
+  if (limits.max_atoms > largest / pqr_max_bytes_per_atom) return largest;
+  return limits.max_atoms * pqr_max_bytes_per_atom;
+}
+
+result<molecule> parse_pqr(std::string_view text, const mesh_limits& limits) {
+  return pqr_parser(limits).parse(text);
+}
+
+result<std::string> maybe_gunzip(std::string_view bytes, std::size_t max_bytes) {
+  if (!detail::has_gzip_magic(bytes)) return std::string(bytes);
+  return detail::gunzip(bytes, max_bytes);
+}
+
+result<molecule> read_pqr_file(const std::filesystem::path& path, const mesh_limits& limits) {
+  const std::size_t max_bytes = max_pqr_text_bytes(limits);
+  result<std::string> bytes = read_file_bounded(path, max_bytes);
+  if (!bytes) return bytes.error();
+  if (!detail::has_gzip_magic(*bytes)) return parse_pqr(*bytes, limits);  // plain text: no copy
+  result<std::string> text = detail::gunzip(*bytes, max_bytes);
+  if (!text) return text.error();
+  bytes = std::string();  // release the compressed bytes before parsing
+  return parse_pqr(*text, limits);
+}
+
+}  // namespace tracemesh

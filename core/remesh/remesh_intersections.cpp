@@ -1,0 +1,38 @@
+#include "core/remesh/remesh_intersections.hpp"
+
+#include <algorithm>
+
+#include "core/analysis/analysis_fan_pairs.hpp"
+#include "core/analysis/analysis_self_intersection.hpp"
+#include "core/analysis/analysis_topology.hpp"
+
+namespace tracemesh::detail {
+
+std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                                   const std::vector<std::uint8_t>& groups) {
+  if (mesh.triangles.size() < 2) return {};
+  // The certificate's own two passes: pairs sharing no vertex through its grid, the others fan by fan (most fans
+  // are proved embedded as a whole).
+  std::vector<triangle_pair> pairs = find_intersecting_separate_pairs(mesh, defects, groups);
+  const std::vector<triangle_pair> fan_pairs =
+      find_intersecting_fan_pairs(mesh, defects, build_vertex_fans(mesh, defects), groups);
+  pairs.insert(pairs.end(), fan_pairs.begin(), fan_pairs.end());
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh, const std::vector<std::uint8_t>& groups) {
+  const std::vector<triangle_defect> defects = classify_triangles(mesh);
+  std::vector<std::uint32_t> offending;
+  for (std::uint32_t t = 0; t < defects.size(); ++t) {
+    if (defects[t] != triangle_defect::none) offending.push_back(t);
+  }
+  for (const triangle_pair& pair : find_intersecting_pairs(mesh, defects, groups)) {
+    offending.insert(offending.end(), pair.begin(), pair.end());
+  }
+  std::sort(offending.begin(), offending.end());
+  offending.erase(std::unique(offending.begin(), offending.end()), offending.end());
+  return offending;
+}
+
+}  // namespace tracemesh::detail

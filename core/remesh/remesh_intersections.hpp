@@ -1,0 +1,31 @@
+#pragma once
+/// @file remesh_intersections.hpp
+/// Where a mesh would fail its certificate: the remesher needs the offending triangles themselves (not just their
+/// number, as count_self_intersections in mesh_analysis.hpp gives) to know where to freeze the mesh. The tests are
+/// those of the certificate, and so is the search: its grid for the pairs that share no vertex
+/// (analysis_self_intersection.hpp) and its fan pass for the others (analysis_fan_pairs.hpp).
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/analysis/analysis_geometry.hpp"
+#include "core/analysis/analysis_self_intersection.hpp"
+#include "core/mesh.hpp"
+
+namespace tracemesh::detail {
+
+/// Every pair {i, j} (i < j, sorted) of triangles without defect that count as a self-intersection (see
+/// count_self_intersections). `defects`: classify_triangles(mesh). `groups`, when not empty, has one entry per
+/// triangle: 0 for a triangle to test against all, k > 0 for one of a group known not to meet itself (checked
+/// before); pairs within one such group are not tested. Grid-accelerated and parallel; the result does not depend on
+/// the thread count.
+std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                                   const std::vector<std::uint8_t>& groups = {});
+
+/// The triangles that would fail the certificate: those with a defect and both members of every intersecting
+/// pair (`groups` as for find_intersecting_pairs). Sorted, without repeats.
+std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh,
+                                                    const std::vector<std::uint8_t>& groups = {});
+
+}  // namespace tracemesh::detail

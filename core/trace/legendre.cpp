@@ -1,0 +1,285 @@
+#include "core/trace/legendre.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+namespace tracemesh {
+namespace {
+
+/// Pieces narrower than this (in u = (s + 1)/2) that still show several sign changes are not split further.
+constexpr int max_subdivision_depth = 40;
+/// Polishing of an isolated root stops when a Newton step or the bracket is this small (in s).
+constexpr double root_step_tolerance = 1e-15;
+constexpr double root_bracket_tolerance = 4e-16;
+constexpr int max_polish_iterations = 100;
+
+using bernstein_array = std::array<double, legendre_max_degree + 1>;
+
+/// Pₙ(s) and Pₙ₋₁(s) by the recurrence (n + 1)Pₙ₊₁ = (2n + 1)sPₙ − nPₙ₋₁ (n ≥ 1).
+void legendre_pair(int n, double s, double& p_n, double& p_previous) {
+  double previous = 1, current = s;
+  for (int k = 1; k < n; ++k) {
+    const double next = ((2 * k + 1) * s * current - k * previous) / (k + 1);
+    previous = current;
+    current = next;
+  }
+  p_n = current;
+  p_previous = previous;
+}
+
+/// Binomial coefficient C(n, k) as a double (exact for the degrees supported).
+double binomial(int n, int k) {
+  if (k < 0 || k > n) return 0;
+  double c = 1;
+  for (int i = 1; i <= k; ++i) c = c * (n - k + i) / i;
+  return c;
+}
+
+/// Bernstein coefficient j (degree m) of Pₙ(2u − 1): Pₙ has degree-n coefficients (−1)^(n−k)·C(n, k), raised to degree
+/// m by B^n_k = Σⱼ C(n,k)·C(m−n, j−k)/C(m, j)·B^m_j.
+double legendre_bernstein_entry(int m, int n, int j) {
+  double sum = 0;
+  for (int k = std::max(0, j - (m - n)); k <= std::min(n, j); ++k) {
+    const double c = binomial(n, k);
+    sum += ((n - k) % 2 == 0 ? 1.0 : -1.0) * c * c * binomial(m - n, j - k);
+  }
+  return sum / binomial(m, j);
+}
+
+/// Sign changes in a Bernstein coefficient sequence, 0 counted as positive (so a root exactly at a split point
+/// belongs to exactly one side of a crossing).
+int sign_variations(const double* b, int count) {
+  int changes = 0;
+  for (int j = 1; j < count; ++j) changes += (b[j] >= 0) != (b[j - 1] >= 0);
+  return changes;
+}
+
+/// De Casteljau at u = 1/2: the coefficients of the left and right halves.
+void split_half(const double* b, int count, double* left, double* right) {
+  bernstein_array work;
+  std::copy(b, b + count, work.begin());
+  for (int level = 0; level < count; ++level) {
+    left[level] = work[0];
+    right[count - 1 - level] = work[static_cast<std::size_t>(count - 1 - level)];
+    for (int j = 0; j + 1 < count - level; ++j) work[j] = 0.5 * (work[j] + work[j + 1]);
+  }
+}
+
+/// The root of the series in [lo, hi] (s), where its sign at lo is `lo_positive` and opposite at hi: safeguarded
+/// Newton from the regula falsi point of the end values.
+double polish_root(std::span<const double> a, double lo, double hi, double value_lo, double value_hi) {
+  const bool lo_positive = value_lo >= 0;
+  double s = value_lo != value_hi ? lo + (hi - lo) * (value_lo / (value_lo - value_hi)) : 0.5 * (lo + hi);
+  if (!(s > lo && s < hi)) s = 0.5 * (lo + hi);
+  for (int iteration = 0; iteration < max_polish_iterations; ++iteration) {
+    double slope = 0;
+    const double value = legendre_value(a, s, slope);
+    if (value == 0) return s;
+    ((value >= 0) == lo_positive ? lo : hi) = s;
+    double next = slope != 0 ? s - value / slope : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    if (std::abs(next - s) <= root_step_tolerance || hi - lo <= root_bracket_tolerance) return next;
+    s = next;
+  }
+  return s;
+}
+
+/// Roots in the piece [u_lo, u_lo + width] whose Bernstein coefficients are b (count of them), ascending.
+void isolate(std::span<const double> a, const double* b, int count, double u_lo, double width, int depth,
+             double scale, std::vector<double>& roots) {
+  const int changes = sign_variations(b, count);
+  if (changes == 0) return;
+  const double s_lo = 2 * u_lo - 1, s_hi = 2 * (u_lo + width) - 1;
+  if (changes == 1) {
+    roots.push_back(polish_root(a, s_lo, s_hi, b[0], b[count - 1]));
+    return;
+  }
+  if (depth >= max_subdivision_depth) {
+    // Not separable in double precision: a multiple root or a tight cluster. Report it if the series vanishes here.
+    const double s_mid = 0.5 * (s_lo + s_hi);
+    if (std::abs(legendre_value(a, s_mid)) <= 1e-12 * scale) roots.push_back(s_mid);
+    return;
+  }
+  bernstein_array left, right;
+  split_half(b, count, left.data(), right.data());
+  isolate(a, left.data(), count, u_lo, 0.5 * width, depth + 1, scale, roots);
+  isolate(a, right.data(), count, u_lo + 0.5 * width, 0.5 * width, depth + 1, scale, roots);
+}
+
+void check_degree(std::size_t coefficient_count) {
+  if (coefficient_count > legendre_max_degree + 1) throw std::invalid_argument("legendre: degree above the maximum");
+}
+
+}  // namespace
+
+gauss_legendre_rule gauss_legendre(int points) {
+  if (points < 1) throw std::invalid_argument("gauss_legendre: points < 1");
+  gauss_legendre_rule rule;
+  rule.nodes.assign(static_cast<std::size_t>(points), 0.0);
+  rule.weights.assign(static_cast<std::size_t>(points), 0.0);
+  const double n = points;
+  for (int i = 0; i < (points + 1) / 2; ++i) {
+    // The i-th largest root of P_n (Tricomi's first-order guess), then Newton to convergence.
+    double s = std::cos(M_PI * (i + 0.75) / (n + 0.5));
+    double derivative = 0;
+    for (int iteration = 0; iteration < 100; ++iteration) {
+      double p = 0, p_previous = 0;
+      legendre_pair(points, s, p, p_previous);
+      derivative = n * (s * p - p_previous) / (s * s - 1);
+      const double step = p / derivative;
+      s -= step;
+      if (std::abs(step) <= 1e-17) break;
+    }
+    double p = 0, p_previous = 0;
+    legendre_pair(points, s, p, p_previous);
+    derivative = n * (s * p - p_previous) / (s * s - 1);
+    if (2 * i + 1 == points) s = 0;  // the middle node of an odd rule
+    const double weight = 2 / ((1 - s * s) * derivative * derivative);
+    const auto high = static_cast<std::size_t>(points - 1 - i), low = static_cast<std::size_t>(i);
+    rule.nodes[high] = s;
+    rule.nodes[low] = -s;
+    rule.weights[high] = rule.weights[low] = weight;
+  }
+  return rule;
+}
+
+double legendre_polynomial(int n, double s) {
+  if (n == 0) return 1;
+  double p = 0, p_previous = 0;
+  legendre_pair(n, s, p, p_previous);
+  return p;
+}
+
+void legendre_coefficients(const gauss_legendre_rule& rule, std::span<const double> values,
+                           std::span<double> coefficients) {
+  std::fill(coefficients.begin(), coefficients.end(), 0.0);
+  const int degree = static_cast<int>(coefficients.size()) - 1;
+  for (std::size_t m = 0; m < rule.nodes.size(); ++m) {
+    const double s = rule.nodes[m], weighted = rule.weights[m] * values[m];
+    double previous = 0, current = 1;  // P₋₁ (unused), P₀
+    for (int n = 0; n <= degree; ++n) {
+      coefficients[static_cast<std::size_t>(n)] += weighted * current;
+      const double next = ((2 * n + 1) * s * current - n * previous) / (n + 1);
+      previous = current;
+      current = next;
+    }
+  }
+  for (int n = 0; n <= degree; ++n) coefficients[static_cast<std::size_t>(n)] *= (2 * n + 1) / 2.0;
+}
+
+double legendre_value(std::span<const double> coefficients, double s) {
+  // b_k = a_k + α_k b_{k+1} + β_{k+1} b_{k+2}, α_k = (2k+1)s/(k+1), β_k = −k/(k+1); the series is b₀.
+  double b1 = 0, b2 = 0;
+  for (int k = static_cast<int>(coefficients.size()) - 1; k >= 0; --k) {
+    const double b0 = coefficients[static_cast<std::size_t>(k)] + (2 * k + 1) * s / (k + 1) * b1 -
+                      (k + 1.0) / (k + 2) * b2;
+    b2 = b1;
+    b1 = b0;
+  }
+  return b1;
+}
+
+double legendre_value(std::span<const double> coefficients, double s, double& derivative) {
+  // Clenshaw's recurrence and its derivative in s: b'_k = α_k b'_{k+1} + α'_k b_{k+1} + β_{k+1} b'_{k+2}.
+  double b1 = 0, b2 = 0, d1 = 0, d2 = 0;
+  for (int k = static_cast<int>(coefficients.size()) - 1; k >= 0; --k) {
+    const double alpha_slope = (2 * k + 1) / (k + 1.0), beta = (k + 1.0) / (k + 2);
+    const double b0 = coefficients[static_cast<std::size_t>(k)] + alpha_slope * s * b1 - beta * b2;
+    const double d0 = alpha_slope * s * d1 + alpha_slope * b1 - beta * d2;
+    b2 = b1;
+    b1 = b0;
+    d2 = d1;
+    d1 = d0;
+  }
+  derivative = d1;
+  return b1;
+}
+
+void legendre_derivative(std::span<const double> coefficients, std::span<double> derivative) {
+  // b_{n−1} = (2n − 1)(a_n + b_{n+1}/(2n + 3)), from P'_{n+1} − P'_{n−1} = (2n + 1)Pₙ.
+  const int degree = static_cast<int>(coefficients.size()) - 1;
+  double next = 0, next_next = 0;  // b_{n}, b_{n+1}
+  for (int n = degree; n >= 1; --n) {
+    const double b = (2 * n - 1) * (coefficients[static_cast<std::size_t>(n)] + next_next / (2 * n + 3));
+    derivative[static_cast<std::size_t>(n - 1)] = b;
+    next_next = next;
+    next = b;
+  }
+}
+
+void legendre_to_bernstein(std::span<const double> coefficients, std::span<double> bernstein) {
+  check_degree(coefficients.size());
+  const int m = static_cast<int>(coefficients.size()) - 1;
+  for (int j = 0; j <= m; ++j) {
+    double sum = 0;
+    for (int n = 0; n <= m; ++n) sum += coefficients[static_cast<std::size_t>(n)] * legendre_bernstein_entry(m, n, j);
+    bernstein[static_cast<std::size_t>(j)] = sum;
+  }
+}
+
+void legendre_roots(std::span<const double> coefficients, std::vector<double>& roots) {
+  check_degree(coefficients.size());
+  bernstein_array b{};
+  legendre_to_bernstein(coefficients, std::span<double>(b.data(), coefficients.size()));
+  legendre_roots(coefficients, std::span<const double>(b.data(), coefficients.size()), roots);
+}
+
+void legendre_roots(std::span<const double> coefficients, std::span<const double> bernstein,
+                    std::vector<double>& roots) {
+  check_degree(coefficients.size());
+  if (bernstein.empty()) return;
+  double scale = 0;
+  for (const double b : bernstein) scale = std::max(scale, std::abs(b));
+  if (scale == 0) return;  // identically zero
+  const std::size_t first = roots.size();
+  isolate(coefficients, bernstein.data(), static_cast<int>(bernstein.size()), 0.0, 1.0, 0, scale, roots);
+  // A root exactly on a split point can be reported by both pieces.
+  const auto unique_end = std::unique(roots.begin() + static_cast<std::ptrdiff_t>(first), roots.end(),
+                                      [](double x, double y) { return std::abs(x - y) <= 4 * root_bracket_tolerance; });
+  roots.erase(unique_end, roots.end());
+}
+
+legendre_fitter::legendre_fitter(int degree) : degree_(degree), rule_() {
+  if (degree < 1 || degree > legendre_max_degree) throw std::invalid_argument("legendre_fitter: degree out of range");
+  const int count = degree + 1;
+  rule_ = gauss_legendre(count);
+  fit_.assign(static_cast<std::size_t>(count * count), 0.0);
+  bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
+  for (int n = 0; n < count; ++n) {
+    for (int m = 0; m < count; ++m) {
+      const auto mm = static_cast<std::size_t>(m);
+      fit_[static_cast<std::size_t>(n * count + m)] =
+          (2 * n + 1) / 2.0 * rule_.weights[mm] * legendre_polynomial(n, rule_.nodes[mm]);
+    }
+  }
+  for (int j = 0; j < count; ++j) {
+    for (int n = 0; n < count; ++n) {
+      bernstein_[static_cast<std::size_t>(j * count + n)] = legendre_bernstein_entry(degree, n, j);
+    }
+  }
+}
+
+void legendre_fitter::coefficients(std::span<const double> values, std::span<double> out) const {
+  const auto count = static_cast<std::size_t>(degree_ + 1);
+  for (std::size_t n = 0; n < count; ++n) {
+    const double* row = fit_.data() + n * count;
+    double sum = 0;
+    for (std::size_t m = 0; m < count; ++m) sum += row[m] * values[m];
+    out[n] = sum;
+  }
+}
+
+void legendre_fitter::bernstein(std::span<const double> coefficients, std::span<double> out) const {
+  const auto count = static_cast<std::size_t>(degree_ + 1);
+  for (std::size_t j = 0; j < count; ++j) {
+    const double* row = bernstein_.data() + j * count;
+    double sum = 0;
+    for (std::size_t n = 0; n < count; ++n) sum += row[n] * coefficients[n];
+    out[j] = sum;
+  }
+}
+
+}  // namespace tracemesh

@@ -1,0 +1,482 @@
+#include "core/trace/line_roots.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace tracemesh {
+namespace {
+
+/// A root is accepted when the last correction of its polishing is at most this (Å).
+constexpr double root_tolerance = 1e-10;
+/// Roots of one line closer than this (Å) with the same sign of φ_x are the same root.
+constexpr double duplicate_distance = 1e-9;
+/// Polishing from a series candidate gives up after this many steps (from a good guess it takes two).
+constexpr int max_newton_iterations = 16;
+/// Bracketed polishing (sign walk) gives up after this many steps (bisection alone needs ~40 on a fit).
+constexpr int max_bracket_iterations = 100;
+/// Lines per block edge.
+constexpr int block_lines = lattice::block_cells;
+
+std::size_t padded_size(std::size_t n) { return (n + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes; }
+
+/// φ, dφ/dx and d²φ/dx² at one point of a line.
+struct line_sample {
+  double value, slope, curvature;
+};
+
+/// The step to the root of the quadratic Taylor model of L(x) = ln(φ/t0) (L' = φ'/φ, L'' = φ''/φ − L'²): the
+/// root nearest to x, or the Newton step on L where the model has no real root. Exact for one atom (L is a
+/// parabola in x). NaN where φ ≤ 0 (no atom within cutoff) or φ' = 0.
+double log_step(const line_sample& s, double t0) {
+  if (!(s.value > 0) || s.slope == 0) return std::numeric_limits<double>::quiet_NaN();
+  const double l0 = std::log(s.value / t0), l1 = s.slope / s.value, l2 = s.curvature / s.value - l1 * l1;
+  const double discriminant = l1 * l1 - 2 * l0 * l2;
+  if (discriminant >= 0) return -2 * l0 / (l1 + std::copysign(std::sqrt(discriminant), l1));
+  return -l0 / l1;
+}
+
+/// The lines' y (or z) coordinates, as lat.point() computes them, padded to a whole vector.
+std::array<double, simd::max_lanes> line_coordinates(std::int64_t block_index, double h) {
+  std::array<double, simd::max_lanes> c{};
+  for (int n = 0; n < block_lines; ++n) c[static_cast<std::size_t>(n)] = static_cast<double>(block_index * block_lines + n) * h;
+  return c;
+}
+
+/// 1-D kernel factors exp(d·δ²/r²) and δ² = (coordinate − centre)² for `count` coordinates (a multiple of W).
+template <int W>
+[[gnu::always_inline]] inline void axis_factors(const double* coordinate, int count, double centre, double d,
+                                                double inv_r2, double* squared, double* factor) {
+  using F = typename simd::pack<W>::f64;
+  for (int m = 0; m < count; m += W) {
+    F delta;
+    simd::load(delta, coordinate + m);
+    delta -= centre;
+    const F delta2 = delta * delta;
+    F e = d * delta2 * inv_r2;
+    simd::exp_in_place(e);
+    simd::store(squared + m, delta2);
+    simd::store(factor + m, e);
+  }
+}
+
+/// φ at every quadrature node of the 64 lines (ws.sums[line·P + m]) from the separable kernel: per atom, 8 y and
+/// 8 z factors and one x factor per node; an atom adds to the nodes of a line within its cutoff
+/// (δx² + ρ² < cutoff², ρ² = δy² + δz²). Also keeps each atom's y and z factors per line (ws.ey[j·stride + a], …)
+/// for the lines' atom lists.
+template <int W>
+[[gnu::always_inline]] inline void sample_nodes(const gaussian_field& field, line_root_finder::workspace& ws,
+                                                std::size_t count, std::size_t stride, int node_stride,
+                                                const std::array<double, simd::max_lanes>& line_y,
+                                                const std::array<double, simd::max_lanes>& line_z) {
+  using F = typename simd::pack<W>::f64;
+  const double d = field.d();
+  const double scale = kernel_exp(-d);  // e^(−d): the "− 1" of eq. 2
+  alignas(64) std::array<double, simd::max_lanes> ey{}, dy2{}, ez{}, dz2{};
+  std::vector<double>& sums = ws.sums;
+  double* const ex = ws.node_factor.data();
+  double* const dx2 = ws.node_dx2.data();
+  for (std::size_t a = 0; a < count; ++a) {
+    const double inv_r2 = ws.inv_r2[a], cutoff2 = ws.cutoff2[a];
+    axis_factors<W>(line_y.data(), simd::max_lanes, ws.y[a], d, inv_r2, dy2.data(), ey.data());
+    axis_factors<W>(line_z.data(), simd::max_lanes, ws.z[a], d, inv_r2, dz2.data(), ez.data());
+    double min_dy2 = dy2[0], min_dz2 = dz2[0];
+    for (int n = 0; n < block_lines; ++n) {
+      const auto nn = static_cast<std::size_t>(n);
+      ws.ey[nn * stride + a] = ey[nn];
+      ws.dy2[nn * stride + a] = dy2[nn];
+      ws.ez[nn * stride + a] = ez[nn];
+      ws.dz2[nn * stride + a] = dz2[nn];
+      min_dy2 = std::min(min_dy2, dy2[nn]);
+      min_dz2 = std::min(min_dz2, dz2[nn]);
+    }
+    if (min_dy2 + min_dz2 >= cutoff2) continue;  // reaches no line
+    axis_factors<W>(ws.node_x.data(), node_stride, ws.x[a], d, inv_r2, dx2, ex);
+    for (int k = 0; k < block_lines; ++k) {
+      if (dz2[static_cast<std::size_t>(k)] >= cutoff2) continue;
+      for (int j = 0; j < block_lines; ++j) {
+        const double rho2 = dy2[static_cast<std::size_t>(j)] + dz2[static_cast<std::size_t>(k)];
+        if (rho2 >= cutoff2) continue;
+        const double weight = scale * ey[static_cast<std::size_t>(j)] * ez[static_cast<std::size_t>(k)];
+        double* row = sums.data() + static_cast<std::size_t>(j + block_lines * k) * static_cast<std::size_t>(node_stride);
+        for (int m = 0; m < node_stride; m += W) {
+          F sum, factor, distance2;
+          simd::load(sum, row + m);
+          simd::load(factor, ex + m);
+          simd::load(distance2, dx2 + m);
+          F term = factor * weight;
+          simd::keep_lanes(term, distance2 + rho2 < cutoff2);
+          sum += term;
+          simd::store(row + m, sum);
+        }
+      }
+    }
+  }
+}
+
+/// The atoms of line (j, k) within their cutoff of it (ρ² < cutoff²), as columns for evaluate_line, padded with
+/// entries that never contribute.
+template <int W>
+[[gnu::always_inline]] inline void gather_line_atoms(line_root_finder::workspace& ws, std::size_t count,
+                                                     std::size_t stride, int j, int k, double d) {
+  using F = typename simd::pack<W>::f64;
+  using M = typename simd::pack<W>::i64;
+  const double scale = kernel_exp(-d);
+  const double* ey = ws.ey.data() + static_cast<std::size_t>(j) * stride;
+  const double* dy2 = ws.dy2.data() + static_cast<std::size_t>(j) * stride;
+  const double* ez = ws.ez.data() + static_cast<std::size_t>(k) * stride;
+  const double* dz2 = ws.dz2.data() + static_cast<std::size_t>(k) * stride;
+  std::size_t kept = 0;
+  for (std::size_t a = 0; a < count; a += W) {
+    F y2, z2, cutoff2;
+    simd::load(y2, dy2 + a);
+    simd::load(z2, dz2 + a);
+    simd::load(cutoff2, ws.cutoff2.data() + a);
+    M near = y2 + z2 < cutoff2;
+    simd::clear_lanes_from(near, static_cast<std::int64_t>(a), static_cast<std::int64_t>(count));
+    if (!simd::any_lane(near)) continue;
+    for (int lane = 0; lane < W; ++lane) {
+      if (!near[lane]) continue;
+      const std::size_t n = a + static_cast<std::size_t>(lane);
+      ws.line_x[kept] = ws.x[n];
+      ws.line_d_inv_r2[kept] = d * ws.inv_r2[n];
+      ws.line_weight[kept] = scale * ey[n] * ez[n];
+      ws.line_dy2[kept] = dy2[n];
+      ws.line_dz2[kept] = dz2[n];
+      ws.line_cutoff2[kept] = ws.cutoff2[n];
+      ++kept;
+    }
+  }
+  for (std::size_t n = kept; n < padded_size(kept); ++n) {
+    ws.line_x[n] = ws.line_d_inv_r2[n] = ws.line_weight[n] = ws.line_dy2[n] = ws.line_dz2[n] = 0;
+    ws.line_cutoff2[n] = 0;  // never contributes
+  }
+  ws.line_count = kept;
+}
+
+/// φ, φ_x, φ_xx at x on the current line: each atom cut off exactly as gaussian_field does,
+/// (δx² + δy²) + δz² < cutoff², and kernel = e^(−d)·e^(dδy²/r²)·e^(dδz²/r²)·e^(dδx²/r²).
+template <int W>
+[[gnu::always_inline]] inline line_sample evaluate_line(const line_root_finder::workspace& ws, double x) {
+  using F = typename simd::pack<W>::f64;
+  F value{}, slope{}, curvature{};
+  for (std::size_t a = 0; a < ws.line_count; a += W) {
+    F cx, d_inv_r2, weight, y2, z2, cutoff2;
+    simd::load(cx, ws.line_x.data() + a);
+    simd::load(d_inv_r2, ws.line_d_inv_r2.data() + a);
+    simd::load(weight, ws.line_weight.data() + a);
+    simd::load(y2, ws.line_dy2.data() + a);
+    simd::load(z2, ws.line_dz2.data() + a);
+    simd::load(cutoff2, ws.line_cutoff2.data() + a);
+    const F dx = x - cx;
+    const F dx2 = dx * dx;
+    const F r2 = (dx2 + y2) + z2;
+    F kernel = d_inv_r2 * dx2;
+    simd::exp_in_place(kernel);
+    kernel *= weight;
+    simd::keep_lanes(kernel, r2 < cutoff2);
+    const F g = 2 * d_inv_r2 * dx;
+    value += kernel;
+    slope += g * kernel;
+    curvature += (2 * d_inv_r2 + g * g) * kernel;
+  }
+  return {simd::lane_sum(value), simd::lane_sum(slope), simd::lane_sum(curvature)};
+}
+
+/// Polishes a series candidate by third-order steps on ln(φ/t0) from `x`. Succeeds when a correction is at most
+/// root_tolerance; fails when a step exceeds `max_step`, leaves [lo, hi] or the steps run out.
+template <int W>
+[[gnu::always_inline]] inline bool polish_candidate(const line_root_finder::workspace& ws, double t0, double x,
+                                                    double lo, double hi, double max_step, line_root& root,
+                                                    std::size_t& evaluations) {
+  for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
+    const line_sample s = evaluate_line<W>(ws, x);
+    ++evaluations;
+    const double step = log_step(s, t0);
+    if (!(std::abs(step) <= max_step)) return false;  // also NaN
+    if (std::abs(step) <= root_tolerance) {
+      root = {x + step, s.slope};
+      return true;
+    }
+    x += step;
+    if (!(x >= lo && x <= hi)) return false;
+  }
+  return false;
+}
+
+/// The root in (lo, hi) where φ − t0 is inside (≥ 0) near lo iff `lo_inside`, and the opposite near hi: third-order
+/// steps on ln(φ/t0) kept inside the shrinking bracket, bisection where a step would leave it.
+template <int W>
+[[gnu::always_inline]] inline bool polish_bracket(const line_root_finder::workspace& ws, double t0, double lo,
+                                                  bool lo_inside, double hi, line_root& root,
+                                                  std::size_t& evaluations) {
+  double x = 0.5 * (lo + hi);
+  for (int iteration = 0; iteration < max_bracket_iterations; ++iteration) {
+    const line_sample s = evaluate_line<W>(ws, x);
+    ++evaluations;
+    ((s.value >= t0) == lo_inside ? lo : hi) = x;
+    const double step = log_step(s, t0);
+    if (std::abs(step) <= root_tolerance || hi - lo <= root_tolerance) {
+      root = {std::abs(step) <= root_tolerance ? x + step : x, s.slope};
+      return true;
+    }
+    double next = x + step;
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    x = next;
+  }
+  return false;
+}
+
+/// Sorts roots by x and merges those closer than duplicate_distance with the same sign of φ_x.
+void sort_unique(std::vector<line_root>& roots) {
+  std::sort(roots.begin(), roots.end(), [](const line_root& a, const line_root& b) {
+    return a.x < b.x || (a.x == b.x && a.phi_x < b.phi_x);
+  });
+  const auto end = std::unique(roots.begin(), roots.end(), [](const line_root& a, const line_root& b) {
+    return b.x - a.x <= duplicate_distance && (a.phi_x >= 0) == (b.phi_x >= 0);
+  });
+  roots.erase(end, roots.end());
+}
+
+/// A gap of the sign walk that must hold a root: (lo, hi), the sign of φ − t0 just after lo, and whether the ends
+/// are roots (the new root must then keep clear of them).
+struct walk_gap {
+  double lo, hi;
+  bool lo_inside, lo_is_root, hi_is_root;
+};
+
+/// Walks the line through its node samples and accepted roots in x order and lists the gaps where the sign of
+/// φ − t0 (at a node; on either side of a root from φ_x) does not follow: each must hold another root.
+void find_walk_gaps(std::span<const double> node_x, std::span<const double> node_value, double t0,
+                    std::span<const line_root> roots, std::vector<walk_gap>& gaps) {
+  gaps.clear();
+  bool known = false, inside = false, at_root = false;
+  double position = 0;
+  std::size_t n = 0, r = 0;
+  while (n < node_x.size() || r < roots.size()) {
+    const bool take_root = r < roots.size() && (n == node_x.size() || roots[r].x <= node_x[n]);
+    if (take_root) {
+      const bool before = roots[r].phi_x < 0;  // φ increases through the root: outside before it
+      if (known && inside != before) gaps.push_back({position, roots[r].x, inside, at_root, true});
+      inside = roots[r].phi_x >= 0;
+      position = roots[r].x;
+      at_root = true;
+      ++r;
+    } else {
+      const bool here = node_value[n] >= t0;
+      if (known && inside != here) gaps.push_back({position, node_x[n], inside, at_root, false});
+      inside = here;
+      position = node_x[n];
+      at_root = false;
+      ++n;
+    }
+    known = true;
+  }
+}
+
+}  // namespace
+
+line_root_stats& line_root_stats::operator+=(const line_root_stats& other) {
+  lines += other.lines;
+  field_evaluations += other.field_evaluations;
+  polynomial_roots += other.polynomial_roots;
+  rejected_roots += other.rejected_roots;
+  sign_walk_roots += other.sign_walk_roots;
+  quiet_fits += other.quiet_fits;
+  fits += other.fits;
+  return *this;
+}
+
+line_root_finder::line_root_finder(const line_root_settings& settings)
+    : settings_(settings), fitter_(settings.degree) {
+  // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix.
+  const int count = fitter_.points();
+  values_to_bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
+  std::vector<double> unit(static_cast<std::size_t>(count)), a(unit.size()), b(unit.size());
+  for (int m = 0; m < count; ++m) {
+    std::fill(unit.begin(), unit.end(), 0.0);
+    unit[static_cast<std::size_t>(m)] = 1;
+    fitter_.coefficients(unit, a);
+    fitter_.bernstein(a, b);
+    for (int j = 0; j < count; ++j) {
+      values_to_bernstein_[static_cast<std::size_t>(j * count + m)] = b[static_cast<std::size_t>(j)];
+    }
+  }
+}
+
+namespace {
+
+/// Everything about one block that the per-line work needs.
+struct block_geometry {
+  double x_lo, x_hi;                           ///< the block's span, Å (half-open)
+  std::array<double, fits_per_line> fit_mid;   ///< centre of each fit, Å
+  std::array<double, fits_per_line> fit_half;  ///< half width of each fit, Å
+};
+
+block_geometry make_geometry(const lattice& lat, const lattice_index& block) {
+  const double h = lat.spacing();
+  block_geometry g{};
+  const std::int64_t first = block.i * lattice::block_cells;
+  g.x_lo = static_cast<double>(first) * h;
+  g.x_hi = static_cast<double>(first + lattice::block_cells) * h;
+  for (int q = 0; q < fits_per_line; ++q) {
+    const double lo = static_cast<double>(first + q * cells_per_fit) * h;
+    const double hi = static_cast<double>(first + (q + 1) * cells_per_fit) * h;
+    g.fit_mid[static_cast<std::size_t>(q)] = 0.5 * (lo + hi);
+    g.fit_half[static_cast<std::size_t>(q)] = 0.5 * (hi - lo);
+  }
+  return g;
+}
+
+/// Sizes the workspace for `count` atoms and `node_stride` nodes per line and copies the atoms into it.
+void prepare_workspace(const gaussian_field& field, std::span<const std::uint32_t> atoms, std::size_t node_stride,
+                       line_root_finder::workspace& ws) {
+  const std::size_t count = atoms.size(), stride = padded_size(count);
+  for (auto* column : {&ws.x, &ws.y, &ws.z, &ws.inv_r2}) column->assign(stride, 0.0);
+  ws.cutoff2.assign(stride, 0.0);  // padding never contributes
+  const gaussian_field::atom_arrays all = field.atoms();
+  for (std::size_t n = 0; n < count; ++n) {
+    const std::uint32_t k = atoms[n];
+    ws.x[n] = all.x[k];
+    ws.y[n] = all.y[k];
+    ws.z[n] = all.z[k];
+    ws.inv_r2[n] = all.inv_r2[k];
+    ws.cutoff2[n] = all.cutoff2[k];
+  }
+  for (auto* column : {&ws.ey, &ws.dy2, &ws.ez, &ws.dz2}) column->assign(stride * block_lines, 0.0);
+  ws.node_factor.assign(node_stride, 0.0);
+  ws.node_dx2.assign(node_stride, 0.0);
+  const std::size_t line_columns = stride;
+  for (auto* column : {&ws.line_x, &ws.line_d_inv_r2, &ws.line_weight, &ws.line_dy2, &ws.line_dz2,
+                       &ws.line_cutoff2}) {
+    if (column->size() < line_columns) column->resize(line_columns);
+  }
+  ws.sums.assign(static_cast<std::size_t>(lines_per_block) * node_stride, 0.0);
+}
+
+}  // namespace
+
+void line_root_finder::find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                            std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats) {
+  workspace& ws = scratch_;
+  const int points = fitter_.points();
+  const int nodes = points * fits_per_line;
+  const int node_stride = static_cast<int>(padded_size(static_cast<std::size_t>(nodes)));
+  const block_geometry geometry = make_geometry(lat, block);
+  const double h = lat.spacing(), t0 = field.t0();
+
+  prepare_workspace(field, atoms, static_cast<std::size_t>(node_stride), ws);
+  ws.node_x.assign(static_cast<std::size_t>(node_stride), geometry.x_hi + 1e6);  // padding: beyond every cutoff
+  for (int q = 0; q < fits_per_line; ++q) {
+    for (int m = 0; m < points; ++m) {
+      ws.node_x[static_cast<std::size_t>(q * points + m)] =
+          geometry.fit_mid[static_cast<std::size_t>(q)] +
+          geometry.fit_half[static_cast<std::size_t>(q)] * fitter_.rule().nodes[static_cast<std::size_t>(m)];
+    }
+  }
+  const auto line_y = line_coordinates(block.j, h), line_z = line_coordinates(block.k, h);
+  const std::size_t count = atoms.size(), stride = padded_size(count);
+
+  out.roots.clear();
+  out.first[0] = 0;
+  std::vector<double> a(static_cast<std::size_t>(points)), b(static_cast<std::size_t>(points));
+  std::vector<walk_gap> gaps;
+  std::vector<line_root> found;
+
+  simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
+    constexpr int W = decltype(lanes)::value;
+    sample_nodes<W>(field, ws, count, stride, node_stride, line_y, line_z);
+    stats.lines += lines_per_block;
+    stats.field_evaluations += static_cast<std::size_t>(lines_per_block) * static_cast<std::size_t>(nodes);
+    for (int line = 0; line < lines_per_block; ++line) {
+      const double* values = ws.sums.data() + static_cast<std::size_t>(line) * static_cast<std::size_t>(node_stride);
+      // Candidates from each fit (kinds 1 and 2).
+      std::vector<double>& candidates = ws.series_roots;
+      candidates.clear();
+      bool crosses = false;
+      for (int m = 1; m < nodes; ++m) crosses |= (values[m] >= t0) != (values[0] >= t0);
+      for (int q = 0; q < fits_per_line; ++q) {
+        const double* f = values + q * points;
+        const double mid = geometry.fit_mid[static_cast<std::size_t>(q)];
+        const double half = geometry.fit_half[static_cast<std::size_t>(q)];
+        ++stats.fits;
+        int changes = 0;
+        for (int j = 0; j < points; ++j) {
+          const double* row = values_to_bernstein_.data() + static_cast<std::size_t>(j * points);
+          double sum = 0;
+          for (int m = 0; m < points; ++m) sum += row[m] * f[m];
+          b[static_cast<std::size_t>(j)] = sum - t0;  // the Bernstein coefficients of t0 are all t0
+          if (j > 0) changes += (b[static_cast<std::size_t>(j)] >= 0) != (b[static_cast<std::size_t>(j - 1)] >= 0);
+        }
+        if (changes > 0) {
+          fitter_.coefficients(std::span<const double>(f, static_cast<std::size_t>(points)), a);
+          a[0] -= t0;
+          const std::size_t before = candidates.size();
+          legendre_roots(a, b, candidates);
+          for (std::size_t c = before; c < candidates.size(); ++c) candidates[c] = mid + half * candidates[c];
+        } else {
+          ++stats.quiet_fits;
+        }
+        // Kind 2: the series reaches t0 just beyond an end (linear extrapolation from that end).
+        const double degree = points - 1;
+        const double slope_lo = 0.5 * degree * (b[1] - b[0]);
+        const double slope_hi = 0.5 * degree * (b[static_cast<std::size_t>(points - 1)] - b[static_cast<std::size_t>(points - 2)]);
+        const double reach_lo = slope_lo != 0 ? -b[0] / slope_lo : 1.0;
+        const double reach_hi = slope_hi != 0 ? -b[static_cast<std::size_t>(points - 1)] / slope_hi : -1.0;
+        if (reach_lo <= 0 && reach_lo >= -settings_.end_reach) candidates.push_back(mid + half * (-1 + reach_lo));
+        if (reach_hi >= 0 && reach_hi <= settings_.end_reach) candidates.push_back(mid + half * (1 + reach_hi));
+      }
+      if (candidates.empty() && !(crosses && settings_.sign_walk)) {
+        out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
+        continue;
+      }
+      gather_line_atoms<W>(ws, count, stride, line % block_lines, line / block_lines, field.d());
+      found.clear();
+      const double max_step = cells_per_fit * h;
+      for (const double start : candidates) {
+        line_root root{};
+        if (polish_candidate<W>(ws, t0, start, geometry.x_lo - h, geometry.x_hi + h, max_step, root,
+                                stats.field_evaluations) &&
+            root.x >= geometry.x_lo && root.x < geometry.x_hi) {
+          found.push_back(root);
+        } else {
+          ++stats.rejected_roots;
+        }
+      }
+      sort_unique(found);
+      stats.polynomial_roots += found.size();
+      if (settings_.sign_walk) {
+        find_walk_gaps(std::span<const double>(ws.node_x.data(), static_cast<std::size_t>(nodes)),
+                       std::span<const double>(values, static_cast<std::size_t>(nodes)), t0, found, gaps);
+        const std::size_t walked = found.size();
+        for (const walk_gap& gap : gaps) {
+          line_root root{};
+          if (!polish_bracket<W>(ws, t0, gap.lo, gap.lo_inside, gap.hi, root, stats.field_evaluations)) continue;
+          if (!(root.x >= gap.lo && root.x <= gap.hi)) continue;
+          if ((gap.lo_is_root && root.x - gap.lo <= duplicate_distance) ||
+              (gap.hi_is_root && gap.hi - root.x <= duplicate_distance)) {
+            continue;
+          }
+          found.push_back(root);
+        }
+        if (found.size() > walked) {
+          sort_unique(found);
+          stats.sign_walk_roots += found.size() - walked;
+        }
+      }
+      out.roots.insert(out.roots.end(), found.begin(), found.end());
+      out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
+    }
+  });
+}
+
+void find_block_line_roots(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                           std::span<const std::uint32_t> atoms, int degree, block_line_roots& out,
+                           line_root_stats& stats) {
+  line_root_settings settings;
+  settings.degree = degree;
+  line_root_finder finder(settings);
+  finder.find(field, lat, block, atoms, out, stats);
+}
+
+}  // namespace tracemesh

@@ -1,0 +1,120 @@
+#pragma once
+/// @file line_roots.hpp
+/// Surface points on lines parallel to x (TMSmesh stage one, paper §3 and eq. 6): the roots of φ(x, y, z) = t0 on
+/// the 64 lines of a lattice block.
+///
+/// Per block and line, the span x ∈ [8·i·h̃, 8·(i+1)·h̃) is cut into fits of cells_per_fit cells; φ is sampled at the
+/// M + 1 Gauss–Legendre nodes of each fit from the separable kernel (per atom: 8 + 8 + nodes exponentials for all 64
+/// lines, instead of one per atom and point), and the degree-M Legendre series of eq. 6 interpolating those samples is
+/// searched for roots of series = t0 (legendre.hpp: Bernstein subdivision, which also proves most fits root-free).
+/// Three kinds of candidates are polished on the exact cut-off φ of the line:
+///  1. the series' roots in [−1, 1];
+///  2. an end of a fit where the series, extended linearly, reaches t0 within end_reach (in units of the fit's half
+///     width) beyond that end (a root the fit puts just outside its span, as happens at seams);
+///  3. a *sign walk*: the node samples are exact values of φ, so along each line the sign of φ − t0 at the nodes and
+///     on either side of every accepted root (given by the sign of φ_x) must alternate consistently. Where it does
+///     not, a root is missing in between and is solved for inside that bracket.
+/// Polishing uses third-order steps on ln(φ/t0) (the quadratic Taylor model from φ, φ_x, φ_xx: exact for a single
+/// atom), safeguarded by bisection for bracketed roots. A root is accepted when the last correction is at most
+/// 1e-10 Å (root = last point + correction, φ_x from the last evaluation), which leaves |φ − t0| ≲ 1e-13·t0 for a
+/// simple root; then kept if it lies in the block's half-open span. Roots of one line closer than 1e-9 Å with the
+/// same sign of φ_x are one root.
+///
+/// Deterministic: the result depends only on the inputs (the simd width, fixed per machine, only groups lane sums).
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/field/gaussian_field.hpp"
+#include "core/lattice/lattice.hpp"
+#include "core/trace/legendre.hpp"
+
+namespace tracemesh {
+
+struct line_root {
+  double x;      ///< Å, root of φ(x, y, z) = t0 on the line
+  double phi_x;  ///< ∂φ/∂x at the root (its sign says on which side φ > t0, i.e. inside)
+};
+
+struct line_root_stats {
+  std::size_t lines = 0;              ///< line spans searched
+  std::size_t field_evaluations = 0;  ///< φ values computed (quadrature nodes + Newton steps), one per point
+  std::size_t polynomial_roots = 0;   ///< distinct roots found from the Legendre series (its roots, kinds 1 and 2)
+  std::size_t rejected_roots = 0;     ///< series candidates that Newton did not confirm inside the span
+  std::size_t sign_walk_roots = 0;    ///< roots the series missed, found by the sign walk (kind 3)
+  std::size_t quiet_fits = 0;         ///< fits dismissed without a root search (Bernstein hull on one side of t0)
+  std::size_t fits = 0;               ///< fits computed
+
+  line_root_stats& operator+=(const line_root_stats& other);
+};
+
+/// Lattice cells per Legendre fit along x: the paper's 4 Å cubes at h̃ = 1 Å.
+inline constexpr int cells_per_fit = 4;
+/// Fits per block line.
+inline constexpr int fits_per_line = lattice::block_cells / cells_per_fit;
+/// Lines per block: (j, k) ∈ 0..7², line index j + 8k.
+inline constexpr int lines_per_block = lattice::block_cells * lattice::block_cells;
+
+/// Roots of each line owned by `block` of `lat` (spacing h̃ = lat.spacing()): the 64 lines y = (8·block.j + j)·h̃,
+/// z = (8·block.k + k)·h̃, j, k ∈ 0..7, over x ∈ [8·block.i·h̃, 8·(block.i+1)·h̃) (a root exactly on the upper end
+/// belongs to the next block). Coordinates are computed as lat.point() does, so neighbouring blocks agree on ends.
+struct block_line_roots {
+  std::array<std::uint32_t, 65> first{};  ///< roots of line (j, k) are roots[first[j + 8k] .. first[j + 8k + 1])
+  std::vector<line_root> roots;           ///< per line sorted by x
+};
+
+/// Tunables of line_root_finder (the defaults are what find_block_line_roots uses).
+struct line_root_settings {
+  int degree = 10;             ///< M, degree of the Legendre series (paper: 10); 1..legendre_max_degree
+  double end_reach = 0.05;     ///< kind-2 candidates: reach beyond a fit's end, in units of its half width
+  bool sign_walk = true;       ///< kind-3 candidates (off: the series alone, as in the paper)
+};
+
+/// The stateful form: tables for one degree and scratch reused from block to block (no allocation once warm).
+/// Not thread-safe: use one finder per thread. Results never depend on what the finder computed before.
+class line_root_finder {
+ public:
+  explicit line_root_finder(const line_root_settings& settings = {});
+
+  const line_root_settings& settings() const { return settings_; }
+
+  /// As find_block_line_roots. `atoms`: field-internal indices of (at least) every atom whose cutoff sphere may
+  /// reach the block, e.g. from field.atoms_near_box(lat.block_box(block), atoms); any order; extra atoms cost
+  /// time only. `out` is overwritten; `stats` is added to.
+  void find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+            std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats);
+
+  /// Scratch of one block (sizes grow to the largest block seen). Public so that the kernels in line_roots.cpp
+  /// can take it; not part of the interface.
+  struct workspace {
+    std::vector<double> node_x;                        ///< x of the quadrature nodes of a line, padded
+    std::vector<double> node_factor, node_dx2;         ///< one atom's x factors and δx² at the nodes
+    std::vector<double> x, y, z, inv_r2, cutoff2;      ///< the block's atoms, padded
+    std::vector<double> ey, dy2, ez, dz2;              ///< per line y (z) and atom: 1-D factor and squared offset
+    std::vector<double> sums;                          ///< φ at the nodes, per line
+    std::vector<double> line_x, line_d_inv_r2, line_weight, line_dy2, line_dz2, line_cutoff2;  ///< one line's atoms
+    std::size_t line_count = 0;                        ///< atoms in the line arrays
+    std::vector<line_root> accepted;                   ///< roots of the current line
+    std::vector<double> series_roots;                  ///< roots of one fit, s
+  };
+
+ private:
+  line_root_settings settings_;
+  legendre_fitter fitter_;
+  std::vector<double> values_to_bernstein_;  ///< (M+1)²: Bernstein coefficients of the fit from the node values
+  workspace scratch_;
+};
+
+/// Roots of φ = t0 on each line owned by `block` (see block_line_roots), from a degree-`degree` Legendre series per
+/// fit of cells_per_fit cells (eq. 6), polished on the exact cut-off φ (the same cutoff as gaussian_field: atom k
+/// contributes where |p − c_k|² < cutoff2_k). `atoms`: field-internal indices from
+/// field.atoms_near_box(lat.block_box(block), atoms). Overwrites `out`, adds to `stats`.
+/// Cost: builds a line_root_finder (tables and scratch, a few µs) per call; use line_root_finder for many blocks.
+void find_block_line_roots(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                           std::span<const std::uint32_t> atoms, int degree, block_line_roots& out,
+                           line_root_stats& stats);
+
+}  // namespace tracemesh

@@ -1,0 +1,420 @@
+#include "core/trace/loop_triangulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace tracemesh {
+namespace {
+
+/// Value of a sub-polygon / band state that cannot be triangulated under the rules (every q is ≥ 0).
+constexpr double infeasible = -1;
+/// Worst quality of an empty triangulation (a sub-polygon that is a single loop edge): above every q.
+constexpr double empty_worst = 2;
+/// Pass 2 keeps triangles with q ≥ q*·(1 − this): immune to any difference in rounding between the passes.
+constexpr double tie_tolerance = 1e-12;
+
+/// The rules' thresholds in the squared forms the tests below use.
+struct rule_limits {
+  double min_edge2;   ///< min_edge_length²
+  double area_coef;   ///< |cross|² ≥ area_coef · longest⁴  ⇔  area ≥ min_area_ratio · longest²
+  double cos2;        ///< dot² ≥ cos2 · |cross|² · |Σn|²  (with dot > 0)
+
+  explicit rule_limits(const loop_triangulation_settings& s)
+      : min_edge2(s.min_edge_length * s.min_edge_length),
+        area_coef(4 * s.min_area_ratio * s.min_area_ratio),
+        cos2(s.min_normal_cosine > 0 ? s.min_normal_cosine * s.min_normal_cosine : 0) {}
+};
+
+/// q of triangle a, b, c (in this order) when it satisfies rules 1 (common wall) 2 and 3 (area), else
+/// `infeasible`. Edge lengths are checked by the callers (they are per pair, not per triangle); ab2, bc2, ca2 are
+/// the squared edge lengths. Written so that NaN coordinates fail every test.
+inline double evaluate_triangle(const loop_vertex& a, const loop_vertex& b, const loop_vertex& c, double ab2,
+                                double bc2, double ca2, const rule_limits& limits) {
+  if ((a.planes & b.planes & c.planes) != 0) return infeasible;
+  const vec3 face = cross(b.position - a.position, c.position - a.position);
+  const double face2 = squared_norm(face);
+  const double longest2 = std::max(ab2, std::max(bc2, ca2));
+  if (!(face2 >= limits.area_coef * longest2 * longest2) || !(face2 > 0)) return infeasible;
+  const vec3 normals = a.normal + b.normal + c.normal;
+  const double agreement = dot(face, normals);
+  if (!(agreement > 0) || !(agreement * agreement > limits.cos2 * face2 * squared_norm(normals))) return infeasible;
+  const double shortest2 = std::min(ab2, std::min(bc2, ca2));
+  const double sum2 = ab2 + bc2 + ca2;
+  // q² = min(edge ratio², mean ratio²); mean ratio = 4√3·area/Σe² = 2√3·|face|/Σe².
+  return std::sqrt(std::min(shortest2 / longest2, 12 * face2 / (sum2 * sum2)));
+}
+
+template <class T>
+void grow(std::vector<T>& v, std::size_t n) {
+  if (v.size() < n) v.resize(n);
+}
+
+loop_triangulation_workspace& thread_workspace() {
+  thread_local loop_triangulation_workspace workspace;
+  return workspace;
+}
+
+void record(loop_triangulation_stats& stats, bool ok, double worst, double sum, std::size_t triangles) {
+  ++stats.loops;
+  if (!ok) {
+    ++stats.failed_loops;
+    stats.last_min_quality = 0;
+    return;
+  }
+  stats.triangles += triangles;
+  stats.min_quality = std::min(stats.min_quality, worst);
+  stats.quality_sum += sum;
+  stats.last_min_quality = worst;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Band of an annulus. P is the longer loop (p vertices, index a), Q the other (q vertices). A band is a closed path
+// on the grid a ∈ [0, p], t ∈ [0, q] from (0, 0) to (p, q), monotone in both: grid point (a, t) is the bridge edge
+// P[a mod p] — Q[x(t)] with x(t) = (b0 − t) mod q, i.e. Q is walked backwards, since the two loops run in opposite
+// senses around the tube. A P-step (a, t) → (a + 1, t) is the triangle (P[a], P[a+1], Q[x(t)]); a Q-step
+// (a, t) → (a, t + 1) is (Q[x(t) − 1], Q[x(t)], P[a]); both counter-clockwise seen from outside.
+//
+// Every band contains, at P[0], a last bridge (in path order) P[0] — Q[b0], followed by a P-step. Starting there,
+// the path is a band without a repeated edge exactly when it never reaches (p, 0) (that would repeat the bridge
+// P[0] — Q[b0]) and never climbs a whole column (a, 0) → (a, q) (repeating P[a] — Q[b0]); the flag f of a state
+// says "no P-step since leaving row 0", so (a, q, f = 1) is the forbidden full column. Trying every b0 covers every
+// band exactly once.
+// ---------------------------------------------------------------------------------------------------------------
+
+struct band_problem {
+  std::span<const loop_vertex> P, Q;
+  std::size_t p = 0, q = 0;
+  const std::uint8_t* bridge_ok = nullptr;  ///< [a * q + x]
+  const double* step_p = nullptr;           ///< [a * q + x]: q of (P[a], P[a+1], Q[x])
+  const double* step_q = nullptr;           ///< [a * q + x]: q of (Q[x−1], Q[x], P[a])
+};
+
+enum class band_mode { worst, sum, trace };
+
+/// One band DP for start b0. mode worst: returns the best worst quality, states whose value cannot exceed `bound`
+/// are not expanded; mode sum / trace: returns the best Σ q over paths whose triangles all reach `threshold`
+/// (−∞ when none), trace also recording predecessors in `pred` (bit 0: arrived by a Q-step; bit 1: source flag).
+double band_pass(const band_problem& bp, std::size_t b0, band_mode mode, double bound, double threshold,
+                 double* value, std::uint32_t* pred, std::size_t& cells) {
+  const std::size_t p = bp.p, q = bp.q, rows = q + 1;
+  const auto state = [&](std::size_t a, std::size_t t, std::size_t f) { return (a * rows + t) * 2 + f; };
+  const auto x_of = [&](std::size_t t) { return (b0 + q - t % q) % q; };
+  const double none = mode == band_mode::worst ? infeasible : -std::numeric_limits<double>::infinity();
+  std::fill(value, value + (p + 1) * rows * 2, none);
+  if (!bp.bridge_ok[x_of(0)] || !bp.bridge_ok[1 % p * q + x_of(0)]) return none;
+  // Forced first P-step (0, 0) → (1, 0, f = 1).
+  const double first = bp.step_p[x_of(0)];
+  if (mode == band_mode::worst) {
+    if (first <= bound) return none;
+    value[state(1, 0, 1)] = first;
+  } else {
+    if (first < threshold) return none;
+    value[state(1, 0, 1)] = first;
+    if (pred) pred[state(1, 0, 1)] = 0;
+  }
+  const auto relax = [&](std::size_t target, double from, double tri, std::uint32_t how) {
+    if (mode == band_mode::worst) {
+      const double v = std::min(from, tri);
+      if (v > value[target]) value[target] = v;
+    } else {
+      if (tri < threshold) return;
+      const double v = from + tri;
+      if (v > value[target]) {
+        value[target] = v;
+        if (pred) pred[target] = how;
+      }
+    }
+  };
+  for (std::size_t a = 1; a <= p; ++a)
+    for (std::size_t t = 0; t <= q; ++t)
+      for (std::size_t f = 0; f < 2; ++f) {
+        const double from = value[state(a, t, f)];
+        if (mode == band_mode::worst ? from <= bound : from == none) continue;
+        ++cells;
+        const std::size_t x = x_of(t), pa = a % p;
+        // P-step → (a + 1, t); never into (p, 0).
+        if (a < p && !(a + 1 == p && t == 0) && bp.bridge_ok[(a + 1) % p * q + x])
+          relax(state(a + 1, t, t == 0 ? 1 : 0), from, bp.step_p[pa * q + x], static_cast<std::uint32_t>(f << 1));
+        // Q-step → (a, t + 1); never a whole column (a, q, f = 1).
+        if (t < q && !(t + 1 == q && f == 1) && bp.bridge_ok[pa * q + x_of(t + 1)])
+          relax(state(a, t + 1, f), from, bp.step_q[pa * q + x], static_cast<std::uint32_t>(1 | f << 1));
+      }
+  return value[state(p, q, 0)];
+}
+
+}  // namespace
+
+loop_triangulation_stats& loop_triangulation_stats::operator+=(const loop_triangulation_stats& other) {
+  loops += other.loops;
+  failed_loops += other.failed_loops;
+  triangles += other.triangles;
+  dp_cells += other.dp_cells;
+  triangle_evaluations += other.triangle_evaluations;
+  min_quality = std::min(min_quality, other.min_quality);
+  quality_sum += other.quality_sum;
+  last_min_quality = other.last_min_quality;
+  return *this;
+}
+
+double triangle_quality(const vec3& a, const vec3& b, const vec3& c) {
+  const double ab2 = squared_norm(b - a), bc2 = squared_norm(c - b), ca2 = squared_norm(a - c);
+  const double longest2 = std::max(ab2, std::max(bc2, ca2));
+  const double shortest2 = std::min(ab2, std::min(bc2, ca2));
+  if (!(shortest2 > 0) || !std::isfinite(longest2)) return 0;
+  const double face2 = squared_norm(cross(b - a, c - a));
+  const double sum2 = ab2 + bc2 + ca2;
+  const double q2 = std::min(shortest2 / longest2, 12 * face2 / (sum2 * sum2));
+  return std::isfinite(q2) ? std::sqrt(std::min(q2, 1.0)) : 0;
+}
+
+bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings,
+                      loop_triangulation_workspace& ws) {
+  const std::size_t n = loop.size();
+  if (n < 3) {
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+  const rule_limits limits(settings);
+  const std::size_t nn = n * n;
+  grow(ws.worst, nn);
+  grow(ws.sum, nn);
+  grow(ws.split, nn);
+  grow(ws.edge_ok, nn);
+  grow(ws.quality, nn);  // squared lengths, mirrored
+  double* const W = ws.worst.data();
+  double* const S = ws.sum.data();
+  double* const L2 = ws.quality.data();
+  std::uint8_t* const ok = ws.edge_ok.data();
+
+  // Per pair: squared length and rule 1's edge part + rule 3's length part. Stored at [i*n + j] and [j*n + i].
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const double d2 = squared_norm(loop[j].position - loop[i].position);
+      const bool consecutive = j == i + 1 || (i == 0 && j == n - 1);
+      const bool good = d2 >= limits.min_edge2 && (consecutive || (loop[i].planes & loop[j].planes) == 0);
+      L2[i * n + j] = L2[j * n + i] = d2;
+      ok[i * n + j] = ok[j * n + i] = good ? 1 : 0;
+    }
+  // A loop edge too short for rule 3 belongs to some triangle of every triangulation.
+  bool loop_edges_ok = ok[n - 1];
+  for (std::size_t i = 0; i + 1 < n; ++i) loop_edges_ok = loop_edges_ok && ok[i * n + i + 1];
+  if (!loop_edges_ok) {
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+
+  std::size_t cells = 0, evaluations = 0;
+  const auto triangle = [&](std::size_t i, std::size_t k, std::size_t j) {
+    ++evaluations;
+    return evaluate_triangle(loop[i], loop[k], loop[j], L2[i * n + k], L2[k * n + j], L2[i * n + j], limits);
+  };
+
+  // Pass 1: W(i, j) = max over triangulations of the sub-polygon i, i+1, …, j (closed by the chord (i, j)) of the
+  // worst q; the chord must be admissible. W(k, j) is read from the mirror [j*n + k] so both reads run along rows.
+  for (std::size_t i = 0; i + 1 < n; ++i) W[i * n + i + 1] = W[(i + 1) * n + i] = empty_worst;
+  for (std::size_t len = 2; len < n; ++len)
+    for (std::size_t i = 0, j = len; j < n; ++i, ++j) {
+      double best = infeasible;
+      if (ok[i * n + j]) {
+        ++cells;
+        const double* wi = W + i * n;
+        const double* wj = W + j * n;
+        for (std::size_t k = i + 1; k < j; ++k) {
+          const double bound = std::min(wi[k], wj[k]);
+          if (bound <= best) continue;  // cannot improve (also skips infeasible sides)
+          const double v = std::min(bound, triangle(i, k, j));
+          if (v > best) best = v;
+        }
+      }
+      W[i * n + j] = W[j * n + i] = best;
+    }
+  const double optimum = W[n - 1];
+  if (!(optimum > 0)) {
+    stats.dp_cells += cells;
+    stats.triangle_evaluations += evaluations;
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+
+  // Pass 2: S(i, j) = max Σ q over triangulations of the sub-polygon whose triangles all reach q*. W(i, j) ≥ q* says
+  // such a triangulation exists, so only those sub-polygons are visited.
+  const double threshold = optimum * (1 - tie_tolerance);
+  std::uint32_t* const K = ws.split.data();
+  for (std::size_t i = 0; i + 1 < n; ++i) S[i * n + i + 1] = S[(i + 1) * n + i] = 0;
+  for (std::size_t len = 2; len < n; ++len)
+    for (std::size_t i = 0, j = len; j < n; ++i, ++j) {
+      if (!(W[i * n + j] >= threshold)) continue;  // S and K never read there
+      ++cells;
+      double best = -std::numeric_limits<double>::infinity();
+      std::uint32_t apex = 0;
+      const double* wi = W + i * n;
+      const double* wj = W + j * n;
+      for (std::size_t k = i + 1; k < j; ++k) {
+        if (!(wi[k] >= threshold) || !(wj[k] >= threshold)) continue;
+        const double qk = triangle(i, k, j);
+        if (!(qk >= threshold)) continue;
+        const double s = qk + S[i * n + k] + S[j * n + k];
+        if (s > best) {
+          best = s;
+          apex = static_cast<std::uint32_t>(k);
+        }
+      }
+      S[i * n + j] = S[j * n + i] = best;
+      K[i * n + j] = apex;
+    }
+
+  // Emit (i, k, j), i < k < j: loop order, hence counter-clockwise seen from outside.
+  double worst = 1, sum = 0;
+  const std::size_t first = out.size();
+  out.reserve(first + n - 2);
+  ws.stack.clear();
+  ws.stack.push_back({0, static_cast<std::uint32_t>(n - 1)});
+  while (!ws.stack.empty()) {
+    const auto [i, j] = ws.stack.back();
+    ws.stack.pop_back();
+    const std::uint32_t k = K[std::size_t{i} * n + j];
+    out.push_back({i, k, j});
+    const double qk = evaluate_triangle(loop[i], loop[k], loop[j], L2[std::size_t{i} * n + k],
+                                        L2[std::size_t{k} * n + j], L2[std::size_t{i} * n + j], limits);
+    worst = std::min(worst, qk);
+    sum += qk;
+    if (j - k >= 2) ws.stack.push_back({k, j});
+    if (k - i >= 2) ws.stack.push_back({i, k});
+  }
+  stats.dp_cells += cells;
+  stats.triangle_evaluations += evaluations;
+  record(stats, true, worst, sum, out.size() - first);
+  return true;
+}
+
+bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                      loop_triangulation_stats& stats) {
+  return triangulate_loop(loop, out, stats, loop_triangulation_settings{}, thread_workspace());
+}
+
+bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
+                         const loop_triangulation_settings& settings, loop_triangulation_workspace& ws) {
+  if (outer.size() < 3 || inner.size() < 3) {
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+  const bool swapped = inner.size() > outer.size();
+  band_problem bp;
+  bp.P = swapped ? inner : outer;
+  bp.Q = swapped ? outer : inner;
+  bp.p = bp.P.size();
+  bp.q = bp.Q.size();
+  const std::size_t p = bp.p, q = bp.q;
+  const rule_limits limits(settings);
+  const auto fail = [&](std::size_t cells, std::size_t evaluations) {
+    stats.dp_cells += cells;
+    stats.triangle_evaluations += evaluations;
+    record(stats, false, 0, 0, 0);
+    return false;
+  };
+
+  // Loop edges (each belongs to one band triangle) and bridges.
+  const auto edge2 = [](const loop_vertex& u, const loop_vertex& v) { return squared_norm(v.position - u.position); };
+  for (std::size_t a = 0; a < p; ++a)
+    if (!(edge2(bp.P[a], bp.P[(a + 1) % p]) >= limits.min_edge2)) return fail(0, 0);
+  for (std::size_t x = 0; x < q; ++x)
+    if (!(edge2(bp.Q[x], bp.Q[(x + 1) % q]) >= limits.min_edge2)) return fail(0, 0);
+  grow(ws.edge_ok, p * q);
+  grow(ws.quality, 3 * p * q);
+  double* const bridge2 = ws.quality.data() + 2 * p * q;
+  for (std::size_t a = 0; a < p; ++a)
+    for (std::size_t x = 0; x < q; ++x) {
+      const double d2 = edge2(bp.P[a], bp.Q[x]);
+      bridge2[a * q + x] = d2;
+      ws.edge_ok[a * q + x] = d2 >= limits.min_edge2 && (bp.P[a].planes & bp.Q[x].planes) == 0 ? 1 : 0;
+    }
+  // Every candidate triangle once: 2·p·q.
+  double* const step_p = ws.quality.data();
+  double* const step_q = ws.quality.data() + p * q;
+  std::size_t evaluations = 0;
+  for (std::size_t a = 0; a < p; ++a)
+    for (std::size_t x = 0; x < q; ++x) {
+      const std::size_t a1 = (a + 1) % p, xm = (x + q - 1) % q;
+      step_p[a * q + x] = infeasible;
+      step_q[a * q + x] = infeasible;
+      if (ws.edge_ok[a * q + x] && ws.edge_ok[a1 * q + x]) {
+        ++evaluations;
+        step_p[a * q + x] = evaluate_triangle(bp.P[a], bp.P[a1], bp.Q[x], edge2(bp.P[a], bp.P[a1]),
+                                              bridge2[a1 * q + x], bridge2[a * q + x], limits);
+      }
+      if (ws.edge_ok[a * q + xm] && ws.edge_ok[a * q + x]) {
+        ++evaluations;
+        step_q[a * q + x] = evaluate_triangle(bp.Q[xm], bp.Q[x], bp.P[a], edge2(bp.Q[xm], bp.Q[x]),
+                                              bridge2[a * q + x], bridge2[a * q + xm], limits);
+      }
+    }
+  bp.bridge_ok = ws.edge_ok.data();
+  bp.step_p = step_p;
+  bp.step_q = step_q;
+
+  const std::size_t states = (p + 1) * (q + 1) * 2;
+  grow(ws.worst, states);
+  grow(ws.split, states);
+  std::size_t cells = 0;
+  // Pass 1: the best worst quality over every start (branch and bound across starts).
+  double optimum = infeasible;
+  for (std::size_t b0 = 0; b0 < q; ++b0)
+    optimum = std::max(optimum, band_pass(bp, b0, band_mode::worst, optimum, 0, ws.worst.data(), nullptr, cells));
+  if (!(optimum > 0)) return fail(cells, evaluations);
+  // Pass 2: the best sum among bands reaching the optimum; then trace the winner.
+  const double threshold = optimum * (1 - tie_tolerance);
+  double best_sum = -std::numeric_limits<double>::infinity();
+  std::size_t best_b0 = 0;
+  for (std::size_t b0 = 0; b0 < q; ++b0) {
+    const double s = band_pass(bp, b0, band_mode::sum, 0, threshold, ws.worst.data(), nullptr, cells);
+    if (s > best_sum) {
+      best_sum = s;
+      best_b0 = b0;
+    }
+  }
+  band_pass(bp, best_b0, band_mode::trace, 0, threshold, ws.worst.data(), ws.split.data(), cells);
+
+  // Walk back from (p, q, 0), emitting triangles in reverse band order.
+  const std::size_t rows = q + 1;
+  const auto x_of = [&](std::size_t t) { return (best_b0 + q - t % q) % q; };
+  const std::uint32_t p_base = swapped ? static_cast<std::uint32_t>(outer.size()) : 0;
+  const std::uint32_t q_base = swapped ? 0 : static_cast<std::uint32_t>(outer.size());
+  const std::size_t first = out.size();
+  out.reserve(first + p + q);
+  double worst = 1, sum = 0;
+  std::size_t a = p, t = q, f = 0;
+  while (!(a == 0 && t == 0)) {
+    const std::uint32_t how = (a == 1 && t == 0) ? 0 : ws.split[(a * rows + t) * 2 + f];
+    if ((how & 1) == 0) {  // P-step from (a − 1, t)
+      --a;
+      const std::size_t x = x_of(t);
+      out.push_back({p_base + static_cast<std::uint32_t>(a % p), p_base + static_cast<std::uint32_t>((a + 1) % p),
+                     q_base + static_cast<std::uint32_t>(x)});
+      worst = std::min(worst, step_p[a % p * q + x]);
+      sum += step_p[a % p * q + x];
+    } else {  // Q-step from (a, t − 1)
+      --t;
+      const std::size_t x = x_of(t);
+      out.push_back({q_base + static_cast<std::uint32_t>((x + q - 1) % q), q_base + static_cast<std::uint32_t>(x),
+                     p_base + static_cast<std::uint32_t>(a % p)});
+      worst = std::min(worst, step_q[a % p * q + x]);
+      sum += step_q[a % p * q + x];
+    }
+    f = how >> 1;
+  }
+  std::reverse(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());
+  stats.dp_cells += cells;
+  stats.triangle_evaluations += evaluations;
+  record(stats, true, worst, sum, p + q);
+  return true;
+}
+
+bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats) {
+  return triangulate_annulus(outer, inner, out, stats, loop_triangulation_settings{}, thread_workspace());
+}
+
+}  // namespace tracemesh

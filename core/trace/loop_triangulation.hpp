@@ -1,0 +1,133 @@
+#pragma once
+/// @file loop_triangulation.hpp
+/// Triangulation of the closed polygons of TMSmesh's Algorithm 2 (method.md §5): the loops of traced arcs on the
+/// four walls of one cell (the long box parallel to x between the lines (J,K), (J+1,K), (J,K+1), (J+1,K+1)).
+/// No vertex is added. The triangulation obeys the admissibility rule of method.md §7.8, so that triangles of
+/// different cells meet only along shared arc edges, and maximises the worst triangle's shape by dynamic
+/// programming over sub-polygons (§7.8: the only method of the prototype that always passed; greedy ear clipping
+/// failed even with the rule).
+///
+/// Also the band between two loops bounding a tube inside one cell (method.md §7.6): triangulate_annulus.
+///
+/// Shape measure (1 = equilateral, 0 = degenerate), used by both:
+///     q = min( shortest edge / longest edge,  4√3·area / Σ edge² )
+/// The first term is the edge ratio the paper and our reports measure (method.md §6, §7.12); on its own it rates a
+/// flat cap (edges 1, 1, 2 − ε) at 0.5 however flat, so the mean ratio 4√3·area/Σ edge² (the remesher's measure,
+/// remesh.hpp), which falls to 0 with the area, takes over for obtuse triangles: it is the smaller term only when
+/// the largest angle exceeds about 122°. For every other triangle q is exactly the edge ratio.
+///
+/// Thread safety: the functions are reentrant; the overloads without a workspace use one thread_local workspace
+/// per thread, which holds buffers only (never state that changes a result).
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/vec3.hpp"
+
+namespace tracemesh {
+
+/// Wall planes of a cell, as bits of loop_vertex::planes.
+enum cell_wall : std::uint8_t { wall_y_low = 1, wall_y_high = 2, wall_z_low = 4, wall_z_high = 8 };
+
+/// One vertex of a loop.
+struct loop_vertex {
+  vec3 position;            ///< Å, on the surface
+  vec3 normal;              ///< outward unit surface normal there (−∇φ/|∇φ|)
+  std::uint8_t planes = 0;  ///< the cell walls the vertex lies on: 1 bit for an arc's interior point, 2 for a root on a line
+};
+
+/// The rules' thresholds. The defaults keep a margin of 10³ over the certificate's degeneracy rules
+/// (core/analysis/mesh_analysis.hpp: degenerate_edge_length = 1e-9 Å, degenerate_area_ratio = 1e-12).
+struct loop_triangulation_settings {
+  /// Rule 2 (orientation): a triangle a, b, c is kept only when the cosine of the angle between its face normal
+  /// cross(b − a, c − a) and n_a + n_b + n_c exceeds this. 0.05 (the face may lean up to ≈ 87° from the averaged
+  /// surface normal): a positive margin so that rounding cannot accept a face that is flat against the normals,
+  /// small enough to accept the strongly tilted faces of loops on tightly curved surface (h̃ ≈ atom radius).
+  double min_normal_cosine = 0.05;
+  /// Rule 3: every edge at least this long (Å).
+  double min_edge_length = 1e-6;
+  /// Rule 3: area at least this × (longest edge)².
+  double min_area_ratio = 1e-9;
+};
+
+/// What the triangulations did. Every call adds to the counters (so one object can sum a thread's loops; merge
+/// per-thread objects with +=) and overwrites last_min_quality.
+struct loop_triangulation_stats {
+  std::size_t loops = 0;                 ///< calls (loops and annuli)
+  std::size_t failed_loops = 0;          ///< calls that returned false
+  std::size_t triangles = 0;             ///< triangles appended
+  std::size_t dp_cells = 0;              ///< DP states examined: sub-polygons with an admissible chord / band bridges
+  std::size_t triangle_evaluations = 0;  ///< candidate triangles whose rules and shape were computed
+  double min_quality = 1;                ///< worst q over all triangles appended (1 when none)
+  double quality_sum = 0;                ///< Σ q over all triangles appended (mean = quality_sum / triangles)
+  double last_min_quality = 0;           ///< worst q of the last call's triangulation; 0 when it returned false
+
+  loop_triangulation_stats& operator+=(const loop_triangulation_stats& other);
+};
+
+/// Reusable buffers of the dynamic programmes: O(n²) numbers for a loop of n vertices (≈ 29·n² bytes: 1.2 MB at
+/// n = 200). Keep one per thread to avoid allocating per loop. Its contents between calls are meaningless.
+struct loop_triangulation_workspace {
+  std::vector<double> worst;            ///< best worst-quality per sub-polygon (pass 1), mirrored
+  std::vector<double> sum;              ///< best quality sum per sub-polygon (pass 2), mirrored
+  std::vector<std::uint32_t> split;     ///< chosen apex per sub-polygon / predecessor per band state
+  std::vector<std::uint8_t> edge_ok;    ///< admissible edge per vertex pair
+  std::vector<double> quality;          ///< squared edge lengths (loop); band triangles' q, bridges (annulus)
+  std::vector<std::array<std::uint32_t, 2>> stack;
+};
+
+/// The shape measure q of triangle a, b, c described in the file comment, in [0, 1]; 0 when an edge has zero
+/// length or a coordinate is not finite.
+double triangle_quality(const vec3& a, const vec3& b, const vec3& c);
+
+/// Triangulates the closed polygon `loop` of Algorithm 2 without new vertices.
+/// @param loop   n ≥ 3 vertices, no vertex repeated, in the order that is counter-clockwise seen from outside (from
+///               the side the normals point to). Not required to be planar or convex.
+/// @param out    receives n − 2 triangles as indices into `loop`, appended; each is (i, k, j) with i < k < j, i.e.
+///               in loop order, hence counter-clockwise seen from outside like the loop.
+/// @param stats  counters, added to (see loop_triangulation_stats).
+/// @return false, appending nothing, when n < 3 or no triangulation satisfies every rule:
+///  1. admissibility (method.md §7.8): no triangle has its three corners on one common wall
+///     ((a.planes & b.planes & c.planes) != 0); no edge joins two vertices that share a wall unless they are
+///     consecutive on the loop (the loop's own edges are always allowed);
+///  2. orientation: dot(cross(b − a, c − a), n_a + n_b + n_c) > settings.min_normal_cosine · |cross| · |Σn|;
+///  3. not degenerate: every edge ≥ settings.min_edge_length (loop edges included: a shorter loop edge makes the
+///     loop fail) and area ≥ settings.min_area_ratio · longest edge².
+/// Among the triangulations satisfying the rules it returns one that maximises the worst triangle's q and, among
+/// those, the sum of q (exactly: two passes of dynamic programming over the sub-polygons (i, j) — the first finds
+/// the optimal worst quality q*, the second maximises the sum over triangulations whose triangles all reach q*,
+/// up to a relative 1e-12). Remaining ties go to the smaller apex index, so the result is deterministic.
+/// Cost: O(n³) time (each candidate triangle evaluated at most twice, pruned by bounds; measured ≈ 0.3 µs at n = 6,
+/// see the test file's header), O(n²) memory in `workspace`, no allocation once the workspace has grown.
+bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings,
+                      loop_triangulation_workspace& workspace);
+/// As above with default settings and a thread_local workspace.
+bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                      loop_triangulation_stats& stats);
+
+/// Triangulates the band (annulus) between two loops that together bound one piece of surface inside a cell — a
+/// tube (method.md §7.6) — without new vertices. The two loops play symmetric roles.
+/// @param outer, inner  the two loops, p ≥ 3 and q ≥ 3 vertices, no vertex repeated or shared. Each is oriented
+///               like a loop of triangulate_loop, with the surface piece on its left seen from outside: counter-
+///               clockwise seen from outside, so the two are traversed in opposite senses around the tube's axis.
+/// @param out    receives p + q triangles, appended, as indices into the concatenation outer ++ inner (outer
+///               vertex a is a, inner vertex b is p + b), counter-clockwise seen from outside. Every triangle joins
+///               a loop edge of one loop to a vertex of the other (a "band"); each loop edge is used once.
+/// @return false, appending nothing, when a loop has fewer than 3 vertices or no band satisfies the rules of
+///         triangulate_loop (an edge joining the two loops counts as a non-loop edge: its ends may share no wall).
+///         Band triangulations only: a tube whose band breaks the rules (e.g. both loops on one wall) needs new
+///         vertices, which is the caller's business.
+/// Optimum as for triangulate_loop: worst q maximised, then Σ q, over every band. Cost: O(p·q) triangle
+/// evaluations and O(p·q·min(p, q)) table steps, O(p·q) memory.
+bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
+                         const loop_triangulation_settings& settings, loop_triangulation_workspace& workspace);
+/// As above with default settings and a thread_local workspace.
+bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats);
+
+}  // namespace tracemesh

@@ -1,0 +1,275 @@
+#include "core/trace/trace_mesher.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <string>
+
+#include "core/trace/cell_polygons.hpp"
+#include "core/trace/line_roots.hpp"
+#include "core/trace/strip_arcs.hpp"
+#include "core/trace/trace_lines.hpp"
+
+namespace tracemesh {
+namespace {
+
+/// h̃ = line_spacing_at_unit_density / √density. The paper: h̃ = 1.0 Å ≈ 1 vertex/Å², 0.7 Å ≈ 2 (calibrated in
+/// README "Method": the achieved raw density within ±20% of the request).
+constexpr double line_spacing_at_unit_density = 1.0;
+/// Kept interior points of an arc are about this × h̃ apart (method.md §7.7 asks for ≤ 1.5 h̃).
+constexpr double resample_spacing_factor = 1.0;
+/// Rounds of re-tracing strips whose lines gained late roots, before giving up.
+constexpr int max_late_root_rounds = 8;
+
+status cancelled_status() { return {errc::cancelled, "meshing was cancelled"}; }
+
+/// Roots on the lines of every block (eq. 6), with the field's gradient at each (the traces start from it).
+result<trace_lines> find_all_line_roots(const gaussian_field& field, const lattice& lat,
+                                        const std::vector<lattice_index>& blocks, int degree,
+                                        progress_token& progress, trace_stats& stats) {
+  std::vector<std::vector<trace_lines::entry>> per_block(blocks.size());
+  std::vector<line_root_stats> block_stats(blocks.size());
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
+    if (progress.cancelled()) return;
+    std::vector<std::uint32_t> atoms;
+    block_line_roots roots;
+    line_root_settings settings;
+    settings.degree = degree;
+    line_root_finder finder(settings);
+    for (std::size_t n = r.begin(); n != r.end(); ++n) {
+      const lattice_index& b = blocks[n];
+      field.atoms_near_box(lat.block_box(b), atoms);
+      finder.find(field, lat, b, atoms, roots, block_stats[n]);
+      const double h = lat.spacing();
+      for (int k = 0; k < lattice::block_cells; ++k) {
+        for (int j = 0; j < lattice::block_cells; ++j) {
+          const int line = j + lattice::block_cells * k;
+          const line_id id{b.j * lattice::block_cells + j, b.k * lattice::block_cells + k};
+          for (std::uint32_t q = roots.first[line]; q < roots.first[line + 1]; ++q) {
+            const vec3 p{roots.roots[q].x, static_cast<double>(id.j) * h, static_cast<double>(id.k) * h};
+            line_point point{roots.roots[q].x, {}, false};
+            field.value_and_gradient(p, point.gradient);
+            ++block_stats[n].field_evaluations;
+            per_block[n].push_back({id, point});
+          }
+        }
+      }
+    }
+    progress.report(mesh_stage::roots, static_cast<double>(done += r.size()) / static_cast<double>(blocks.size()));
+  });
+  if (progress.cancelled()) return cancelled_status();
+  std::vector<trace_lines::entry> entries;
+  for (std::size_t n = 0; n < blocks.size(); ++n) {
+    stats.lines += block_stats[n].lines;
+    stats.polynomial_roots += block_stats[n].polynomial_roots;
+    stats.bracketed_roots += block_stats[n].sign_walk_roots;
+    stats.field_evaluations += block_stats[n].field_evaluations;
+    entries.insert(entries.end(), per_block[n].begin(), per_block[n].end());
+  }
+  return trace_lines(std::move(entries));
+}
+
+/// The four strips beside each line that holds a root, sorted.
+std::vector<strip_id> strips_of(const trace_lines& lines) {
+  std::vector<strip_id> strips;
+  strips.reserve(4 * lines.line_count());
+  for (std::size_t n = 0; n < lines.line_count(); ++n) {
+    const line_id& l = lines.id(n);
+    strips.push_back({0, l.j - 1, l.k});
+    strips.push_back({0, l.j, l.k});
+    strips.push_back({1, l.j, l.k - 1});
+    strips.push_back({1, l.j, l.k});
+  }
+  std::sort(strips.begin(), strips.end());
+  strips.erase(std::unique(strips.begin(), strips.end()), strips.end());
+  return strips;
+}
+
+/// Algorithm 1 on every strip, then again on the strips whose lines gained late roots (method.md §7.2), until no
+/// trace finds a new root.
+status trace_all_strips(const gaussian_field& field, const strip_settings& settings, traced_surface& surface,
+                        progress_token& progress, trace_stats& stats) {
+  std::vector<strip_id> strips = strips_of(surface.lines);
+  std::vector<strip_trace> traces(strips.size());
+  std::vector<char> stale(strips.size(), 1);
+  for (int round = 0; round < max_late_root_rounds; ++round) {
+    std::atomic<std::size_t> done{0};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, strips.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+      if (progress.cancelled()) return;
+      for (std::size_t s = r.begin(); s != r.end(); ++s) {
+        if (stale[s]) traces[s] = trace_strip(field, surface.lines, strips[s], settings);
+      }
+      progress.report(mesh_stage::tracing, static_cast<double>(done += r.size()) / static_cast<double>(strips.size()));
+    });
+    if (progress.cancelled()) return cancelled_status();
+    std::vector<trace_lines::entry> late;
+    for (std::size_t s = 0; s < strips.size(); ++s) {
+      if (!stale[s]) continue;
+      stats.field_evaluations += traces[s].evaluations;
+      late.insert(late.end(), traces[s].late_roots.begin(), traces[s].late_roots.end());
+    }
+    if (late.empty()) break;
+    std::vector<line_id> grown;
+    for (const auto& e : late) grown.push_back(e.line);
+    std::sort(grown.begin(), grown.end());
+    grown.erase(std::unique(grown.begin(), grown.end()), grown.end());
+    stats.late_roots += surface.lines.add(std::move(late));
+    // Re-trace every strip beside a grown line; keep the others' traces.
+    std::vector<strip_id> next = strips_of(surface.lines);
+    std::vector<strip_trace> next_traces(next.size());
+    std::vector<char> next_stale(next.size(), 0);
+    for (std::size_t s = 0; s < next.size(); ++s) {
+      const bool touches = std::binary_search(grown.begin(), grown.end(), next[s].low_line()) ||
+                           std::binary_search(grown.begin(), grown.end(), next[s].high_line());
+      const auto old = std::lower_bound(strips.begin(), strips.end(), next[s]);
+      const bool known = old != strips.end() && *old == next[s];
+      next_stale[s] = touches || !known;
+      if (!next_stale[s]) next_traces[s] = std::move(traces[static_cast<std::size_t>(old - strips.begin())]);
+    }
+    strips = std::move(next);
+    traces = std::move(next_traces);
+    stale = std::move(next_stale);
+  }
+  surface.strips = std::move(strips);
+  surface.traces = std::move(traces);
+  return {};
+}
+
+/// Numbers the strips' interior points after the roots.
+void number_interior_points(traced_surface& surface, trace_stats& stats) {
+  surface.interior_first.resize(surface.traces.size());
+  std::uint32_t next = static_cast<std::uint32_t>(surface.lines.root_count());
+  for (std::size_t s = 0; s < surface.traces.size(); ++s) {
+    const strip_trace& t = surface.traces[s];
+    surface.interior_first[s] = next;
+    next += static_cast<std::uint32_t>(t.interior.size());
+    stats.arcs += t.arcs.size();
+    stats.extreme_points += t.extreme_points;
+    stats.retraced_arcs += t.retraced;
+  }
+}
+
+/// The two cells beside each strip that holds an arc, sorted.
+std::vector<cell_id> cells_of(const traced_surface& surface) {
+  std::vector<cell_id> cells;
+  for (std::size_t s = 0; s < surface.strips.size(); ++s) {
+    if (surface.traces[s].arcs.empty()) continue;
+    const strip_id& st = surface.strips[s];
+    if (st.orientation == 0) {
+      cells.push_back({st.j, st.k - 1});
+      cells.push_back({st.j, st.k});
+    } else {
+      cells.push_back({st.j - 1, st.k});
+      cells.push_back({st.j, st.k});
+    }
+  }
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  return cells;
+}
+
+/// The mesh: roots, then interior points, then the cells' Steiner points; triangles cell by cell.
+surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cells) {
+  surface_mesh mesh;
+  const double h = surface.spacing;
+  for (std::size_t n = 0; n < surface.lines.line_count(); ++n) {
+    const line_id& id = surface.lines.id(n);
+    for (const line_point& p : surface.lines.roots(n)) {
+      mesh.positions.push_back({p.x, static_cast<double>(id.j) * h, static_cast<double>(id.k) * h});
+      mesh.normals.push_back(normalized(-p.gradient));
+    }
+  }
+  for (const strip_trace& t : surface.traces) {
+    for (const surface_sample& p : t.interior) {
+      mesh.positions.push_back(p.position);
+      mesh.normals.push_back(normalized(-p.gradient));
+    }
+  }
+  for (cell_mesh& cell : cells) {
+    const auto first_steiner = static_cast<std::uint32_t>(mesh.positions.size());
+    for (const surface_sample& p : cell.steiner) {
+      mesh.positions.push_back(p.position);
+      mesh.normals.push_back(normalized(-p.gradient));
+    }
+    for (auto t : cell.triangles) {
+      for (auto& v : t) {
+        if (v >= steiner_vertex) v = first_steiner + (v - steiner_vertex);
+      }
+      mesh.triangles.push_back(t);
+    }
+    std::vector<std::array<std::uint32_t, 3>>().swap(cell.triangles);
+  }
+  return mesh;
+}
+
+}  // namespace
+
+double trace_line_spacing(double density) { return line_spacing_at_unit_density / std::sqrt(density); }
+
+result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const lattice& lat,
+                                       const std::vector<lattice_index>& blocks, const trace_parameters& params,
+                                       const mesh_limits& limits, progress_token& progress, stage_clock& clock,
+                                       trace_stats& stats) {
+  const double h = lat.spacing();
+  stats.line_spacing = h;
+  stats.step = params.step_fraction * h;
+  auto lines = find_all_line_roots(field, lat, blocks, params.legendre_degree, progress, stats);
+  if (!lines) return lines.error();
+  if (lines->root_count() == 0) {
+    return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
+  }
+  clock.finish(mesh_stage::roots);
+
+  traced_surface surface;
+  surface.spacing = h;
+  surface.lines = std::move(*lines);
+  strip_settings settings;
+  settings.spacing = h;
+  settings.max_step = stats.step;
+  settings.cos_bound = params.cos_bound;
+  settings.extreme_tolerance = params.extreme_tolerance;
+  settings.resample_spacing = resample_spacing_factor * h;
+  if (status s = trace_all_strips(field, settings, surface, progress, stats); !s) return s;
+  number_interior_points(surface, stats);
+  clock.finish(mesh_stage::tracing);
+
+  const std::vector<cell_id> cell_ids = cells_of(surface);
+  std::vector<cell_mesh> cells(cell_ids.size());
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cell_ids.size(), 64), [&](const tbb::blocked_range<std::size_t>& r) {
+    if (progress.cancelled()) return;
+    for (std::size_t c = r.begin(); c != r.end(); ++c) cells[c] = mesh_cell(field, surface, cell_ids[c]);
+    progress.report(mesh_stage::triangulating,
+                    static_cast<double>(done += r.size()) / static_cast<double>(cell_ids.size()));
+  });
+  if (progress.cancelled()) return cancelled_status();
+  std::size_t open_cells = 0, intersecting_cells = 0, failures = 0;
+  for (std::size_t s = 0; s < surface.traces.size(); ++s) failures += surface.traces[s].failures;
+  for (const cell_mesh& c : cells) {
+    stats.polygons += c.loops;
+    stats.fallback_loops += c.fallback_loops;
+    stats.field_evaluations += c.evaluations;
+    open_cells += !c.closed;
+    intersecting_cells += c.intersecting;
+  }
+  surface_mesh mesh = assemble(surface, cells);
+  stats.raw_vertices = mesh.positions.size();
+  stats.raw_triangles = mesh.triangles.size();
+  if (open_cells > 0 || intersecting_cells > 0 || failures > 0) {
+    return status{errc::internal_error, "trace polygons could not be closed: " + std::to_string(failures) +
+                                            " roots without an arc, " + std::to_string(open_cells) +
+                                            " cells with an open or untriangulable loop, " +
+                                            std::to_string(intersecting_cells) + " cells with intersecting triangles"};
+  }
+  if (mesh.triangles.size() > limits.max_triangles) {
+    return status{errc::limit_exceeded, "mesh has " + std::to_string(mesh.triangles.size()) + " triangles (limit " +
+                                            std::to_string(limits.max_triangles) + ")"};
+  }
+  clock.finish(mesh_stage::triangulating);
+  return mesh;
+}
+
+}  // namespace tracemesh

@@ -1,0 +1,42 @@
+#pragma once
+/// @file trace_parameters.hpp
+/// The knobs of the trace path (TMSmesh stage two: paper eq. 6, Algorithms 1 and 2) and what it counts while it
+/// runs. Both appear in the job report, so a mesh can be reproduced from its report alone.
+
+#include <cstddef>
+
+namespace tracemesh {
+
+struct trace_parameters {
+  /// Degree M of the Legendre approximation of φ along each line span (paper eq. 6: M = 10).
+  int legendre_degree = 10;
+  /// Step h₁ of Algorithm 1 as a fraction of the line spacing h̃ (the first try of every step; steps grow back
+  /// to it after a halving). 0.5: with h̃ = 1 Å, a 0.5 Å step, within the ~1 Å the prototype found still valid
+  /// with a 20° turn limit (method.md §7.4).
+  double step_fraction = 0.5;
+  /// δ of condition ★1: a step whose in-plane normal turns by more than acos(δ) is halved. cos 20°.
+  double cos_bound = 0.9396926207859084;
+  /// ε of step 4 and ★2, relative: |φ_x| < ε·|∇φ| makes a point an extreme point in x.
+  double extreme_tolerance = 0.02;
+};
+
+/// What the trace path did, for the report (all counts over the whole job).
+struct trace_stats {
+  double line_spacing = 0;              ///< h̃, Å
+  double step = 0;                      ///< h₁, Å
+  std::size_t lines = 0;                ///< line spans (one per surviving block and line) searched for roots
+  std::size_t polynomial_roots = 0;     ///< roots found by the Legendre polynomial and accepted by Newton
+  std::size_t bracketed_roots = 0;      ///< roots the polynomial missed, found between line samples of opposite sign
+  std::size_t late_roots = 0;           ///< roots the polynomial missed, found where a trace crossed a line
+  std::size_t arcs = 0;                 ///< traced arcs (pieces of contour between two line points)
+  std::size_t strip_loops = 0;          ///< closed contours inside one strip that touch no line
+  std::size_t polygons = 0;             ///< closed polygons of Algorithm 2 (one per surface piece in a cell)
+  std::size_t extreme_points = 0;       ///< points with φ_x = 0 (step 4) kept as vertices
+  std::size_t retraced_arcs = 0;        ///< arcs traced again with a smaller step after a conflict
+  std::size_t fallback_loops = 0;       ///< polygons triangulated with a Steiner point on the surface
+  std::size_t field_evaluations = 0;    ///< evaluations of φ (with or without ∇φ) in roots and traces
+  std::size_t raw_vertices = 0;         ///< vertices of the triangulated polygons, before any quality pass
+  std::size_t raw_triangles = 0;
+};
+
+}  // namespace tracemesh

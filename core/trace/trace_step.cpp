@@ -1,0 +1,156 @@
+#include "core/trace/trace_step.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tracemesh {
+namespace {
+
+/// A corrector or polisher stops when |φ − t0| ≤ this × t0 or |φ − t0| / |g| ≤ converged_distance.
+constexpr double converged_residual = 1e-12;
+constexpr double converged_distance = 1e-11;  // Å
+constexpr int max_newton_iterations = 30;
+
+bool converged(double residual, double gradient_norm, double t0) {
+  return std::abs(residual) <= converged_residual * t0 || std::abs(residual) <= converged_distance * gradient_norm;
+}
+
+/// The in-plane components (φ_x, φ_v) of a gradient.
+struct planar {
+  double x, v;
+  double norm() const { return std::hypot(x, v); }
+};
+planar in_plane(const vec3& gradient, int v_axis) { return {gradient.x, gradient[v_axis]}; }
+
+/// Unit tangent s·(−φ_v, φ_x) / |g| in (x, v).
+planar unit_tangent(const vec3& gradient, int v_axis, int sign) {
+  const planar g = in_plane(gradient, v_axis);
+  const double n = g.norm();
+  return {-sign * g.v / n, sign * g.x / n};
+}
+
+/// φ_x / |g|: the x-component of the unit in-plane normal (0 where the contour runs along x).
+double relative_phi_x(const vec3& gradient, int v_axis) {
+  const planar g = in_plane(gradient, v_axis);
+  return g.x / g.norm();
+}
+
+}  // namespace
+
+bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
+                      surface_sample& out, std::size_t& evaluations) {
+  const int v = plane.v_axis();
+  const vec3 origin = p;
+  for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
+    vec3 gradient;
+    const double residual = field.value_and_gradient(p, gradient) - field.t0();
+    ++evaluations;
+    const planar g = in_plane(gradient, v);
+    const double g2 = g.x * g.x + g.v * g.v;
+    if (!(g2 > 0)) return false;
+    if (converged(residual, std::sqrt(g2), field.t0())) {
+      out.position = p;
+      out.gradient = gradient;
+      out.extreme = false;
+      return true;
+    }
+    double dx = g.x * residual / g2, dv = g.v * residual / g2;  // Newton along the in-plane gradient (step 3)
+    const double length = std::hypot(dx, dv);
+    if (length > 0.5 * max_move) {  // damped far from the contour
+      dx *= 0.5 * max_move / length;
+      dv *= 0.5 * max_move / length;
+    }
+    p.x -= dx;
+    p[v] -= dv;
+    if (distance(p, origin) > max_move) return false;
+  }
+  return false;
+}
+
+bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
+                    std::size_t& evaluations) {
+  const double x0 = guess.x;
+  for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
+    vec3 gradient;
+    const double residual = field.value_and_gradient(guess, gradient) - field.t0();
+    ++evaluations;
+    if (converged(residual, std::abs(gradient.x), field.t0())) {
+      out.position = guess;
+      out.gradient = gradient;
+      out.extreme = false;
+      return true;
+    }
+    if (gradient.x == 0) return false;
+    double dx = residual / gradient.x;
+    if (std::abs(dx) > 0.5 * max_move) dx = std::copysign(0.5 * max_move, dx);
+    guess.x -= dx;
+    if (std::abs(guess.x - x0) > max_move) return false;
+  }
+  return false;
+}
+
+traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,
+                         const trace_step_settings& settings, std::size_t& evaluations) {
+  const int v = plane.v_axis();
+  const double eps = settings.extreme_tolerance;
+  const bool starts_low =
+      std::abs(start.position[v] - settings.v_low) <= std::abs(start.position[v] - settings.v_high);
+  traced_arc arc;
+  arc.points.push_back(start);
+  surface_sample p0 = start;
+  double h = settings.max_step;
+  for (std::size_t steps = 0; steps < settings.max_steps; ++steps) {
+    const planar t = unit_tangent(p0.gradient, v, sign);
+    const planar g0 = in_plane(p0.gradient, v);
+    const double fx0 = relative_phi_x(p0.gradient, v);
+    const bool first = steps == 0;
+    while (true) {
+      if (h < settings.min_step) return arc;  // failed
+      vec3 predicted = p0.position;  // step 2: along the tangent
+      predicted.x += h * t.x;
+      predicted[v] += h * t.v;
+      surface_sample p1;
+      if (!correct_in_plane(field, plane, predicted, h, p1, evaluations)) {
+        h *= 0.5;
+        continue;
+      }
+      const planar g1 = in_plane(p1.gradient, v);
+      const double turn = (g0.x * g1.x + g0.v * g1.v) / (g0.norm() * g1.norm());
+      const double fx1 = relative_phi_x(p1.gradient, v);
+      const bool star1 = turn < settings.cos_bound;                                       // ★1
+      const bool star2 = fx0 * fx1 < 0 && std::abs(fx0) > eps && std::abs(fx1) > eps;  // ★2
+      const double v1 = p1.position[v];
+      const bool back_over_start = first && (starts_low ? v1 <= settings.v_low : v1 >= settings.v_high);
+      if (star1 || star2 || back_over_start) {
+        h *= 0.5;
+        continue;
+      }
+      p1.extreme = std::abs(fx1) < eps;  // step 4
+      if (v1 <= settings.v_low || v1 >= settings.v_high) {  // step 6: the segment reaches a line
+        const double line_v = v1 <= settings.v_low ? settings.v_low : settings.v_high;
+        const double f = (line_v - p0.position[v]) / (v1 - p0.position[v]);
+        vec3 guess = p0.position;
+        guess.x += f * (p1.position.x - p0.position.x);
+        guess[v] = line_v;
+        surface_sample crossing;
+        const bool polished = polish_on_line(field, guess, h, crossing, evaluations);
+        const bool at_start = polished && std::abs(crossing.position.x - start.position.x) < 1e-7 &&
+                              (line_v == settings.v_low) == starts_low;
+        if (!polished || at_start) {
+          h *= 0.5;
+          continue;
+        }
+        arc.points.push_back(crossing);
+        arc.end = line_v == settings.v_low ? trace_end::low_line : trace_end::high_line;
+        return arc;
+      }
+      arc.points.push_back(p1);
+      p0 = p1;
+      h = std::min(2 * h, settings.max_step);
+      break;
+    }
+  }
+  return arc;
+}
+
+}  // namespace tracemesh

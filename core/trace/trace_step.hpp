@@ -1,0 +1,78 @@
+#pragma once
+/// @file trace_step.hpp
+/// The trace step of TMSmesh (paper Algorithm 1): from a surface point on one line, walk along the planar contour
+/// {φ = t0} ∩ plane until it crosses one of the two lines bounding the strip, and return the crossing together with
+/// the points walked through and the extreme points met on the way.
+///
+/// A plane is {p : p[normal_axis] = offset} with normal_axis 2 (an xy plane, z fixed) or 1 (an xz plane, y fixed);
+/// its in-plane coordinates are (x, v) with v = p[3 − normal_axis]. Lines are v = v_low and v = v_high (= v_low + h̃).
+/// With g = (φ_x, φ_v) the in-plane gradient, the contour's tangent is s·(−φ_v, φ_x); s = +1 is the arc's
+/// *canonical* direction (the cell on the −z side of an xy wall, and on the +y side of an xz wall, walks its
+/// boundary that way: see trace_mesher.cpp).
+
+#include <cstddef>
+#include <vector>
+
+#include "core/field/gaussian_field.hpp"
+#include "core/trace/trace_parameters.hpp"
+#include "core/vec3.hpp"
+
+namespace tracemesh {
+
+struct trace_plane {
+  int normal_axis = 2;  ///< 2: xy plane (z = offset); 1: xz plane (y = offset)
+  double offset = 0;    ///< Å
+  int v_axis() const { return 3 - normal_axis; }
+};
+
+/// A point on the surface with the field's gradient there (3-D ∇φ).
+struct surface_sample {
+  vec3 position;
+  vec3 gradient;
+  bool extreme = false;  ///< |φ_x| < ε·|∇φ_in-plane| (Algorithm 1, step 4): the contour runs along x here
+};
+
+/// Where a traced arc ended.
+enum class trace_end {
+  low_line,   ///< crossed v = v_low
+  high_line,  ///< crossed v = v_high
+  failed,     ///< no acceptable step (step below the minimum, or too many steps)
+};
+
+struct traced_arc {
+  std::vector<surface_sample> points;  ///< from the start to the crossing, both included; the crossing lies on its line
+  trace_end end = trace_end::failed;
+};
+
+/// Limits of one trace.
+struct trace_step_settings {
+  double v_low = 0, v_high = 1;  ///< the strip's two lines, Å
+  double max_step = 0.5;         ///< h₁, Å
+  double cos_bound = 0.94;       ///< δ (★1)
+  double extreme_tolerance = 0.02;  ///< ε (step 4 and ★2), relative to |∇φ| in the plane
+  double min_step = 1e-7;        ///< Å: a step halved below this fails the trace
+  std::size_t max_steps = 100000;   ///< bounds the walk (a closed contour that never meets a line)
+};
+
+/// Traces from `start` (on the surface, on line v_low or v_high) into the strip along s·(−φ_v, φ_x), s = ±1
+/// (Algorithm 1). Each step predicts along the unit tangent (step 2), corrects by Newton along the in-plane
+/// gradient back onto the contour (step 3), records extreme points (step 4), halves on ★1 (normal turned by more
+/// than acos δ) or ★2 (φ_x changed sign between two points where |φ_x| > ε|g|, so an extreme point was jumped
+/// over), and stops at the first segment that reaches a line (step 6); the crossing is interpolated and then
+/// polished onto the line by Newton in x. A step that would cross back over the start line at the start point
+/// itself is halved. Steps grow back towards h₁ by doubling after each accepted step.
+/// `evaluations` is increased by the number of field evaluations made.
+traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,
+                         const trace_step_settings& settings, std::size_t& evaluations);
+
+/// Newton in x on the line (v fixed) from `guess` (on the plane): the root of φ = t0 within `max_move` Å of the
+/// guess, with its gradient. False when it does not converge to 1e-12·t0 (or 1e-11 Å).
+bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
+                    std::size_t& evaluations);
+
+/// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0}, to 1e-11 Å.
+/// False when it does not converge within `max_move` Å.
+bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
+                      surface_sample& out, std::size_t& evaluations);
+
+}  // namespace tracemesh

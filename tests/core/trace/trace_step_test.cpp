@@ -1,0 +1,111 @@
+// Tests of core/trace/trace_step.hpp (paper Algorithm 1) on one atom, whose contours are circles known in closed form:
+// with d = −1 and t0 = 1 the surface of a lone atom of radius r is the sphere of radius r, so the plane z = z₀ cuts it
+// in the circle of radius ρ = √(r² − z₀²), which crosses the line y = v at x = ±√(ρ² − v²).
+#include "core/trace/trace_step.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/field/gaussian_field.hpp"
+#include "core/molecule.hpp"
+
+namespace tracemesh {
+namespace {
+
+constexpr double radius = 1.5;
+constexpr double plane_z = 0.3;
+
+molecule one_atom() {
+  molecule mol;
+  mol.atoms.push_back({{0, 0, 0}, radius, 0});
+  return mol;
+}
+
+double contour_radius() { return std::sqrt(radius * radius - plane_z * plane_z); }
+
+surface_sample sample_at(const gaussian_field& field, vec3 p) {
+  surface_sample s{p, {}, false};
+  field.value_and_gradient(p, s.gradient);
+  return s;
+}
+
+TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const double rho = contour_radius();
+  trace_step_settings settings;
+  settings.v_low = 0.2;
+  settings.v_high = 1.2;
+  settings.max_step = 0.25;
+  const surface_sample start = sample_at(field, {std::sqrt(rho * rho - 0.04), 0.2, plane_z});
+  // Into +y from the low line: s·φ_x > 0, and φ_x < 0 at x > 0.
+  std::size_t evaluations = 0;
+  const traced_arc arc = trace_contour(field, {2, plane_z}, start, -1, settings, evaluations);
+  ASSERT_EQ(arc.end, trace_end::high_line);
+  const vec3 end = arc.points.back().position;
+  EXPECT_NEAR(end.x, std::sqrt(rho * rho - 1.44), 1e-9);
+  EXPECT_DOUBLE_EQ(end.y, 1.2);
+  EXPECT_DOUBLE_EQ(end.z, plane_z);
+  for (const surface_sample& p : arc.points) {
+    EXPECT_NEAR(std::hypot(p.position.x, p.position.y), rho, 1e-9);
+    EXPECT_EQ(p.position.z, plane_z);  // the walk never leaves its plane
+  }
+  // Steps are at most h₁ and the normal turns by at most acos δ per step.
+  for (std::size_t n = 1; n < arc.points.size(); ++n) {
+    EXPECT_LE(distance(arc.points[n - 1].position, arc.points[n].position), settings.max_step * 1.0001);
+  }
+  EXPECT_GT(evaluations, arc.points.size());
+}
+
+TEST(trace_step, returns_to_the_same_line_through_an_extreme_point) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const double rho = contour_radius();
+  trace_step_settings settings;
+  settings.v_low = 0.2;
+  settings.v_high = 1.6;  // beyond the circle: the contour turns back to y = 0.2
+  settings.max_step = 0.3;
+  settings.extreme_tolerance = 0.02;
+  const double x0 = std::sqrt(rho * rho - 0.04);
+  std::size_t evaluations = 0;
+  const traced_arc arc = trace_contour(field, {2, plane_z}, sample_at(field, {x0, 0.2, plane_z}), -1, settings, evaluations);
+  ASSERT_EQ(arc.end, trace_end::low_line);
+  EXPECT_NEAR(arc.points.back().position.x, -x0, 1e-9);
+  int extremes = 0;
+  for (const surface_sample& p : arc.points) {
+    if (!p.extreme) continue;
+    ++extremes;
+    EXPECT_NEAR(p.position.x, 0.0, 0.03 * rho);  // φ_x ≈ 0 at the top of the circle
+    EXPECT_NEAR(p.position.y, rho, 1e-3);
+  }
+  EXPECT_EQ(extremes, 1);
+}
+
+TEST(trace_step, the_opposite_sign_walks_the_other_way_in_an_xz_plane) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const double rho = contour_radius();  // plane y = 0.3 this time
+  trace_step_settings settings;
+  settings.v_low = -0.5;
+  settings.v_high = 0.5;
+  settings.max_step = 0.2;
+  const double x0 = std::sqrt(rho * rho - 0.25);
+  std::size_t evaluations = 0;
+  // From (x0, 0.3, 0.5) on the high line into −z: s·φ_x < 0 with φ_x < 0 → s = +1.
+  const traced_arc arc =
+      trace_contour(field, {1, plane_z}, sample_at(field, {x0, plane_z, 0.5}), 1, settings, evaluations);
+  ASSERT_EQ(arc.end, trace_end::low_line);
+  EXPECT_NEAR(arc.points.back().position.x, x0, 1e-9);
+  EXPECT_DOUBLE_EQ(arc.points.back().position.z, -0.5);
+  for (const surface_sample& p : arc.points) EXPECT_EQ(p.position.y, plane_z);
+}
+
+TEST(trace_step, polishing_on_a_line_finds_the_crossing) {
+  const gaussian_field field(one_atom(), -1, 1);
+  surface_sample out;
+  std::size_t evaluations = 0;
+  ASSERT_TRUE(polish_on_line(field, {1.2, 0.4, plane_z}, 0.5, out, evaluations));
+  EXPECT_NEAR(out.position.x, std::sqrt(radius * radius - 0.16 - plane_z * plane_z), 1e-10);
+  EXPECT_FALSE(polish_on_line(field, {1.2, 1.6, plane_z}, 0.5, out, evaluations));  // the line misses the sphere
+}
+
+}  // namespace
+}  // namespace tracemesh
