@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/analysis/triangle_intersection.hpp"
 #include "core/trace/loop_triangulation.hpp"
@@ -12,6 +13,8 @@ namespace {
 /// A Steiner point must lie this far (× h̃) inside the cell's cross-section, off its walls, so that its fan stays
 /// admissible (method.md §7.8).
 constexpr double steiner_wall_margin = 1e-3;
+/// A fan triangle's area must be at least this × its longest edge² (the certificate's degeneracy rule is 1e-12).
+constexpr double steiner_min_area_ratio = 1e-9;
 
 /// One wall of a cell: its strip, whether the cell reads the strip's arcs backwards, and its bit.
 struct cell_wall_strip {
@@ -28,6 +31,7 @@ std::array<cell_wall_strip, 4> walls_of(const cell_id& c) {
 }
 
 /// One loop vertex with its number in the mesh.
+using vertex_ref = const loop_vertex&;
 struct numbered_vertex {
   std::uint32_t id;
   loop_vertex vertex;
@@ -119,98 +123,215 @@ bool chain_loops(const std::vector<cell_arc>& arcs, std::vector<std::vector<numb
   return true;
 }
 
-/// Fallback for a loop the admissible triangulation cannot close: a fan around its centroid moved onto the surface,
-/// kept strictly inside the cell (counted in trace_stats::fallback_loops).
-bool fan_around_steiner_point(const gaussian_field& field, const std::vector<numbered_vertex>& loop,
-                              const cell_id& cell, double h, cell_mesh& out) {
-  vec3 centre;
-  for (const numbered_vertex& v : loop) centre += v.vertex.position;
-  centre = centre / static_cast<double>(loop.size());
-  if (!field.project_to_surface(centre, h)) return false;
-  out.evaluations += 8;
-  const double margin = steiner_wall_margin * h;
-  const double y0 = static_cast<double>(cell.j) * h, z0 = static_cast<double>(cell.k) * h;
-  if (!(centre.y > y0 + margin && centre.y < y0 + h - margin && centre.z > z0 + margin && centre.z < z0 + h - margin)) {
-    return false;
+/// How a loop is triangulated, in order of preference; all but the first are fallbacks (trace_stats::fallback_loops).
+enum class loop_strategy {
+  admissible,          ///< the admissible maximin triangulation (method.md §7.8)
+  steiner_fan,         ///< a fan around one new point of the surface inside the cell, faces agreeing with −∇φ
+  admissible_relaxed,  ///< the admissible triangulation without the rule that faces agree with the normals
+  steiner_fan_relaxed, ///< the fan without that rule
+  none,                ///< nothing worked: the mesh cannot close here
+};
+constexpr loop_strategy next(loop_strategy s) { return static_cast<loop_strategy>(static_cast<int>(s) + 1); }
+
+/// One loop's triangles; vertex numbers ≥ steiner_vertex are this loop's own Steiner points.
+struct loop_mesh {
+  loop_strategy strategy = loop_strategy::none;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  std::vector<surface_sample> steiner;
+};
+
+/// Where φ crosses t0 on the line centre + t·direction, t ∈ [t_lo, t_hi] (bisection to 1e-12·h); false without a
+/// sign change at the ends.
+bool crossing_on_segment(const gaussian_field& field, const vec3& centre, const vec3& direction, double t_lo,
+                         double t_hi, double h, surface_sample& out, std::size_t& evaluations) {
+  const auto residual = [&](double t) {
+    ++evaluations;
+    return field.value(centre + t * direction) - field.t0();
+  };
+  double f_lo = residual(t_lo);
+  const double f_hi = residual(t_hi);
+  if (!(f_lo * f_hi < 0)) return false;
+  for (int iteration = 0; iteration < 60 && t_hi - t_lo > 1e-12 * h; ++iteration) {
+    const double mid = 0.5 * (t_lo + t_hi);
+    const double f_mid = residual(mid);
+    if ((f_mid < 0) == (f_lo < 0)) {
+      t_lo = mid;
+      f_lo = f_mid;
+    } else {
+      t_hi = mid;
+    }
   }
-  vec3 gradient;
-  field.value_and_gradient(centre, gradient);
-  const vec3 normal = normalized(-gradient);
-  for (std::size_t n = 0; n < loop.size(); ++n) {
-    const vec3& a = loop[n].vertex.position;
-    const vec3& b = loop[(n + 1) % loop.size()].vertex.position;
-    const vec3 face = cross(b - a, centre - a);
-    if (!(dot(face, normal + loop[n].vertex.normal + loop[(n + 1) % loop.size()].vertex.normal) > 0)) return false;
-  }
-  const std::uint32_t steiner = steiner_vertex + static_cast<std::uint32_t>(out.steiner.size());
-  out.steiner.push_back({centre, gradient, false});
-  for (std::size_t n = 0; n < loop.size(); ++n) {
-    out.triangles.push_back({loop[n].id, loop[(n + 1) % loop.size()].id, steiner});
-  }
-  ++out.fallback_loops;
+  out.position = centre + (0.5 * (t_lo + t_hi)) * direction;
+  field.value_and_gradient(out.position, out.gradient);
+  ++evaluations;
+  out.extreme = false;
   return true;
 }
 
-/// Triangulates one loop by the admissible maximin triangulation, or by the fallback fan.
-bool triangulate(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell, double h,
-                 cell_mesh& out) {
+/// A point of the surface inside the cell for a fan: on a line through the loop's centroid, clipped to the cell's
+/// cross-section less a margin, where φ crosses t0. The patch the loop bounds lies in the cell, so a line through
+/// its middle meets it; lines along the loop's mean normal, then along x, y and z are tried in turn.
+bool steiner_point(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
+                   double h, surface_sample& out, std::size_t& evaluations) {
+  vec3 centre, mean_normal;
+  for (const numbered_vertex& v : loop) {
+    centre += v.vertex.position;
+    mean_normal += v.vertex.normal;
+  }
+  centre = centre / static_cast<double>(loop.size());
+  const double margin = steiner_wall_margin * h;
+  const double lo[2] = {static_cast<double>(cell.j) * h + margin, static_cast<double>(cell.k) * h + margin};
+  const double hi[2] = {lo[0] + h - 2 * margin, lo[1] + h - 2 * margin};
+  const auto inside = [&](const vec3& p) { return p.y > lo[0] && p.y < hi[0] && p.z > lo[1] && p.z < hi[1]; };
+  if (!inside(centre)) return false;
+  // First the nearest point of the surface (Newton along ∇φ), when it stays in the cell.
+  vec3 projected = centre;
+  evaluations += 8;
+  if (field.project_to_surface(projected, h) && inside(projected)) {
+    out.position = projected;
+    field.value_and_gradient(projected, out.gradient);
+    out.extreme = false;
+    return true;
+  }
+  for (const vec3& axis : {normalized(mean_normal), vec3{1, 0, 0}, vec3{0, 1, 0}, vec3{0, 0, 1}}) {
+    if (squared_norm(axis) == 0) continue;
+    double t_lo = -h, t_hi = h;  // the part of the line inside the cross-section (y, z), within ±h
+    for (int a = 0; a < 2; ++a) {
+      const double c = a == 0 ? centre.y : centre.z, d = a == 0 ? axis.y : axis.z;
+      if (d == 0) continue;
+      const double t0 = (lo[a] - c) / d, t1 = (hi[a] - c) / d;
+      t_lo = std::max(t_lo, std::min(t0, t1));
+      t_hi = std::min(t_hi, std::max(t0, t1));
+    }
+    // The patch may cross the line twice: look for the sign change nearest the centroid among samples.
+    constexpr int samples = 16;
+    double best_t0 = 0, best_t1 = 0, best_distance = std::numeric_limits<double>::infinity();
+    double previous_t = t_lo, previous_f = field.value(centre + t_lo * axis) - field.t0();
+    for (int n = 1; n <= samples; ++n) {
+      const double t = t_lo + (t_hi - t_lo) * n / samples;
+      const double f = field.value(centre + t * axis) - field.t0();
+      if (previous_f * f < 0 && std::min(std::abs(previous_t), std::abs(t)) < best_distance) {
+        best_distance = std::min(std::abs(previous_t), std::abs(t));
+        best_t0 = previous_t;
+        best_t1 = t;
+      }
+      previous_t = t;
+      previous_f = f;
+    }
+    evaluations += samples + 1;
+    if (best_t0 != best_t1 && crossing_on_segment(field, centre, axis, best_t0, best_t1, h, out, evaluations)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+/// A fan around a Steiner point (steiner_point); with check_orientation, every face must agree with the normals.
+bool fan_around_steiner_point(const gaussian_field& field, const std::vector<numbered_vertex>& loop,
+                              const cell_id& cell, double h, bool check_orientation, loop_mesh& out,
+                              std::size_t& evaluations) {
+  surface_sample centre;
+  if (!steiner_point(field, loop, cell, h, centre, evaluations)) {
+    return false;
+  }
+  const vec3 normal = normalized(-centre.gradient);
+  for (std::size_t n = 0; n < loop.size(); ++n) {
+    const vertex_ref a = loop[n].vertex, b = loop[(n + 1) % loop.size()].vertex;
+    const vec3 face = cross(b.position - a.position, centre.position - a.position);
+    const double longest2 = std::max({squared_norm(b.position - a.position), squared_norm(centre.position - a.position),
+                                      squared_norm(centre.position - b.position)});
+    if (!(squared_norm(face) > 4 * steiner_min_area_ratio * steiner_min_area_ratio * longest2 * longest2)) {
+      return false;  // degenerate
+    }
+    if (check_orientation && !(dot(face, normal + a.normal + b.normal) > 0)) return false;
+  }
+  out.steiner.push_back(centre);
+  for (std::size_t n = 0; n < loop.size(); ++n) {
+    out.triangles.push_back({loop[n].id, loop[(n + 1) % loop.size()].id, steiner_vertex});
+  }
+  return true;
+}
+
+/// The loop's triangles by `strategy`; false when that strategy cannot triangulate it.
+bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
+                    double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations) {
+  out = loop_mesh{};
+  out.strategy = strategy;
+  if (strategy == loop_strategy::steiner_fan || strategy == loop_strategy::steiner_fan_relaxed) {
+    return fan_around_steiner_point(field, loop, cell, h, strategy == loop_strategy::steiner_fan, out, evaluations);
+  }
   std::vector<loop_vertex> vertices(loop.size());
   for (std::size_t n = 0; n < loop.size(); ++n) vertices[n] = loop[n].vertex;
   std::vector<std::array<std::uint32_t, 3>> local;
   loop_triangulation_stats stats;
-  if (loop.size() >= 3 && triangulate_loop(vertices, local, stats)) {
-    for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
-    return true;
+  bool ok = false;
+  if (strategy == loop_strategy::admissible) {
+    ok = triangulate_loop(vertices, local, stats);
+  } else {
+    loop_triangulation_settings relaxed;
+    relaxed.min_normal_cosine = -2;  // rule 2 off
+    ok = triangulate_loop(vertices, local, stats, relaxed);
   }
-  return fan_around_steiner_point(field, loop, cell, h, out);
+  for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
+  return ok;
 }
 
-/// Positions of the cell's vertices, by mesh number or Steiner number.
-class cell_positions {
- public:
-  cell_positions(const std::vector<std::vector<numbered_vertex>>& loops, const cell_mesh& mesh) {
-    for (const auto& loop : loops) {
-      for (const numbered_vertex& v : loop) entries_.emplace_back(v.id, v.vertex.position);
-    }
-    for (std::size_t n = 0; n < mesh.steiner.size(); ++n) {
-      entries_.emplace_back(steiner_vertex + static_cast<std::uint32_t>(n), mesh.steiner[n].position);
-    }
-    std::sort(entries_.begin(), entries_.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+/// The first strategy from `from` on that triangulates the loop (loop_strategy::none when none does).
+void triangulate_from(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
+                      double h, loop_strategy from, loop_mesh& out, std::size_t& evaluations) {
+  for (loop_strategy s = from; s != loop_strategy::none; s = next(s)) {
+    if (triangulate_by(field, loop, cell, h, s, out, evaluations)) return;
   }
-  /// The triangles with local vertex numbers, and the local positions.
-  void localise(const std::vector<std::array<std::uint32_t, 3>>& triangles, std::vector<vec3>& positions,
-                std::vector<std::array<std::uint32_t, 3>>& local) const {
-    positions.clear();
-    for (const auto& e : entries_) positions.push_back(e.second);
-    local.clear();
-    for (const auto& t : triangles) {
-      std::array<std::uint32_t, 3> l{};
-      for (int c = 0; c < 3; ++c) {
-        const auto it = std::lower_bound(entries_.begin(), entries_.end(), t[c],
-                                         [](const auto& e, std::uint32_t id) { return e.first < id; });
-        l[c] = static_cast<std::uint32_t>(it - entries_.begin());
-      }
-      local.push_back(l);
-    }
-  }
+  out = loop_mesh{};
+}
 
- private:
-  std::vector<std::pair<std::uint32_t, vec3>> entries_;
-};
-
-/// True when two triangles of the cell intersect (exact test: method.md §7.8 — with admissible triangulations,
-/// triangles of different cells meet only along shared arcs, so this per-cell test covers the whole mesh).
-bool cell_self_intersects(const std::vector<std::vector<numbered_vertex>>& loops, const cell_mesh& mesh) {
-  if (mesh.triangles.size() < 2) return false;
+/// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test: method.md §7.8 —
+/// with admissible triangulations, triangles of different cells meet only along shared arcs, so this per-cell test
+/// covers the whole mesh).
+std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<numbered_vertex>>& loops,
+                                            const std::vector<loop_mesh>& meshes) {
   std::vector<vec3> positions;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> numbers;  // (vertex key, local index)
+  const auto key = [](std::size_t loop, std::uint32_t id) {
+    return id >= steiner_vertex ? (static_cast<std::uint64_t>(loop + 1) << 32) | (id - steiner_vertex) : std::uint64_t{id};
+  };
+  for (std::size_t l = 0; l < loops.size(); ++l) {
+    for (const numbered_vertex& v : loops[l]) {
+      numbers.emplace_back(key(l, v.id), static_cast<std::uint32_t>(positions.size()));
+      positions.push_back(v.vertex.position);
+    }
+    for (std::size_t n = 0; n < meshes[l].steiner.size(); ++n) {
+      numbers.emplace_back(key(l, steiner_vertex + static_cast<std::uint32_t>(n)),
+                           static_cast<std::uint32_t>(positions.size()));
+      positions.push_back(meshes[l].steiner[n].position);
+    }
+  }
+  std::sort(numbers.begin(), numbers.end());
   std::vector<std::array<std::uint32_t, 3>> local;
-  cell_positions(loops, mesh).localise(mesh.triangles, positions, local);
+  std::vector<std::size_t> owner;
+  for (std::size_t l = 0; l < loops.size(); ++l) {
+    for (const auto& t : meshes[l].triangles) {
+      std::array<std::uint32_t, 3> lt{};
+      for (int c = 0; c < 3; ++c) {
+        const auto it = std::lower_bound(numbers.begin(), numbers.end(), std::make_pair(key(l, t[c]), 0u));
+        lt[c] = it->second;
+      }
+      local.push_back(lt);
+      owner.push_back(l);
+    }
+  }
+  std::vector<std::size_t> hit;
   for (std::size_t a = 0; a < local.size(); ++a) {
     for (std::size_t b = a + 1; b < local.size(); ++b) {
-      if (detail::mesh_triangles_intersect(positions, local[a], local[b])) return true;
+      if (detail::mesh_triangles_intersect(positions, local[a], local[b])) {
+        hit.push_back(owner[a]);
+        hit.push_back(owner[b]);
+      }
     }
   }
-  return false;
+  std::sort(hit.begin(), hit.end());
+  hit.erase(std::unique(hit.begin(), hit.end()), hit.end());
+  return hit;
 }
 
 }  // namespace
@@ -229,18 +350,40 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
     return out;
   }
   out.loops = loops.size();
-  for (const auto& loop : loops) {
-    if (!triangulate(field, loop, cell, surface.spacing, out)) out.closed = false;
+  const double h = surface.spacing;
+  std::vector<loop_mesh> meshes(loops.size());
+  for (std::size_t l = 0; l < loops.size(); ++l) {
+    triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, meshes[l], out.evaluations);
   }
-  if (out.closed && cell_self_intersects(loops, out)) {
-    // Second chance: every loop of the cell as a fan around its own surface point.
-    out.triangles.clear();
-    out.steiner.clear();
-    out.fallback_loops = 0;
-    for (const auto& loop : loops) {
-      if (!fan_around_steiner_point(field, loop, cell, surface.spacing, out)) out.closed = false;
+  // Loops whose triangles intersect others of the cell move on to their next strategy, until none intersect.
+  for (std::vector<std::size_t> hit = intersecting_loops(loops, meshes); !hit.empty();
+       hit = intersecting_loops(loops, meshes)) {
+    bool changed = false;
+    for (const std::size_t l : hit) {
+      if (meshes[l].strategy == loop_strategy::none) continue;
+      triangulate_from(field, loops[l], cell, h, next(meshes[l].strategy), meshes[l], out.evaluations);
+      changed = true;
     }
-    out.intersecting = out.closed && cell_self_intersects(loops, out);
+    if (!changed) {
+      out.intersecting = true;
+      break;
+    }
+  }
+  for (std::size_t l = 0; l < loops.size(); ++l) {
+    const loop_mesh& m = meshes[l];
+    if (m.strategy == loop_strategy::none) {
+      out.closed = false;
+      continue;
+    }
+    if (m.strategy != loop_strategy::admissible) ++out.fallback_loops;
+    const auto first_steiner = static_cast<std::uint32_t>(out.steiner.size());
+    out.steiner.insert(out.steiner.end(), m.steiner.begin(), m.steiner.end());
+    for (auto t : m.triangles) {
+      for (auto& v : t) {
+        if (v >= steiner_vertex) v += first_steiner;
+      }
+      out.triangles.push_back(t);
+    }
   }
   return out;
 }

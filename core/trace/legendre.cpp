@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <stdexcept>
 
 namespace tracemesh {
@@ -68,8 +69,8 @@ void split_half(const double* b, int count, double* left, double* right) {
   }
 }
 
-/// The root of the series in [lo, hi] (s), where its sign at lo is `lo_positive` and opposite at hi: safeguarded
-/// Newton from the regula falsi point of the end values.
+/// The root of the series in [lo, hi] (s), where its values at the ends, value_lo and value_hi, have opposite signs
+/// (0 counts as positive): safeguarded Newton from the regula falsi point of the end values.
 double polish_root(std::span<const double> a, double lo, double hi, double value_lo, double value_hi) {
   const bool lo_positive = value_lo >= 0;
   double s = value_lo != value_hi ? lo + (hi - lo) * (value_lo / (value_lo - value_hi)) : 0.5 * (lo + hi);
@@ -79,23 +80,30 @@ double polish_root(std::span<const double> a, double lo, double hi, double value
     const double value = legendre_value(a, s, slope);
     if (value == 0) return s;
     ((value >= 0) == lo_positive ? lo : hi) = s;
-    double next = slope != 0 ? s - value / slope : 0.5 * (lo + hi);
+    const double step = slope != 0 ? value / slope : std::numeric_limits<double>::infinity();
+    if (std::abs(step) <= root_step_tolerance) return std::clamp(s - step, lo, hi);
+    double next = s - step;
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::abs(next - s) <= root_step_tolerance || hi - lo <= root_bracket_tolerance) return next;
+    if (hi - lo <= root_bracket_tolerance) return next;
     s = next;
   }
   return s;
 }
 
 /// Roots in the piece [u_lo, u_lo + width] whose Bernstein coefficients are b (count of them), ascending.
-void isolate(std::span<const double> a, const double* b, int count, double u_lo, double width, int depth,
-             double scale, std::vector<double>& roots) {
+void isolate(std::span<const double> a, const double* b, int count, double u_lo, double width, int depth, double scale,
+             std::vector<double>& roots) {
   const int changes = sign_variations(b, count);
   if (changes == 0) return;
   const double s_lo = 2 * u_lo - 1, s_hi = 2 * (u_lo + width) - 1;
   if (changes == 1) {
-    roots.push_back(polish_root(a, s_lo, s_hi, b[0], b[count - 1]));
-    return;
+    // One simple root, with opposite signs at the ends. The ends are evaluated on the series itself (Clenshaw is
+    // better conditioned than the Bernstein form); should rounding make them agree, the piece is split further.
+    const double value_lo = legendre_value(a, s_lo), value_hi = legendre_value(a, s_hi);
+    if ((value_lo >= 0) != (value_hi >= 0)) {
+      roots.push_back(polish_root(a, s_lo, s_hi, value_lo, value_hi));
+      return;
+    }
   }
   if (depth >= max_subdivision_depth) {
     // Not separable in double precision: a multiple root or a tight cluster. Report it if the series vanishes here.
@@ -174,8 +182,8 @@ double legendre_value(std::span<const double> coefficients, double s) {
   // b_k = a_k + α_k b_{k+1} + β_{k+1} b_{k+2}, α_k = (2k+1)s/(k+1), β_k = −k/(k+1); the series is b₀.
   double b1 = 0, b2 = 0;
   for (int k = static_cast<int>(coefficients.size()) - 1; k >= 0; --k) {
-    const double b0 = coefficients[static_cast<std::size_t>(k)] + (2 * k + 1) * s / (k + 1) * b1 -
-                      (k + 1.0) / (k + 2) * b2;
+    const double b0 =
+        coefficients[static_cast<std::size_t>(k)] + (2 * k + 1) * s / (k + 1) * b1 - (k + 1.0) / (k + 2) * b2;
     b2 = b1;
     b1 = b0;
   }

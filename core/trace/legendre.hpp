@@ -22,8 +22,12 @@
 
 namespace tracemesh {
 
-/// Largest series degree supported (fixed-size scratch in the root finder).
-inline constexpr int legendre_max_degree = 40;
+/// Largest series degree supported (mesh_params allows up to parameter_ranges::max_legendre_degree = 30). The
+/// Bernstein coefficients of Pₙ reach C(n, n/2) (252 for n = 10, 1.6e8 for n = 30), so the conversion loses up to
+/// that factor of precision; the root finder only uses the Bernstein form to isolate roots (end signs and polishing
+/// are on the Legendre series), so at degree 30 it may miss only roots where the series stays within ~1e-8 of the
+/// level (near tangencies).
+inline constexpr int legendre_max_degree = 30;
 
 /// Gauss–Legendre rule with `points` nodes on [−1, 1]: ∫₋₁¹ f ≈ Σ wₘ f(sₘ), exact for polynomials of degree
 /// ≤ 2·points − 1. Nodes ascending and exactly antisymmetric (s[m] = −s[points−1−m]); weights symmetric.

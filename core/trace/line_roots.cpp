@@ -18,6 +18,11 @@ constexpr int max_bracket_iterations = 100;
 /// Lines per block edge.
 constexpr int block_lines = lattice::block_cells;
 
+/// Node groups of a line at most: fits_per_line·(legendre_max_degree + 1) nodes padded to max_lanes, in groups of 2
+/// lanes.
+constexpr int max_node_groups =
+    (fits_per_line * (legendre_max_degree + 1) + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes / 2;
+
 std::size_t padded_size(std::size_t n) { return (n + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes; }
 
 /// φ, dφ/dx and d²φ/dx² at one point of a line.
@@ -39,7 +44,8 @@ double log_step(const line_sample& s, double t0) {
 /// The lines' y (or z) coordinates, as lat.point() computes them, padded to a whole vector.
 std::array<double, simd::max_lanes> line_coordinates(std::int64_t block_index, double h) {
   std::array<double, simd::max_lanes> c{};
-  for (int n = 0; n < block_lines; ++n) c[static_cast<std::size_t>(n)] = static_cast<double>(block_index * block_lines + n) * h;
+  for (int n = 0; n < block_lines; ++n)
+    c[static_cast<std::size_t>(n)] = static_cast<double>(block_index * block_lines + n) * h;
   return c;
 }
 
@@ -60,10 +66,29 @@ template <int W>
   }
 }
 
+/// The index range [lo, hi) of the entries of `values` (count of them) below `limit` — one range, as the values
+/// are squared distances from one point to points sorted along an axis, so the entries below any limit are
+/// contiguous. Branch-free (conditional moves): the ranges vary from atom to atom.
+[[gnu::always_inline]] inline void range_below(const double* values, int count, double limit, int& lo, int& hi) {
+  lo = count;
+  hi = 0;
+  for (int n = 0; n < count; ++n) {
+    const bool below = values[n] < limit;
+    lo = below && n < lo ? n : lo;
+    hi = below ? n + 1 : hi;
+  }
+}
+
 /// φ at every quadrature node of the 64 lines (ws.sums[line·P + m]) from the separable kernel: per atom, 8 y and
 /// 8 z factors and one x factor per node; an atom adds to the nodes of a line within its cutoff
 /// (δx² + ρ² < cutoff², ρ² = δy² + δz²). Also keeps each atom's y and z factors per line (ws.ey[j·stride + a], …)
 /// for the lines' atom lists.
+///
+/// The loops have no data-dependent branch inside an atom (mispredicted branches cost more than the arithmetic they
+/// skip): each atom works on the rectangle of lines j ∈ [j_lo, j_hi), k ∈ [k_lo, k_hi) with δy² < cutoff² and
+/// δz² < cutoff², and on the node groups (W nodes) that some node of some line reaches, every node masked by its
+/// exact cutoff test. Masked terms add +0, which leaves the sums' bits unchanged: every node gets exactly the sum
+/// over the atoms within its cutoff, in atom order.
 template <int W>
 [[gnu::always_inline]] inline void sample_nodes(const gaussian_field& field, line_root_finder::workspace& ws,
                                                 std::size_t count, std::size_t stride, int node_stride,
@@ -73,33 +98,47 @@ template <int W>
   const double d = field.d();
   const double scale = kernel_exp(-d);  // e^(−d): the "− 1" of eq. 2
   alignas(64) std::array<double, simd::max_lanes> ey{}, dy2{}, ez{}, dz2{};
-  std::vector<double>& sums = ws.sums;
+  std::array<double, max_node_groups> group_min{};
   double* const ex = ws.node_factor.data();
   double* const dx2 = ws.node_dx2.data();
+  const int groups = node_stride / W;
   for (std::size_t a = 0; a < count; ++a) {
     const double inv_r2 = ws.inv_r2[a], cutoff2 = ws.cutoff2[a];
     axis_factors<W>(line_y.data(), simd::max_lanes, ws.y[a], d, inv_r2, dy2.data(), ey.data());
     axis_factors<W>(line_z.data(), simd::max_lanes, ws.z[a], d, inv_r2, dz2.data(), ez.data());
-    double min_dy2 = dy2[0], min_dz2 = dz2[0];
     for (int n = 0; n < block_lines; ++n) {
       const auto nn = static_cast<std::size_t>(n);
       ws.ey[nn * stride + a] = ey[nn];
       ws.dy2[nn * stride + a] = dy2[nn];
       ws.ez[nn * stride + a] = ez[nn];
       ws.dz2[nn * stride + a] = dz2[nn];
-      min_dy2 = std::min(min_dy2, dy2[nn]);
-      min_dz2 = std::min(min_dz2, dz2[nn]);
     }
-    if (min_dy2 + min_dz2 >= cutoff2) continue;  // reaches no line
-    axis_factors<W>(ws.node_x.data(), node_stride, ws.x[a], d, inv_r2, dx2, ex);
-    for (int k = 0; k < block_lines; ++k) {
-      if (dz2[static_cast<std::size_t>(k)] >= cutoff2) continue;
-      for (int j = 0; j < block_lines; ++j) {
+    int j_lo, j_hi, k_lo, k_hi;
+    range_below(dy2.data(), block_lines, cutoff2, j_lo, j_hi);
+    range_below(dz2.data(), block_lines, cutoff2, k_lo, k_hi);
+    if (j_lo >= j_hi || k_lo >= k_hi) continue;  // reaches no line
+    const double nearest_rho2 = *std::min_element(dy2.begin(), dy2.begin() + block_lines) +
+                                *std::min_element(dz2.begin(), dz2.begin() + block_lines);
+    for (int m = 0; m < node_stride; m += W) {
+      F delta;
+      simd::load(delta, ws.node_x.data() + m);
+      delta -= ws.x[a];
+      simd::store(dx2 + m, delta * delta);
+    }
+    for (int g = 0; g < groups; ++g) {
+      group_min[static_cast<std::size_t>(g)] = *std::min_element(dx2 + g * W, dx2 + (g + 1) * W) + nearest_rho2;
+    }
+    int g_lo, g_hi;
+    range_below(group_min.data(), groups, cutoff2, g_lo, g_hi);
+    if (g_lo >= g_hi) continue;
+    axis_factors<W>(ws.node_x.data() + g_lo * W, (g_hi - g_lo) * W, ws.x[a], d, inv_r2, dx2 + g_lo * W, ex + g_lo * W);
+    for (int k = k_lo; k < k_hi; ++k) {
+      for (int j = j_lo; j < j_hi; ++j) {
         const double rho2 = dy2[static_cast<std::size_t>(j)] + dz2[static_cast<std::size_t>(k)];
-        if (rho2 >= cutoff2) continue;
         const double weight = scale * ey[static_cast<std::size_t>(j)] * ez[static_cast<std::size_t>(k)];
-        double* row = sums.data() + static_cast<std::size_t>(j + block_lines * k) * static_cast<std::size_t>(node_stride);
-        for (int m = 0; m < node_stride; m += W) {
+        double* row =
+            ws.sums.data() + static_cast<std::size_t>(j + block_lines * k) * static_cast<std::size_t>(node_stride);
+        for (int m = g_lo * W; m < g_hi * W; m += W) {
           F sum, factor, distance2;
           simd::load(sum, row + m);
           simd::load(factor, ex + m);
@@ -229,26 +268,18 @@ template <int W>
 
 /// Sorts roots by x and merges those closer than duplicate_distance with the same sign of φ_x.
 void sort_unique(std::vector<line_root>& roots) {
-  std::sort(roots.begin(), roots.end(), [](const line_root& a, const line_root& b) {
-    return a.x < b.x || (a.x == b.x && a.phi_x < b.phi_x);
-  });
+  std::sort(roots.begin(), roots.end(),
+            [](const line_root& a, const line_root& b) { return a.x < b.x || (a.x == b.x && a.phi_x < b.phi_x); });
   const auto end = std::unique(roots.begin(), roots.end(), [](const line_root& a, const line_root& b) {
     return b.x - a.x <= duplicate_distance && (a.phi_x >= 0) == (b.phi_x >= 0);
   });
   roots.erase(end, roots.end());
 }
 
-/// A gap of the sign walk that must hold a root: (lo, hi), the sign of φ − t0 just after lo, and whether the ends
-/// are roots (the new root must then keep clear of them).
-struct walk_gap {
-  double lo, hi;
-  bool lo_inside, lo_is_root, hi_is_root;
-};
-
 /// Walks the line through its node samples and accepted roots in x order and lists the gaps where the sign of
 /// φ − t0 (at a node; on either side of a root from φ_x) does not follow: each must hold another root.
 void find_walk_gaps(std::span<const double> node_x, std::span<const double> node_value, double t0,
-                    std::span<const line_root> roots, std::vector<walk_gap>& gaps) {
+                    std::span<const line_root> roots, std::vector<line_root_finder::walk_gap>& gaps) {
   gaps.clear();
   bool known = false, inside = false, at_root = false;
   double position = 0;
@@ -257,14 +288,16 @@ void find_walk_gaps(std::span<const double> node_x, std::span<const double> node
     const bool take_root = r < roots.size() && (n == node_x.size() || roots[r].x <= node_x[n]);
     if (take_root) {
       const bool before = roots[r].phi_x < 0;  // φ increases through the root: outside before it
-      if (known && inside != before) gaps.push_back({position, roots[r].x, inside, at_root, true});
+      if (known && inside != before)
+        gaps.push_back(line_root_finder::walk_gap{position, roots[r].x, inside, at_root, true});
       inside = roots[r].phi_x >= 0;
       position = roots[r].x;
       at_root = true;
       ++r;
     } else {
       const bool here = node_value[n] >= t0;
-      if (known && inside != here) gaps.push_back({position, node_x[n], inside, at_root, false});
+      if (known && inside != here)
+        gaps.push_back(line_root_finder::walk_gap{position, node_x[n], inside, at_root, false});
       inside = here;
       position = node_x[n];
       at_root = false;
@@ -287,8 +320,7 @@ line_root_stats& line_root_stats::operator+=(const line_root_stats& other) {
   return *this;
 }
 
-line_root_finder::line_root_finder(const line_root_settings& settings)
-    : settings_(settings), fitter_(settings.degree) {
+line_root_finder::line_root_finder(const line_root_settings& settings) : settings_(settings), fitter_(settings.degree) {
   // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix.
   const int count = fitter_.points();
   values_to_bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
@@ -332,8 +364,12 @@ block_geometry make_geometry(const lattice& lat, const lattice_index& block) {
 void prepare_workspace(const gaussian_field& field, std::span<const std::uint32_t> atoms, std::size_t node_stride,
                        line_root_finder::workspace& ws) {
   const std::size_t count = atoms.size(), stride = padded_size(count);
-  for (auto* column : {&ws.x, &ws.y, &ws.z, &ws.inv_r2}) column->assign(stride, 0.0);
-  ws.cutoff2.assign(stride, 0.0);  // padding never contributes
+  // Columns are resized, not cleared: every entry read is written first, except the padding of the atom columns,
+  // which vector loads read and which is set here (cutoff2 = 0: never contributes).
+  for (auto* column : {&ws.x, &ws.y, &ws.z, &ws.inv_r2, &ws.cutoff2}) {
+    column->resize(stride);
+    std::fill(column->begin() + static_cast<std::ptrdiff_t>(count), column->end(), 0.0);
+  }
   const gaussian_field::atom_arrays all = field.atoms();
   for (std::size_t n = 0; n < count; ++n) {
     const std::uint32_t k = atoms[n];
@@ -343,15 +379,108 @@ void prepare_workspace(const gaussian_field& field, std::span<const std::uint32_
     ws.inv_r2[n] = all.inv_r2[k];
     ws.cutoff2[n] = all.cutoff2[k];
   }
-  for (auto* column : {&ws.ey, &ws.dy2, &ws.ez, &ws.dz2}) column->assign(stride * block_lines, 0.0);
-  ws.node_factor.assign(node_stride, 0.0);
-  ws.node_dx2.assign(node_stride, 0.0);
-  const std::size_t line_columns = stride;
-  for (auto* column : {&ws.line_x, &ws.line_d_inv_r2, &ws.line_weight, &ws.line_dy2, &ws.line_dz2,
-                       &ws.line_cutoff2}) {
-    if (column->size() < line_columns) column->resize(line_columns);
+  for (auto* column : {&ws.ey, &ws.dy2, &ws.ez, &ws.dz2}) column->resize(stride * block_lines);
+  ws.node_factor.resize(node_stride);
+  ws.node_dx2.resize(node_stride);
+  for (auto* column : {&ws.line_x, &ws.line_d_inv_r2, &ws.line_weight, &ws.line_dy2, &ws.line_dz2, &ws.line_cutoff2}) {
+    column->resize(stride);
   }
   ws.sums.assign(static_cast<std::size_t>(lines_per_block) * node_stride, 0.0);
+}
+
+}  // namespace
+
+namespace {
+
+/// What a line's fits need besides the node values.
+struct fit_context {
+  const legendre_fitter& fitter;
+  std::span<const double> values_to_bernstein;  ///< (M+1)² matrix
+  const block_geometry& geometry;
+  double t0;
+  double end_reach;
+};
+
+/// Candidates (Å, appended to `candidates`) of one fit from its node values `f` (M + 1 of them): the series' roots
+/// (kind 1), searched only where its Bernstein coefficients change sign, and the fit's ends where the series,
+/// extended linearly, reaches t0 within end_reach beyond them (kind 2). `a`, `b`: scratch of M + 1 entries.
+void fit_candidates(const fit_context& c, int fit, const double* f, std::vector<double>& a, std::vector<double>& b,
+                    std::vector<double>& candidates, line_root_stats& stats) {
+  const int points = c.fitter.points();
+  const double mid = c.geometry.fit_mid[static_cast<std::size_t>(fit)];
+  const double half = c.geometry.fit_half[static_cast<std::size_t>(fit)];
+  ++stats.fits;
+  int changes = 0;
+  for (int j = 0; j < points; ++j) {
+    const double* row = c.values_to_bernstein.data() + static_cast<std::size_t>(j * points);
+    double sum = 0;
+    for (int m = 0; m < points; ++m) sum += row[m] * f[m];
+    b[static_cast<std::size_t>(j)] = sum - c.t0;  // the Bernstein coefficients of t0 are all t0
+    if (j > 0) changes += (b[static_cast<std::size_t>(j)] >= 0) != (b[static_cast<std::size_t>(j - 1)] >= 0);
+  }
+  if (changes > 0) {
+    c.fitter.coefficients(std::span<const double>(f, static_cast<std::size_t>(points)), a);  // eq. 6
+    a[0] -= c.t0;
+    const std::size_t before = candidates.size();
+    legendre_roots(a, b, candidates);
+    for (std::size_t n = before; n < candidates.size(); ++n) candidates[n] = mid + half * candidates[n];
+  } else {
+    ++stats.quiet_fits;
+  }
+  // Kind 2: the series' value and slope (d/ds) at each end, from the Bernstein coefficients.
+  const auto last = static_cast<std::size_t>(points - 1);
+  const double degree = points - 1;
+  const double slope_lo = 0.5 * degree * (b[1] - b[0]), slope_hi = 0.5 * degree * (b[last] - b[last - 1]);
+  const double reach_lo = slope_lo != 0 ? -b[0] / slope_lo : 1.0;
+  const double reach_hi = slope_hi != 0 ? -b[last] / slope_hi : -1.0;
+  if (reach_lo <= 0 && reach_lo >= -c.end_reach) candidates.push_back(mid + half * (-1 + reach_lo));
+  if (reach_hi >= 0 && reach_hi <= c.end_reach) candidates.push_back(mid + half * (1 + reach_hi));
+}
+
+/// The roots of the current line (its atoms gathered in ws) from its candidates, then its sign walk: appended to
+/// ws.accepted, sorted and unique.
+template <int W>
+[[gnu::always_inline]] inline void solve_line(line_root_finder::workspace& ws, const block_geometry& geometry, double h,
+                                              double t0, bool sign_walk, std::span<const double> node_x,
+                                              std::span<const double> node_values, line_root_stats& stats) {
+  std::vector<line_root>& found = ws.accepted;
+  found.clear();
+  for (const double start : ws.candidates) {
+    line_root root{};
+    if (polish_candidate<W>(ws, t0, start, geometry.x_lo - h, geometry.x_hi + h, cells_per_fit * h, root,
+                            stats.field_evaluations) &&
+        root.x >= geometry.x_lo && root.x < geometry.x_hi) {
+      found.push_back(root);
+    } else {
+      ++stats.rejected_roots;
+    }
+  }
+  sort_unique(found);
+  stats.polynomial_roots += found.size();
+  if (!sign_walk) return;
+  find_walk_gaps(node_x, node_values, t0, found, ws.gaps);
+  const std::size_t walked = found.size();
+  for (const line_root_finder::walk_gap& gap : ws.gaps) {
+    line_root root{};
+    if (!polish_bracket<W>(ws, t0, gap.lo, gap.lo_inside, gap.hi, root, stats.field_evaluations)) continue;
+    if (!(root.x >= gap.lo && root.x <= gap.hi)) continue;
+    if ((gap.lo_is_root && root.x - gap.lo <= duplicate_distance) ||
+        (gap.hi_is_root && gap.hi - root.x <= duplicate_distance)) {
+      continue;  // converged onto the root that bounds the gap
+    }
+    found.push_back(root);
+  }
+  if (found.size() > walked) {
+    sort_unique(found);
+    stats.sign_walk_roots += found.size() - walked;
+  }
+}
+
+/// True when any two node values lie on different sides of t0.
+bool crosses_level(const double* values, int count, double t0) {
+  bool crosses = false;
+  for (int m = 1; m < count; ++m) crosses |= (values[m] >= t0) != (values[0] >= t0);
+  return crosses;
 }
 
 }  // namespace
@@ -374,14 +503,14 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
           geometry.fit_half[static_cast<std::size_t>(q)] * fitter_.rule().nodes[static_cast<std::size_t>(m)];
     }
   }
+  ws.legendre.resize(static_cast<std::size_t>(points));
+  ws.bernstein.resize(static_cast<std::size_t>(points));
   const auto line_y = line_coordinates(block.j, h), line_z = line_coordinates(block.k, h);
   const std::size_t count = atoms.size(), stride = padded_size(count);
-
+  const fit_context context{fitter_, values_to_bernstein_, geometry, t0, settings_.end_reach};
+  const std::span<const double> node_x(ws.node_x.data(), static_cast<std::size_t>(nodes));
   out.roots.clear();
   out.first[0] = 0;
-  std::vector<double> a(static_cast<std::size_t>(points)), b(static_cast<std::size_t>(points));
-  std::vector<walk_gap> gaps;
-  std::vector<line_root> found;
 
   simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
     constexpr int W = decltype(lanes)::value;
@@ -390,81 +519,16 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
     stats.field_evaluations += static_cast<std::size_t>(lines_per_block) * static_cast<std::size_t>(nodes);
     for (int line = 0; line < lines_per_block; ++line) {
       const double* values = ws.sums.data() + static_cast<std::size_t>(line) * static_cast<std::size_t>(node_stride);
-      // Candidates from each fit (kinds 1 and 2).
-      std::vector<double>& candidates = ws.series_roots;
-      candidates.clear();
-      bool crosses = false;
-      for (int m = 1; m < nodes; ++m) crosses |= (values[m] >= t0) != (values[0] >= t0);
+      ws.candidates.clear();
       for (int q = 0; q < fits_per_line; ++q) {
-        const double* f = values + q * points;
-        const double mid = geometry.fit_mid[static_cast<std::size_t>(q)];
-        const double half = geometry.fit_half[static_cast<std::size_t>(q)];
-        ++stats.fits;
-        int changes = 0;
-        for (int j = 0; j < points; ++j) {
-          const double* row = values_to_bernstein_.data() + static_cast<std::size_t>(j * points);
-          double sum = 0;
-          for (int m = 0; m < points; ++m) sum += row[m] * f[m];
-          b[static_cast<std::size_t>(j)] = sum - t0;  // the Bernstein coefficients of t0 are all t0
-          if (j > 0) changes += (b[static_cast<std::size_t>(j)] >= 0) != (b[static_cast<std::size_t>(j - 1)] >= 0);
-        }
-        if (changes > 0) {
-          fitter_.coefficients(std::span<const double>(f, static_cast<std::size_t>(points)), a);
-          a[0] -= t0;
-          const std::size_t before = candidates.size();
-          legendre_roots(a, b, candidates);
-          for (std::size_t c = before; c < candidates.size(); ++c) candidates[c] = mid + half * candidates[c];
-        } else {
-          ++stats.quiet_fits;
-        }
-        // Kind 2: the series reaches t0 just beyond an end (linear extrapolation from that end).
-        const double degree = points - 1;
-        const double slope_lo = 0.5 * degree * (b[1] - b[0]);
-        const double slope_hi = 0.5 * degree * (b[static_cast<std::size_t>(points - 1)] - b[static_cast<std::size_t>(points - 2)]);
-        const double reach_lo = slope_lo != 0 ? -b[0] / slope_lo : 1.0;
-        const double reach_hi = slope_hi != 0 ? -b[static_cast<std::size_t>(points - 1)] / slope_hi : -1.0;
-        if (reach_lo <= 0 && reach_lo >= -settings_.end_reach) candidates.push_back(mid + half * (-1 + reach_lo));
-        if (reach_hi >= 0 && reach_hi <= settings_.end_reach) candidates.push_back(mid + half * (1 + reach_hi));
+        fit_candidates(context, q, values + q * points, ws.legendre, ws.bernstein, ws.candidates, stats);
       }
-      if (candidates.empty() && !(crosses && settings_.sign_walk)) {
-        out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
-        continue;
+      if (!ws.candidates.empty() || (settings_.sign_walk && crosses_level(values, nodes, t0))) {
+        gather_line_atoms<W>(ws, count, stride, line % block_lines, line / block_lines, field.d());
+        solve_line<W>(ws, geometry, h, t0, settings_.sign_walk, node_x,
+                      std::span<const double>(values, static_cast<std::size_t>(nodes)), stats);
+        out.roots.insert(out.roots.end(), ws.accepted.begin(), ws.accepted.end());
       }
-      gather_line_atoms<W>(ws, count, stride, line % block_lines, line / block_lines, field.d());
-      found.clear();
-      const double max_step = cells_per_fit * h;
-      for (const double start : candidates) {
-        line_root root{};
-        if (polish_candidate<W>(ws, t0, start, geometry.x_lo - h, geometry.x_hi + h, max_step, root,
-                                stats.field_evaluations) &&
-            root.x >= geometry.x_lo && root.x < geometry.x_hi) {
-          found.push_back(root);
-        } else {
-          ++stats.rejected_roots;
-        }
-      }
-      sort_unique(found);
-      stats.polynomial_roots += found.size();
-      if (settings_.sign_walk) {
-        find_walk_gaps(std::span<const double>(ws.node_x.data(), static_cast<std::size_t>(nodes)),
-                       std::span<const double>(values, static_cast<std::size_t>(nodes)), t0, found, gaps);
-        const std::size_t walked = found.size();
-        for (const walk_gap& gap : gaps) {
-          line_root root{};
-          if (!polish_bracket<W>(ws, t0, gap.lo, gap.lo_inside, gap.hi, root, stats.field_evaluations)) continue;
-          if (!(root.x >= gap.lo && root.x <= gap.hi)) continue;
-          if ((gap.lo_is_root && root.x - gap.lo <= duplicate_distance) ||
-              (gap.hi_is_root && gap.hi - root.x <= duplicate_distance)) {
-            continue;
-          }
-          found.push_back(root);
-        }
-        if (found.size() > walked) {
-          sort_unique(found);
-          stats.sign_walk_roots += found.size() - walked;
-        }
-      }
-      out.roots.insert(out.roots.end(), found.begin(), found.end());
       out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
     }
   });

@@ -68,9 +68,9 @@ struct block_line_roots {
 
 /// Tunables of line_root_finder (the defaults are what find_block_line_roots uses).
 struct line_root_settings {
-  int degree = 10;             ///< M, degree of the Legendre series (paper: 10); 1..legendre_max_degree
-  double end_reach = 0.05;     ///< kind-2 candidates: reach beyond a fit's end, in units of its half width
-  bool sign_walk = true;       ///< kind-3 candidates (off: the series alone, as in the paper)
+  int degree = 10;          ///< M, degree of the Legendre series (paper: 10); 1..legendre_max_degree
+  double end_reach = 0.05;  ///< kind-2 candidates: reach beyond a fit's end, in units of its half width
+  bool sign_walk = true;    ///< kind-3 candidates (off: the series alone, as in the paper)
 };
 
 /// The stateful form: tables for one degree and scratch reused from block to block (no allocation once warm).
@@ -81,24 +81,34 @@ class line_root_finder {
 
   const line_root_settings& settings() const { return settings_; }
 
-  /// As find_block_line_roots. `atoms`: field-internal indices of (at least) every atom whose cutoff sphere may
-  /// reach the block, e.g. from field.atoms_near_box(lat.block_box(block), atoms); any order; extra atoms cost
-  /// time only. `out` is overwritten; `stats` is added to.
+  /// As find_block_line_roots. `atoms`: distinct field-internal indices of (at least) every atom whose cutoff
+  /// sphere may reach the block, e.g. from field.atoms_near_box(lat.block_box(block), atoms); extra atoms cost time
+  /// only; their order is the summation order (atoms_near_box's ascending order makes the bits independent of the
+  /// caller). `out` is overwritten; `stats` is added to.
   void find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
             std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats);
+
+  /// A gap of the sign walk that must hold a root: (lo, hi), the sign of φ − t0 just after lo, and whether the
+  /// ends are roots (a new root must then keep clear of them).
+  struct walk_gap {
+    double lo, hi;
+    bool lo_inside, lo_is_root, hi_is_root;
+  };
 
   /// Scratch of one block (sizes grow to the largest block seen). Public so that the kernels in line_roots.cpp
   /// can take it; not part of the interface.
   struct workspace {
-    std::vector<double> node_x;                        ///< x of the quadrature nodes of a line, padded
-    std::vector<double> node_factor, node_dx2;         ///< one atom's x factors and δx² at the nodes
-    std::vector<double> x, y, z, inv_r2, cutoff2;      ///< the block's atoms, padded
-    std::vector<double> ey, dy2, ez, dz2;              ///< per line y (z) and atom: 1-D factor and squared offset
-    std::vector<double> sums;                          ///< φ at the nodes, per line
+    std::vector<double> node_x;                    ///< x of the quadrature nodes of a line, padded
+    std::vector<double> node_factor, node_dx2;     ///< one atom's x factors and δx² at the nodes
+    std::vector<double> x, y, z, inv_r2, cutoff2;  ///< the block's atoms, padded
+    std::vector<double> ey, dy2, ez, dz2;          ///< per line y (z) and atom: 1-D factor and squared offset
+    std::vector<double> sums;                      ///< φ at the nodes, per line
     std::vector<double> line_x, line_d_inv_r2, line_weight, line_dy2, line_dz2, line_cutoff2;  ///< one line's atoms
-    std::size_t line_count = 0;                        ///< atoms in the line arrays
-    std::vector<line_root> accepted;                   ///< roots of the current line
-    std::vector<double> series_roots;                  ///< roots of one fit, s
+    std::size_t line_count = 0;               ///< atoms in the line arrays
+    std::vector<line_root> accepted;          ///< roots of the current line
+    std::vector<double> candidates;           ///< candidates of the current line, Å
+    std::vector<double> legendre, bernstein;  ///< one fit's coefficients
+    std::vector<walk_gap> gaps;               ///< the current line's sign-walk gaps
   };
 
  private:

@@ -14,21 +14,26 @@ constexpr double empty_worst = 2;
 /// Pass 2 keeps triangles with q ≥ q*·(1 − this): immune to any difference in rounding between the passes.
 constexpr double tie_tolerance = 1e-12;
 
-/// The rules' thresholds in the squared forms the tests below use.
+/// The rules' thresholds, in the squared forms evaluate_triangle compares with.
 struct rule_limits {
   double min_edge2;   ///< min_edge_length²
   double area_coef;   ///< |cross|² ≥ area_coef · longest⁴  ⇔  area ≥ min_area_ratio · longest²
-  double cos2;        ///< dot² ≥ cos2 · |cross|² · |Σn|²  (with dot > 0)
+  double cos2;        ///< min_normal_cosine²: cos > c compared as dot² against c² · |cross|² · |Σn|²
+  enum class rule2 { non_negative, negative, off } orientation;  ///< sign of min_normal_cosine; off when ≤ −1
 
   explicit rule_limits(const loop_triangulation_settings& s)
       : min_edge2(s.min_edge_length * s.min_edge_length),
         area_coef(4 * s.min_area_ratio * s.min_area_ratio),
-        cos2(s.min_normal_cosine > 0 ? s.min_normal_cosine * s.min_normal_cosine : 0) {}
+        cos2(s.min_normal_cosine * s.min_normal_cosine),
+        orientation(s.min_normal_cosine >= 0  ? rule2::non_negative
+                    : s.min_normal_cosine > -1 ? rule2::negative
+                                               : rule2::off) {}
 };
 
-/// q of triangle a, b, c (in this order) when it satisfies rules 1 (common wall) 2 and 3 (area), else
+/// q² of triangle a, b, c (in this order) when it satisfies rules 1 (common wall) 2 and 3 (area), else
 /// `infeasible`. Edge lengths are checked by the callers (they are per pair, not per triangle); ab2, bc2, ca2 are
-/// the squared edge lengths. Written so that NaN coordinates fail every test.
+/// the squared edge lengths. Squared so that the bottleneck pass needs no square root (q ↦ q² is monotone).
+/// Written so that NaN coordinates fail every test.
 inline double evaluate_triangle(const loop_vertex& a, const loop_vertex& b, const loop_vertex& c, double ab2,
                                 double bc2, double ca2, const rule_limits& limits) {
   if ((a.planes & b.planes & c.planes) != 0) return infeasible;
@@ -36,13 +41,21 @@ inline double evaluate_triangle(const loop_vertex& a, const loop_vertex& b, cons
   const double face2 = squared_norm(face);
   const double longest2 = std::max(ab2, std::max(bc2, ca2));
   if (!(face2 >= limits.area_coef * longest2 * longest2) || !(face2 > 0)) return infeasible;
-  const vec3 normals = a.normal + b.normal + c.normal;
-  const double agreement = dot(face, normals);
-  if (!(agreement > 0) || !(agreement * agreement > limits.cos2 * face2 * squared_norm(normals))) return infeasible;
+  if (limits.orientation != rule_limits::rule2::off) {
+    // cos(face, Σn) > c, i.e. dot > c·|face|·|Σn|, without square roots.
+    const vec3 normals = a.normal + b.normal + c.normal;
+    const double agreement = dot(face, normals);
+    const double bound2 = limits.cos2 * face2 * squared_norm(normals);
+    if (limits.orientation == rule_limits::rule2::non_negative) {
+      if (!(agreement > 0) || !(agreement * agreement > bound2)) return infeasible;
+    } else if (!(agreement >= 0) && !(agreement * agreement < bound2)) {
+      return infeasible;
+    }
+  }
   const double shortest2 = std::min(ab2, std::min(bc2, ca2));
   const double sum2 = ab2 + bc2 + ca2;
   // q² = min(edge ratio², mean ratio²); mean ratio = 4√3·area/Σe² = 2√3·|face|/Σe².
-  return std::sqrt(std::min(shortest2 / longest2, 12 * face2 / (sum2 * sum2)));
+  return std::min(shortest2 / longest2, 12 * face2 / (sum2 * sum2));
 }
 
 template <class T>
@@ -76,10 +89,10 @@ void record(loop_triangulation_stats& stats, bool ok, double worst, double sum, 
 // (a, t) → (a, t + 1) is (Q[x(t) − 1], Q[x(t)], P[a]); both counter-clockwise seen from outside.
 //
 // Every band contains, at P[0], a last bridge (in path order) P[0] — Q[b0], followed by a P-step. Starting there,
-// the path is a band without a repeated edge exactly when it never reaches (p, 0) (that would repeat the bridge
-// P[0] — Q[b0]) and never climbs a whole column (a, 0) → (a, q) (repeating P[a] — Q[b0]); the flag f of a state
-// says "no P-step since leaving row 0", so (a, q, f = 1) is the forbidden full column. Trying every b0 covers every
-// band exactly once.
+// the path is a band without a repeated edge exactly when it neither reaches (p, 0) (repeating the bridge
+// P[0] — Q[b0]) nor climbs a whole column (a, 0) → (a, q) (repeating P[a] — Q[b0]). The flag f of a state says "no
+// P-step since leaving row 0", so (a, q, f = 1) is the forbidden full column; (p, 0) needs no test of its own, as
+// the only way on from it is up the whole column p. Trying every b0 covers every band exactly once.
 // ---------------------------------------------------------------------------------------------------------------
 
 struct band_problem {
@@ -133,8 +146,8 @@ double band_pass(const band_problem& bp, std::size_t b0, band_mode mode, double 
         if (mode == band_mode::worst ? from <= bound : from == none) continue;
         ++cells;
         const std::size_t x = x_of(t), pa = a % p;
-        // P-step → (a + 1, t); never into (p, 0).
-        if (a < p && !(a + 1 == p && t == 0) && bp.bridge_ok[(a + 1) % p * q + x])
+        // P-step → (a + 1, t).
+        if (a < p && bp.bridge_ok[(a + 1) % p * q + x])
           relax(state(a + 1, t, t == 0 ? 1 : 0), from, bp.step_p[pa * q + x], static_cast<std::uint32_t>(f << 1));
         // Q-step → (a, t + 1); never a whole column (a, q, f = 1).
         if (t < q && !(t + 1 == q && f == 1) && bp.bridge_ok[pa * q + x_of(t + 1)])
@@ -182,20 +195,21 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
   grow(ws.sum, nn);
   grow(ws.split, nn);
   grow(ws.edge_ok, nn);
-  grow(ws.quality, nn);  // squared lengths, mirrored
+  grow(ws.quality, nn);  // squared lengths
+  grow(ws.apex_quality, nn);
   double* const W = ws.worst.data();
   double* const S = ws.sum.data();
   double* const L2 = ws.quality.data();
   std::uint8_t* const ok = ws.edge_ok.data();
 
-  // Per pair: squared length and rule 1's edge part + rule 3's length part. Stored at [i*n + j] and [j*n + i].
+  // Per pair i < j, at [i*n + j]: squared length, and rule 1's edge part with rule 3's length part.
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t j = i + 1; j < n; ++j) {
       const double d2 = squared_norm(loop[j].position - loop[i].position);
       const bool consecutive = j == i + 1 || (i == 0 && j == n - 1);
       const bool good = d2 >= limits.min_edge2 && (consecutive || (loop[i].planes & loop[j].planes) == 0);
-      L2[i * n + j] = L2[j * n + i] = d2;
-      ok[i * n + j] = ok[j * n + i] = good ? 1 : 0;
+      L2[i * n + j] = d2;
+      ok[i * n + j] = good ? 1 : 0;
     }
   // A loop edge too short for rule 3 belongs to some triangle of every triangulation.
   bool loop_edges_ok = ok[n - 1];
@@ -212,8 +226,9 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
   };
 
   // Pass 1: W(i, j) = max over triangulations of the sub-polygon i, i+1, …, j (closed by the chord (i, j)) of the
-  // worst q; the chord must be admissible. W(k, j) is read from the mirror [j*n + k] so both reads run along rows.
+  // worst q², the chord being admissible. W(k, j) is read from the mirror [j*n + k] so both reads run along rows.
   for (std::size_t i = 0; i + 1 < n; ++i) W[i * n + i + 1] = W[(i + 1) * n + i] = empty_worst;
+  const bool long_loop = n > 16;
   for (std::size_t len = 2; len < n; ++len)
     for (std::size_t i = 0, j = len; j < n; ++i, ++j) {
       double best = infeasible;
@@ -222,6 +237,14 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
         const double* wi = W + i * n;
         const double* wj = W + j * n;
         for (std::size_t k = i + 1; k < j; ++k) {
+          // Long loops: skip four apexes at a time while none can improve (they spend most of their time here).
+          while (long_loop && k + 4 <= j) {
+            const double b01 = std::max(std::min(wi[k], wj[k]), std::min(wi[k + 1], wj[k + 1]));
+            const double b23 = std::max(std::min(wi[k + 2], wj[k + 2]), std::min(wi[k + 3], wj[k + 3]));
+            if (std::max(b01, b23) > best) break;
+            k += 4;
+          }
+          if (k >= j) break;
           const double bound = std::min(wi[k], wj[k]);
           if (bound <= best) continue;  // cannot improve (also skips infeasible sides)
           const double v = std::min(bound, triangle(i, k, j));
@@ -230,7 +253,7 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
       }
       W[i * n + j] = W[j * n + i] = best;
     }
-  const double optimum = W[n - 1];
+  const double optimum = W[n - 1];  // q*²
   if (!(optimum > 0)) {
     stats.dp_cells += cells;
     stats.triangle_evaluations += evaluations;
@@ -238,10 +261,11 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
     return false;
   }
 
-  // Pass 2: S(i, j) = max Σ q over triangulations of the sub-polygon whose triangles all reach q*. W(i, j) ≥ q* says
-  // such a triangulation exists, so only those sub-polygons are visited.
-  const double threshold = optimum * (1 - tie_tolerance);
+  // Pass 2: S(i, j) = max Σ q over triangulations of the sub-polygon whose triangles all reach q*. W(i, j) ≥ q*²
+  // says such a triangulation exists, so only those sub-polygons are visited. Thresholds compare squares.
+  const double threshold = optimum * ((1 - tie_tolerance) * (1 - tie_tolerance));
   std::uint32_t* const K = ws.split.data();
+  double* const apex_q = ws.apex_quality.data();
   for (std::size_t i = 0; i + 1 < n; ++i) S[i * n + i + 1] = S[(i + 1) * n + i] = 0;
   for (std::size_t len = 2; len < n; ++len)
     for (std::size_t i = 0, j = len; j < n; ++i, ++j) {
@@ -249,20 +273,24 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
       ++cells;
       double best = -std::numeric_limits<double>::infinity();
       std::uint32_t apex = 0;
+      double apex_qk = 0;
       const double* wi = W + i * n;
       const double* wj = W + j * n;
       for (std::size_t k = i + 1; k < j; ++k) {
         if (!(wi[k] >= threshold) || !(wj[k] >= threshold)) continue;
-        const double qk = triangle(i, k, j);
-        if (!(qk >= threshold)) continue;
+        const double q2 = triangle(i, k, j);
+        if (!(q2 >= threshold)) continue;
+        const double qk = std::sqrt(q2);
         const double s = qk + S[i * n + k] + S[j * n + k];
         if (s > best) {
           best = s;
           apex = static_cast<std::uint32_t>(k);
+          apex_qk = qk;
         }
       }
       S[i * n + j] = S[j * n + i] = best;
       K[i * n + j] = apex;
+      apex_q[i * n + j] = apex_qk;
     }
 
   // Emit (i, k, j), i < k < j: loop order, hence counter-clockwise seen from outside.
@@ -276,8 +304,7 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
     ws.stack.pop_back();
     const std::uint32_t k = K[std::size_t{i} * n + j];
     out.push_back({i, k, j});
-    const double qk = evaluate_triangle(loop[i], loop[k], loop[j], L2[std::size_t{i} * n + k],
-                                        L2[std::size_t{k} * n + j], L2[std::size_t{i} * n + j], limits);
+    const double qk = apex_q[std::size_t{i} * n + j];
     worst = std::min(worst, qk);
     sum += qk;
     if (j - k >= 2) ws.stack.push_back({k, j});
@@ -287,6 +314,11 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
   stats.triangle_evaluations += evaluations;
   record(stats, true, worst, sum, out.size() - first);
   return true;
+}
+
+bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings) {
+  return triangulate_loop(loop, out, stats, settings, thread_workspace());
 }
 
 bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
@@ -351,6 +383,8 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
                                               bridge2[a * q + x], bridge2[a * q + xm], limits);
       }
     }
+  for (std::size_t i = 0; i < 2 * p * q; ++i)
+    if (step_p[i] >= 0) step_p[i] = std::sqrt(step_p[i]);  // q² → q (step_q follows step_p in the buffer)
   bp.bridge_ok = ws.edge_ok.data();
   bp.step_p = step_p;
   bp.step_q = step_q;
@@ -410,6 +444,12 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
   stats.triangle_evaluations += evaluations;
   record(stats, true, worst, sum, p + q);
   return true;
+}
+
+bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
+                         const loop_triangulation_settings& settings) {
+  return triangulate_annulus(outer, inner, out, stats, settings, thread_workspace());
 }
 
 bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,

@@ -46,6 +46,8 @@ struct loop_triangulation_settings {
   /// cross(b − a, c − a) and n_a + n_b + n_c exceeds this. 0.05 (the face may lean up to ≈ 87° from the averaged
   /// surface normal): a positive margin so that rounding cannot accept a face that is flat against the normals,
   /// small enough to accept the strongly tilted faces of loops on tightly curved surface (h̃ ≈ atom radius).
+  /// A negative value accepts faces leaning beyond 90° (cos > value); a value ≤ −1 turns rule 2 off (fallbacks only:
+  /// the orientation then rests on the loop order alone).
   double min_normal_cosine = 0.05;
   /// Rule 3: every edge at least this long (Å).
   double min_edge_length = 1e-6;
@@ -68,12 +70,13 @@ struct loop_triangulation_stats {
   loop_triangulation_stats& operator+=(const loop_triangulation_stats& other);
 };
 
-/// Reusable buffers of the dynamic programmes: O(n²) numbers for a loop of n vertices (≈ 29·n² bytes: 1.2 MB at
+/// Reusable buffers of the dynamic programmes: O(n²) numbers for a loop of n vertices (≈ 37·n² bytes: 1.5 MB at
 /// n = 200). Keep one per thread to avoid allocating per loop. Its contents between calls are meaningless.
 struct loop_triangulation_workspace {
   std::vector<double> worst;            ///< best worst-quality per sub-polygon (pass 1), mirrored
   std::vector<double> sum;              ///< best quality sum per sub-polygon (pass 2), mirrored
   std::vector<std::uint32_t> split;     ///< chosen apex per sub-polygon / predecessor per band state
+  std::vector<double> apex_quality;     ///< q of the chosen apex's triangle per sub-polygon
   std::vector<std::uint8_t> edge_ok;    ///< admissible edge per vertex pair
   std::vector<double> quality;          ///< squared edge lengths (loop); band triangles' q, bridges (annulus)
   std::vector<std::array<std::uint32_t, 2>> stack;
@@ -93,18 +96,24 @@ double triangle_quality(const vec3& a, const vec3& b, const vec3& c);
 ///  1. admissibility (method.md §7.8): no triangle has its three corners on one common wall
 ///     ((a.planes & b.planes & c.planes) != 0); no edge joins two vertices that share a wall unless they are
 ///     consecutive on the loop (the loop's own edges are always allowed);
-///  2. orientation: dot(cross(b − a, c − a), n_a + n_b + n_c) > settings.min_normal_cosine · |cross| · |Σn|;
+///  2. orientation: dot(cross(b − a, c − a), n_a + n_b + n_c) > settings.min_normal_cosine · |cross| · |Σn|
+///     (skipped when min_normal_cosine ≤ −1);
 ///  3. not degenerate: every edge ≥ settings.min_edge_length (loop edges included: a shorter loop edge makes the
 ///     loop fail) and area ≥ settings.min_area_ratio · longest edge².
 /// Among the triangulations satisfying the rules it returns one that maximises the worst triangle's q and, among
 /// those, the sum of q (exactly: two passes of dynamic programming over the sub-polygons (i, j) — the first finds
 /// the optimal worst quality q*, the second maximises the sum over triangulations whose triangles all reach q*,
 /// up to a relative 1e-12). Remaining ties go to the smaller apex index, so the result is deterministic.
-/// Cost: O(n³) time (each candidate triangle evaluated at most twice, pruned by bounds; measured ≈ 0.3 µs at n = 6,
-/// see the test file's header), O(n²) memory in `workspace`, no allocation once the workspace has grown.
+/// Cost: O(n³) time (each candidate triangle evaluated at most twice, most pruned by the bounds), O(n²) memory in
+/// `workspace`, no allocation once the workspace and `out` have grown. Measured CPU time per loop (Release, one
+/// core of a shared 2.4 GHz AMD EPYC, loops of cells on a smooth surface): n = 4: 0.13–0.15 µs, 6: 0.3–0.5 µs,
+/// 12: 1.5–2.5 µs, 50: 25–75 µs, 200: 0.7–1.4 ms (a long zigzag along x) to 2–3 ms (points 0.02 Å apart).
 bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
                       loop_triangulation_stats& stats, const loop_triangulation_settings& settings,
                       loop_triangulation_workspace& workspace);
+/// As above with a thread_local workspace.
+bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings);
 /// As above with default settings and a thread_local workspace.
 bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
                       loop_triangulation_stats& stats);
@@ -122,10 +131,15 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
 ///         Band triangulations only: a tube whose band breaks the rules (e.g. both loops on one wall) needs new
 ///         vertices, which is the caller's business.
 /// Optimum as for triangulate_loop: worst q maximised, then Σ q, over every band. Cost: O(p·q) triangle
-/// evaluations and O(p·q·min(p, q)) table steps, O(p·q) memory.
+/// evaluations and O(p·q·min(p, q)) table steps, O(p·q) memory; measured 2.4–2.9 µs for 6 + 6 vertices,
+/// 10–12 µs for 12 + 12, 0.2–0.3 ms for 50 + 40.
 bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
                          std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
                          const loop_triangulation_settings& settings, loop_triangulation_workspace& workspace);
+/// As above with a thread_local workspace.
+bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
+                         const loop_triangulation_settings& settings);
 /// As above with default settings and a thread_local workspace.
 bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
                          std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats);

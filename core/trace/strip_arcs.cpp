@@ -2,15 +2,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace tracemesh {
 namespace {
 
-/// Retries of an arc that failed or ended on a root already taken: each divides the step by 4 and limits the
-/// normal's turn per step to 10°.
+/// Passes over a strip whose arcs conflict (an arc failed or ended on a root already taken): each divides the step
+/// by 4 and limits the normal's turn per step to 10°.
 constexpr int max_trace_attempts = 3;
 constexpr double retry_step_divisor = 4;
 constexpr double retry_cos_bound = 0.984807753012208;  // cos 10°
+/// An arc's crossing is matched to a root of the right φ_x sign within this × h̃ of it.
+constexpr double end_match_fraction = 0.25;
+/// The first step from a root is at most this × the distance to the next root of its line, so that a walk from one
+/// root of a near-tangency cannot step over the other.
+constexpr double first_step_fraction = 0.5;
 
 trace_plane plane_of(const strip_id& strip, double h) {
   return strip.orientation == 0 ? trace_plane{2, static_cast<double>(strip.k) * h}
@@ -76,10 +82,55 @@ std::vector<std::uint32_t> resample(const std::vector<surface_sample>& points, d
   return kept;
 }
 
+/// The sign φ_x must have at the end of an arc traced with `sign` that leaves the strip through line `end_side`
+/// (s·φ_x > 0 through the high line, < 0 through the low one).
+int end_sign(int end_side, int sign) { return end_side == 1 ? sign : -sign; }
+
+/// The root at which an arc ending at `x` arrives: the nearest root whose φ_x has `phi_x_sign`, within `reach` Å;
+/// -1 when there is none (a late root). Two roots of a near-tangency can be closer than the crossing's accuracy;
+/// their opposite signs of φ_x tell them apart.
+std::int64_t end_root(std::span<const line_point> roots, double x, int phi_x_sign, double reach) {
+  std::int64_t best = -1;
+  double best_distance = reach;
+  const auto first = std::lower_bound(roots.begin(), roots.end(), x - reach,
+                                      [](const line_point& p, double value) { return p.x < value; });
+  for (auto it = first; it != roots.end() && it->x <= x + reach; ++it) {
+    const double d = std::abs(it->x - x);
+    if (it->gradient.x * phi_x_sign > 0 && d < best_distance) {
+      best_distance = d;
+      best = it - roots.begin();
+    }
+  }
+  return best;
+}
+
+/// Puts a walk point (within the corrector's tolerance of the contour) onto it to 1e-11 Å, keeping its flags.
+void polish(const gaussian_field& field, const trace_plane& plane, surface_sample& p, double h,
+            std::size_t& evaluations) {
+  surface_sample polished;
+  if (correct_in_plane(field, plane, p.position, h, polished, evaluations)) {
+    polished.extreme = p.extreme;
+    p = polished;
+  }
+}
+
+/// Distance from root i to the nearest other root of its line (infinity when alone).
+double gap_to_neighbour(std::span<const line_point> roots, std::size_t i) {
+  double gap = std::numeric_limits<double>::infinity();
+  if (i > 0) gap = roots[i].x - roots[i - 1].x;
+  if (i + 1 < roots.size()) gap = std::min(gap, roots[i + 1].x - roots[i].x);
+  return gap;
+}
+
 }  // namespace
 
-strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
-                        const strip_settings& settings) {
+namespace {
+
+/// One pass over the strip's roots with the given step: every root not yet the end of an arc starts one. An arc is
+/// refused (and its root counted in failures) when it fails, ends on a root that already has its arc, or comes back
+/// to its own line without an interior point.
+strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
+                             const strip_settings& settings) {
   strip_trace out;
   const double h = settings.spacing;
   const trace_plane plane = plane_of(strip, h);
@@ -87,7 +138,13 @@ strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, c
   const std::span<const line_point> roots[2] = {lines.roots_of(strip.low_line()), lines.roots_of(strip.high_line())};
   const line_id line_ids[2] = {strip.low_line(), strip.high_line()};
   std::vector<char> covered[2] = {std::vector<char>(roots[0].size(), 0), std::vector<char>(roots[1].size(), 0)};
+  std::vector<double> root_x[2];
+  for (int side = 0; side < 2; ++side) {
+    for (const line_point& p : roots[side]) root_x[side].push_back(p.x);
+  }
   trace_step_settings step;
+  step.low_roots = root_x[0];
+  step.high_roots = root_x[1];
   step.v_low = low_v(strip, h);
   step.v_high = step.v_low + h;
   step.extreme_tolerance = settings.extreme_tolerance;
@@ -103,17 +160,23 @@ strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, c
       int end_side = 0;
       std::int64_t match = -1;
       bool accepted = false;
-      for (int attempt = 0; attempt < max_trace_attempts && !accepted; ++attempt) {
-        step.max_step = settings.max_step / std::pow(retry_step_divisor, attempt);
-        step.cos_bound = attempt == 0 ? settings.cos_bound : std::max(settings.cos_bound, retry_cos_bound);
-        arc = trace_contour(field, plane, start, sign, step, out.evaluations);
-        if (attempt > 0) ++out.retraced;
-        if (arc.end == trace_end::failed) continue;
+      step.max_step = settings.max_step;
+      step.first_step = std::min(settings.max_step, first_step_fraction * gap_to_neighbour(roots[side], i));
+      step.cos_bound = settings.cos_bound;
+      arc = trace_contour(field, plane, start, sign, step, out.evaluations);
+      if (arc.end != trace_end::failed) {
         end_side = arc.end == trace_end::low_line ? 0 : 1;
-        match = lines.match(roots[end_side], arc.points.back().position.x);
-        const bool taken = match >= 0 && (covered[end_side][match] || (end_side == side && match == static_cast<std::int64_t>(i)));
+        match = end_root(roots[end_side], arc.points.back().position.x, end_sign(end_side, sign),
+                         settings.spacing * end_match_fraction);
+        const bool taken = match >= 0 && (covered[end_side][static_cast<std::size_t>(match)] ||
+                                          (end_side == side && match == static_cast<std::int64_t>(i)));
         const bool bare_return = end_side == side && arc.points.size() < 3;  // needs an interior point (§7.7)
-        accepted = !taken && !bare_return;
+        // The walk must leave the strip through its end: s·φ_x there points out of it (> 0 through the high line).
+        // Otherwise it jumped to another branch of the contour and the arcs' directions would not chain (§7.10).
+        const double end_phi_x = match >= 0 ? roots[end_side][static_cast<std::size_t>(match)].gradient.x
+                                            : arc.points.back().gradient.x;
+        const bool leaves = end_phi_x * end_sign(end_side, sign) > 0;
+        accepted = !taken && !bare_return && leaves;
       }
       covered[side][i] = 1;
       if (!accepted) {
@@ -137,7 +200,8 @@ strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, c
       stored.start = canonical ? from : to;
       stored.end = canonical ? to : from;
       for (std::size_t n = 0; n < kept.size(); ++n) {
-        const surface_sample& p = arc.points[kept[canonical ? n : kept.size() - 1 - n]];
+        surface_sample p = arc.points[kept[canonical ? n : kept.size() - 1 - n]];
+        polish(field, plane, p, h, out.evaluations);
         out.interior.push_back(p);
         if (p.extreme) ++out.extreme_points;
       }
@@ -145,6 +209,28 @@ strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, c
     }
   }
   return out;
+}
+
+}  // namespace
+
+strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
+                        const strip_settings& settings) {
+  strip_settings attempt_settings = settings;
+  std::size_t evaluations = 0, retraced = 0;
+  for (int attempt = 0;; ++attempt) {
+    strip_trace out = trace_strip_once(field, lines, strip, attempt_settings);
+    evaluations += out.evaluations;
+    if (out.failures == 0 || attempt + 1 == max_trace_attempts) {
+      out.evaluations = evaluations;
+      out.retraced = retraced;
+      return out;
+    }
+    // A conflict means some arc jumped to another branch of the contour (near a saddle of φ in the plane): trace
+    // the whole strip again with shorter steps and a tighter turn limit, so that the earlier arcs are redone too.
+    retraced += out.arcs.size() + out.failures;
+    attempt_settings.max_step /= retry_step_divisor;
+    attempt_settings.cos_bound = std::max(attempt_settings.cos_bound, retry_cos_bound);
+  }
 }
 
 }  // namespace tracemesh

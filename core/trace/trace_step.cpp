@@ -11,8 +11,8 @@ constexpr double converged_residual = 1e-12;
 constexpr double converged_distance = 1e-11;  // Å
 constexpr int max_newton_iterations = 30;
 
-bool converged(double residual, double gradient_norm, double t0) {
-  return std::abs(residual) <= converged_residual * t0 || std::abs(residual) <= converged_distance * gradient_norm;
+bool converged(double residual, double gradient_norm, double t0, double distance = converged_distance) {
+  return std::abs(residual) <= converged_residual * t0 || std::abs(residual) <= distance * gradient_norm;
 }
 
 /// The in-plane components (φ_x, φ_v) of a gradient.
@@ -35,10 +35,39 @@ double relative_phi_x(const vec3& gradient, int v_axis) {
   return g.x / g.norm();
 }
 
+/// True when a root of a line lies under the step a → b (its x between theirs) while the step passes closer to
+/// that line than its own length: the contour may touch the line there between the two points (a near-tangency,
+/// whose two roots can be far closer together than a step), and the walk must not step over it. Roots strictly
+/// under the walk would need an arc of their own crossing the walk, so the guard only asks for steps shorter than
+/// the walk's distance to the line; the start root is not a reason.
+bool skips_a_root(const trace_step_settings& settings, const vec3& a, const vec3& b, int v, double h,
+                  const surface_sample& start, bool starts_low) {
+  const double lo = std::min(a.x, b.x), hi = std::max(a.x, b.x);
+  for (int side = 0; side < 2; ++side) {
+    const double line_v = side == 0 ? settings.v_low : settings.v_high;
+    if (std::min(std::abs(a[v] - line_v), std::abs(b[v] - line_v)) >= h) continue;
+    const std::span<const double> roots = side == 0 ? settings.low_roots : settings.high_roots;
+    const bool start_line = (side == 0) == starts_low;
+    for (auto it = std::upper_bound(roots.begin(), roots.end(), lo); it != roots.end() && *it < hi; ++it) {
+      if (!(start_line && std::abs(*it - start.position.x) < 1e-9)) return true;
+    }
+  }
+  return false;
+}
+
+/// The next step's first try: the normal turned by acos(turn) over h, so a step of h·θ_max/θ would turn it by the
+/// limit θ_max = acos δ; aim at 80% of that (a rejected step costs a corrector), grow by at most 2× and stay ≤ h₁.
+double next_step(double h, double turn, const trace_step_settings& settings) {
+  const double angle = std::acos(std::clamp(turn, -1.0, 1.0));
+  const double limit = std::acos(settings.cos_bound);
+  const double aimed = angle > 0 ? 0.8 * h * limit / angle : 2 * h;
+  return std::min({aimed, 2 * h, settings.max_step});
+}
+
 }  // namespace
 
 bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations) {
+                      surface_sample& out, std::size_t& evaluations, double tolerance) {
   const int v = plane.v_axis();
   const vec3 origin = p;
   for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
@@ -48,7 +77,7 @@ bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec
     const planar g = in_plane(gradient, v);
     const double g2 = g.x * g.x + g.v * g.v;
     if (!(g2 > 0)) return false;
-    if (converged(residual, std::sqrt(g2), field.t0())) {
+    if (converged(residual, std::sqrt(g2), field.t0(), tolerance)) {
       out.position = p;
       out.gradient = gradient;
       out.extreme = false;
@@ -98,7 +127,7 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
   traced_arc arc;
   arc.points.push_back(start);
   surface_sample p0 = start;
-  double h = settings.max_step;
+  double h = std::min(settings.first_step, settings.max_step);
   for (std::size_t steps = 0; steps < settings.max_steps; ++steps) {
     const planar t = unit_tangent(p0.gradient, v, sign);
     const planar g0 = in_plane(p0.gradient, v);
@@ -110,7 +139,7 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
       predicted.x += h * t.x;
       predicted[v] += h * t.v;
       surface_sample p1;
-      if (!correct_in_plane(field, plane, predicted, h, p1, evaluations)) {
+      if (!correct_in_plane(field, plane, predicted, h, p1, evaluations, settings.corrector_tolerance)) {
         h *= 0.5;
         continue;
       }
@@ -136,7 +165,10 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
         const bool polished = polish_on_line(field, guess, h, crossing, evaluations);
         const bool at_start = polished && std::abs(crossing.position.x - start.position.x) < 1e-7 &&
                               (line_v == settings.v_low) == starts_low;
-        if (!polished || at_start) {
+        // The walk leaves the strip there, so s·φ_x points out through that line; a crossing polished onto the
+        // other root of a near-tangency has the opposite sign: localise the crossing with a shorter step.
+        const double outward = (line_v == settings.v_high ? 1.0 : -1.0) * sign * crossing.gradient.x;
+        if (!polished || at_start || !(outward > 0)) {
           h *= 0.5;
           continue;
         }
@@ -144,9 +176,13 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
         arc.end = line_v == settings.v_low ? trace_end::low_line : trace_end::high_line;
         return arc;
       }
+      if (skips_a_root(settings, p0.position, p1.position, v, h, start, starts_low)) {
+        h *= 0.5;
+        continue;
+      }
       arc.points.push_back(p1);
       p0 = p1;
-      h = std::min(2 * h, settings.max_step);
+      h = next_step(h, turn, settings);
       break;
     }
   }

@@ -11,6 +11,7 @@
 /// boundary that way: see trace_mesher.cpp).
 
 #include <cstddef>
+#include <span>
 #include <vector>
 
 #include "core/field/gaussian_field.hpp"
@@ -48,10 +49,16 @@ struct traced_arc {
 struct trace_step_settings {
   double v_low = 0, v_high = 1;  ///< the strip's two lines, Å
   double max_step = 0.5;         ///< h₁, Å
+  double first_step = 0.5;       ///< Å, the first step's first try (≤ max_step; smaller beside a close root)
   double cos_bound = 0.94;       ///< δ (★1)
   double extreme_tolerance = 0.02;  ///< ε (step 4 and ★2), relative to |∇φ| in the plane
   double min_step = 1e-7;        ///< Å: a step halved below this fails the trace
+  /// Å: the corrector stops this close to the contour (step 3). The points the mesh keeps are polished to 1e-11 Å
+  /// afterwards (strip_arcs.cpp); a walk point only needs to be close enough for the next prediction.
+  double corrector_tolerance = 1e-5;
   std::size_t max_steps = 100000;   ///< bounds the walk (a closed contour that never meets a line)
+  /// x of the known roots on each line, ascending: a step that passes over one close to its line is shortened.
+  std::span<const double> low_roots, high_roots;
 };
 
 /// Traces from `start` (on the surface, on line v_low or v_high) into the strip along s·(−φ_v, φ_x), s = ±1
@@ -70,9 +77,9 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
 bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
                     std::size_t& evaluations);
 
-/// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0}, to 1e-11 Å.
-/// False when it does not converge within `max_move` Å.
+/// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0}, to `tolerance` Å
+/// (first-order distance |φ − t0| / |∇φ|). False when it does not converge within `max_move` Å.
 bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations);
+                      surface_sample& out, std::size_t& evaluations, double tolerance = 1e-11);
 
 }  // namespace tracemesh
