@@ -25,6 +25,11 @@ constexpr double surface_distance_tolerance = 1e-3;
 /// triangles as vertices, each of area √3/4·L²).
 double target_edge_length(double density) { return std::sqrt(2.0 / (std::sqrt(3.0) * density)); }
 
+/// Cutoff tolerance (relative to t0) of the field the trace path walks on between lines: its contour lies within
+/// ~1e-3 Å of the exact one and it sums about half as many atoms (README "Method"); a strip whose walk conflicts is
+/// traced again on the exact field.
+constexpr double trace_walk_tolerance = 1e-3;
+
 /// Lattice spacing relative to the target edge length (see README "Method": sampling step).
 constexpr double lattice_spacing_factor = 1.0;
 
@@ -85,9 +90,13 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   if (!blocks) return blocks.error();
   clock.finish(mesh_stage::culling);
 
-  auto raw = params.method == mesh_method::trace
-                 ? mesh_trace_blocks(field, *lat, *blocks, params.trace, limits, progress, clock, out.trace)
-                 : mesh_lattice_blocks(field, *lat, *blocks, limits, progress, clock);
+  result<surface_mesh> raw = status{errc::internal_error, "no method"};
+  if (params.method == mesh_method::trace) {
+    const gaussian_field walk_field(mol, params.d, params.t0, trace_walk_tolerance);
+    raw = mesh_trace_blocks(field, walk_field, *lat, *blocks, params.trace, limits, progress, clock, out.trace);
+  } else {
+    raw = mesh_lattice_blocks(field, *lat, *blocks, limits, progress, clock);
+  }
   if (!raw) return raw.error();
   out.mesh = std::move(*raw);
   blocks->clear();

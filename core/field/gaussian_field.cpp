@@ -79,7 +79,7 @@ double cutoff_factor(double d, double t0, double max_radius, double tolerance) {
   return hi;
 }
 
-gaussian_field::gaussian_field(const molecule& mol, double d, double t0) : d_(d), t0_(t0) {
+gaussian_field::gaussian_field(const molecule& mol, double d, double t0, double tolerance) : d_(d), t0_(t0) {
   std::vector<std::uint32_t> contributing;
   contributing.reserve(mol.atoms.size());
   for (std::uint32_t i = 0; i < mol.atoms.size(); ++i) {
@@ -92,7 +92,7 @@ gaussian_field::gaussian_field(const molecule& mol, double d, double t0) : d_(d)
     store_atoms(mol, contributing, contributing, 0);
     return;
   }
-  const double u = cutoff_factor(d, t0, max_radius_);
+  const double u = cutoff_factor(d, t0, max_radius_, tolerance);
   cutoff_error_bound_ = tail_bound(d, max_radius_, u);
   max_cutoff_ = u * max_radius_;
   for (int axis = 0; axis < 3; ++axis) {

@@ -186,7 +186,9 @@ class gaussian_field {
   /// eighth of it), indexed by a dense cell table when the atoms' bounding box holds few enough cells (memory
   /// O(atoms)), by hashed cell rows otherwise (two atoms 10⁵ Å apart cost nothing).
   /// Preconditions: d < 0, t0 > 0, radii ≥ 0 and finite coordinates (validated by the reader and validate()).
-  gaussian_field(const molecule& mol, double d, double t0);
+  /// `tolerance`: the bound on the neglected tail relative to t0 (see cutoff_factor). The mesh's own field keeps the
+  /// default; a looser one gives a cheaper approximation (the trace path walks its contours on one).
+  gaussian_field(const molecule& mol, double d, double t0, double tolerance = field_cutoff_tolerance);
 
   double d() const { return d_; }
   double t0() const { return t0_; }

@@ -126,9 +126,15 @@ bool chain_loops(const std::vector<cell_arc>& arcs, std::vector<std::vector<numb
 /// How a loop is triangulated, in order of preference; all but the first are fallbacks (trace_stats::fallback_loops).
 enum class loop_strategy {
   admissible,          ///< the admissible maximin triangulation (method.md §7.8)
+  admissible_flat,     ///< the admissible triangulation whose faces agree best with −∇φ (it folds least)
   steiner_fan,         ///< a fan around one new point of the surface inside the cell, faces agreeing with −∇φ
   admissible_relaxed,  ///< the admissible triangulation without the rule that faces agree with the normals
+  flat_relaxed,        ///< the flattest admissible triangulation without that rule
   steiner_fan_relaxed, ///< the fan without that rule
+  /// Without the admissibility rule either (walls ignored): for a sheet that lies almost in a wall, whose
+  /// admissible triangles would have to fold across the cell. Faces in a wall are then possible; the cell's own
+  /// test still guards against its other loops, and the certificate against a neighbour doing the same.
+  unrestricted,
   none,                ///< nothing worked: the mesh cannot close here
 };
 constexpr loop_strategy next(loop_strategy s) { return static_cast<loop_strategy>(static_cast<int>(s) + 1); }
@@ -172,13 +178,9 @@ bool crossing_on_segment(const gaussian_field& field, const vec3& centre, const 
 /// cross-section less a margin, where φ crosses t0. The patch the loop bounds lies in the cell, so a line through
 /// its middle meets it; lines along the loop's mean normal, then along x, y and z are tried in turn.
 bool steiner_point(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
-                   double h, surface_sample& out, std::size_t& evaluations) {
-  vec3 centre, mean_normal;
-  for (const numbered_vertex& v : loop) {
-    centre += v.vertex.position;
-    mean_normal += v.vertex.normal;
-  }
-  centre = centre / static_cast<double>(loop.size());
+                   double h, const vec3& centre, surface_sample& out, std::size_t& evaluations) {
+  vec3 mean_normal;
+  for (const numbered_vertex& v : loop) mean_normal += v.vertex.normal;
   const double margin = steiner_wall_margin * h;
   const double lo[2] = {static_cast<double>(cell.j) * h + margin, static_cast<double>(cell.k) * h + margin};
   const double hi[2] = {lo[0] + h - 2 * margin, lo[1] + h - 2 * margin};
@@ -227,14 +229,22 @@ bool steiner_point(const gaussian_field& field, const std::vector<numbered_verte
 }
 
 /// A fan around a Steiner point (steiner_point); with check_orientation, every face must agree with the normals.
-bool fan_around_steiner_point(const gaussian_field& field, const std::vector<numbered_vertex>& loop,
-                              const cell_id& cell, double h, bool check_orientation, loop_mesh& out,
-                              std::size_t& evaluations) {
-  surface_sample centre;
-  if (!steiner_point(field, loop, cell, h, centre, evaluations)) {
-    return false;
-  }
+/// Where a fan's centre is looked for: the loop's centroid, the point of the cell's centre line at the same x,
+/// and halfway between them (a patch that hugs a wall may be missed from one and met from another).
+std::array<vec3, 3> steiner_origins(const std::vector<numbered_vertex>& loop, const cell_id& cell, double h) {
+  vec3 centroid;
+  for (const numbered_vertex& v : loop) centroid += v.vertex.position;
+  centroid = centroid / static_cast<double>(loop.size());
+  const vec3 axis{centroid.x, (static_cast<double>(cell.j) + 0.5) * h, (static_cast<double>(cell.k) + 0.5) * h};
+  return {centroid, 0.5 * (centroid + axis), axis};
+}
+
+/// The fan around `centre`: its triangles must not be degenerate, must not intersect each other and, with
+/// check_orientation, must agree with the normals.
+bool fan_is_valid(const std::vector<numbered_vertex>& loop, const surface_sample& centre, bool check_orientation) {
   const vec3 normal = normalized(-centre.gradient);
+  std::vector<vec3> positions{centre.position};
+  std::vector<std::array<std::uint32_t, 3>> fan;
   for (std::size_t n = 0; n < loop.size(); ++n) {
     const vertex_ref a = loop[n].vertex, b = loop[(n + 1) % loop.size()].vertex;
     const vec3 face = cross(b.position - a.position, centre.position - a.position);
@@ -244,12 +254,32 @@ bool fan_around_steiner_point(const gaussian_field& field, const std::vector<num
       return false;  // degenerate
     }
     if (check_orientation && !(dot(face, normal + a.normal + b.normal) > 0)) return false;
+    positions.push_back(a.position);
+    fan.push_back({static_cast<std::uint32_t>(n + 1), static_cast<std::uint32_t>((n + 1) % loop.size() + 1), 0});
   }
-  out.steiner.push_back(centre);
-  for (std::size_t n = 0; n < loop.size(); ++n) {
-    out.triangles.push_back({loop[n].id, loop[(n + 1) % loop.size()].id, steiner_vertex});
+  for (std::size_t a = 0; a < fan.size(); ++a) {
+    for (std::size_t b = a + 1; b < fan.size(); ++b) {
+      if (detail::mesh_triangles_intersect(positions, fan[a], fan[b])) return false;
+    }
   }
   return true;
+}
+
+/// A fan around a Steiner point (steiner_point from each of steiner_origins, the first valid fan).
+bool fan_around_steiner_point(const gaussian_field& field, const std::vector<numbered_vertex>& loop,
+                              const cell_id& cell, double h, bool check_orientation, loop_mesh& out,
+                              std::size_t& evaluations) {
+  for (const vec3& origin : steiner_origins(loop, cell, h)) {
+    surface_sample centre;
+    if (!steiner_point(field, loop, cell, h, origin, centre, evaluations)) continue;
+    if (!fan_is_valid(loop, centre, check_orientation)) continue;
+    out.steiner.push_back(centre);
+    for (std::size_t n = 0; n < loop.size(); ++n) {
+      out.triangles.push_back({loop[n].id, loop[(n + 1) % loop.size()].id, steiner_vertex});
+    }
+    return true;
+  }
+  return false;
 }
 
 /// The loop's triangles by `strategy`; false when that strategy cannot triangulate it.
@@ -262,16 +292,19 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
   }
   std::vector<loop_vertex> vertices(loop.size());
   for (std::size_t n = 0; n < loop.size(); ++n) vertices[n] = loop[n].vertex;
+  if (strategy == loop_strategy::unrestricted) {
+    for (loop_vertex& v : vertices) v.planes = 0;
+  }
   std::vector<std::array<std::uint32_t, 3>> local;
   loop_triangulation_stats stats;
-  bool ok = false;
-  if (strategy == loop_strategy::admissible) {
-    ok = triangulate_loop(vertices, local, stats);
-  } else {
-    loop_triangulation_settings relaxed;
-    relaxed.min_normal_cosine = -2;  // rule 2 off
-    ok = triangulate_loop(vertices, local, stats, relaxed);
+  loop_triangulation_settings settings;
+  settings.maximise_normal_agreement =
+      strategy == loop_strategy::admissible_flat || strategy == loop_strategy::flat_relaxed;
+  if (strategy == loop_strategy::admissible_relaxed || strategy == loop_strategy::flat_relaxed ||
+      strategy == loop_strategy::unrestricted) {
+    settings.min_normal_cosine = -2;  // rule 2 off
   }
+  const bool ok = triangulate_loop(vertices, local, stats, settings);
   for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
   return ok;
 }
@@ -334,6 +367,42 @@ std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<number
   return hit;
 }
 
+/// Makes the cell's triangles intersection-free: a loop whose triangles meet others' takes its next strategy.
+/// Each round first looks for one loop whose change alone removes its intersections (so that a loop that was fine
+/// is not spoilt for its neighbour's sake), else moves every loop involved on.
+void resolve_intersections(const gaussian_field& field, const std::vector<std::vector<numbered_vertex>>& loops,
+                           const cell_id& cell, double h, std::vector<loop_mesh>& meshes, cell_mesh& out) {
+  constexpr int max_rounds = 16;
+  for (int round = 0; round < max_rounds; ++round) {
+    const std::vector<std::size_t> hit = intersecting_loops(loops, meshes);
+    if (hit.empty()) return;
+    bool fixed = false;
+    for (const std::size_t l : hit) {
+      const loop_mesh kept = meshes[l];
+      for (loop_strategy s = next(kept.strategy); kept.strategy != loop_strategy::none && s != loop_strategy::none;
+           s = next(s)) {
+        if (!triangulate_by(field, loops[l], cell, h, s, meshes[l], out.evaluations)) continue;
+        const std::vector<std::size_t> after = intersecting_loops(loops, meshes);
+        if (!std::binary_search(after.begin(), after.end(), l)) {
+          fixed = true;
+          break;
+        }
+      }
+      if (fixed) break;
+      meshes[l] = kept;
+    }
+    if (fixed) continue;
+    bool changed = false;
+    for (const std::size_t l : hit) {
+      if (meshes[l].strategy == loop_strategy::none) continue;
+      triangulate_from(field, loops[l], cell, h, next(meshes[l].strategy), meshes[l], out.evaluations);
+      changed = true;
+    }
+    if (!changed) break;
+  }
+  out.intersecting = !intersecting_loops(loops, meshes).empty();
+}
+
 }  // namespace
 
 std::size_t traced_surface::find_strip(const strip_id& strip) const {
@@ -355,20 +424,7 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
   for (std::size_t l = 0; l < loops.size(); ++l) {
     triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, meshes[l], out.evaluations);
   }
-  // Loops whose triangles intersect others of the cell move on to their next strategy, until none intersect.
-  for (std::vector<std::size_t> hit = intersecting_loops(loops, meshes); !hit.empty();
-       hit = intersecting_loops(loops, meshes)) {
-    bool changed = false;
-    for (const std::size_t l : hit) {
-      if (meshes[l].strategy == loop_strategy::none) continue;
-      triangulate_from(field, loops[l], cell, h, next(meshes[l].strategy), meshes[l], out.evaluations);
-      changed = true;
-    }
-    if (!changed) {
-      out.intersecting = true;
-      break;
-    }
-  }
+  resolve_intersections(field, loops, cell, h, meshes, out);
   for (std::size_t l = 0; l < loops.size(); ++l) {
     const loop_mesh& m = meshes[l];
     if (m.strategy == loop_strategy::none) {

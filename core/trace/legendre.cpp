@@ -271,13 +271,15 @@ legendre_fitter::legendre_fitter(int degree) : degree_(degree), rule_() {
 }
 
 void legendre_fitter::coefficients(std::span<const double> values, std::span<double> out) const {
+  for (int n = 0; n <= degree_; ++n) out[static_cast<std::size_t>(n)] = coefficient(values, n);
+}
+
+double legendre_fitter::coefficient(std::span<const double> values, int n) const {
   const auto count = static_cast<std::size_t>(degree_ + 1);
-  for (std::size_t n = 0; n < count; ++n) {
-    const double* row = fit_.data() + n * count;
-    double sum = 0;
-    for (std::size_t m = 0; m < count; ++m) sum += row[m] * values[m];
-    out[n] = sum;
-  }
+  const double* row = fit_.data() + static_cast<std::size_t>(n) * count;
+  double sum = 0;
+  for (std::size_t m = 0; m < count; ++m) sum += row[m] * values[m];
+  return sum;
 }
 
 void legendre_fitter::bernstein(std::span<const double> coefficients, std::span<double> out) const {

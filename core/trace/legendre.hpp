@@ -86,6 +86,8 @@ class legendre_fitter {
   /// Eq. 6: aₙ (n = 0..M) from f at the nodes (points() values). Same numbers as legendre_coefficients, other order
   /// of summation (a fixed matrix–vector product).
   void coefficients(std::span<const double> values, std::span<double> out) const;
+  /// aₙ alone (eq. 6), the same number as coefficients() gives.
+  double coefficient(std::span<const double> values, int n) const;
   /// Bernstein coefficients (M + 1) of the series `coefficients` on [−1, 1].
   void bernstein(std::span<const double> coefficients, std::span<double> out) const;
 

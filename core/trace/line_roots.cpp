@@ -18,10 +18,10 @@ constexpr int max_bracket_iterations = 100;
 /// Lines per block edge.
 constexpr int block_lines = lattice::block_cells;
 
-/// Node groups of a line at most: fits_per_line·(legendre_max_degree + 1) nodes padded to max_lanes, in groups of 2
-/// lanes.
+/// Node groups of a line at most: fits_per_line·(legendre_max_degree + 1) + 2 samples padded to max_lanes, in groups of
+/// 2 lanes.
 constexpr int max_node_groups =
-    (fits_per_line * (legendre_max_degree + 1) + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes / 2;
+    (fits_per_line * (legendre_max_degree + 1) + 2 + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes / 2;
 
 std::size_t padded_size(std::size_t n) { return (n + simd::max_lanes - 1) / simd::max_lanes * simd::max_lanes; }
 
@@ -315,6 +315,7 @@ line_root_stats& line_root_stats::operator+=(const line_root_stats& other) {
   polynomial_roots += other.polynomial_roots;
   rejected_roots += other.rejected_roots;
   sign_walk_roots += other.sign_walk_roots;
+  probes += other.probes;
   quiet_fits += other.quiet_fits;
   fits += other.fits;
   return *this;
@@ -332,6 +333,18 @@ line_root_finder::line_root_finder(const line_root_settings& settings) : setting
     fitter_.bernstein(a, b);
     for (int j = 0; j < count; ++j) {
       values_to_bernstein_[static_cast<std::size_t>(j * count + m)] = b[static_cast<std::size_t>(j)];
+    }
+  }
+  // Legendre → Bernstein at degree M − 1, for the derivative series (its extrema are probed).
+  const int slope_count = count - 1;
+  derivative_to_bernstein_.assign(static_cast<std::size_t>(slope_count * slope_count), 0.0);
+  std::vector<double> slope_unit(static_cast<std::size_t>(slope_count)), slope_b(slope_unit.size());
+  for (int n = 0; n < slope_count; ++n) {
+    std::fill(slope_unit.begin(), slope_unit.end(), 0.0);
+    slope_unit[static_cast<std::size_t>(n)] = 1;
+    legendre_to_bernstein(slope_unit, slope_b);
+    for (int j = 0; j < slope_count; ++j) {
+      derivative_to_bernstein_[static_cast<std::size_t>(j * slope_count + n)] = slope_b[static_cast<std::size_t>(j)];
     }
   }
 }
@@ -395,37 +408,82 @@ namespace {
 /// What a line's fits need besides the node values.
 struct fit_context {
   const legendre_fitter& fitter;
-  std::span<const double> values_to_bernstein;  ///< (M+1)² matrix
+  std::span<const double> values_to_bernstein;      ///< (M+1)² matrix
+  std::span<const double> derivative_to_bernstein;  ///< M² matrix: Legendre → Bernstein at degree M − 1
   const block_geometry& geometry;
   double t0;
-  double end_reach;
+  const line_root_settings& settings;
 };
 
+/// Scratch of one fit.
+struct fit_scratch {
+  std::vector<double>& a;        ///< Legendre coefficients of series − t0
+  std::vector<double>& b;        ///< its Bernstein coefficients
+  std::vector<double>& slope;    ///< the derivative's Legendre coefficients
+  std::vector<double>& slope_b;  ///< and Bernstein coefficients
+  std::vector<double>& extrema;  ///< roots of the derivative, s
+};
+
+/// Estimated error of a degree-M fit: |a_M| + |a_{M−1}| (for the smooth fields here the coefficients decay fast,
+/// so the neglected tail is below the last two).
+double fit_error_estimate(const legendre_fitter& fitter, std::span<const double> f) {
+  const int m = fitter.degree();
+  return std::abs(fitter.coefficient(f, m)) + (m >= 2 ? std::abs(fitter.coefficient(f, m - 1)) : 0.0);
+}
+
 /// Candidates (Å, appended to `candidates`) of one fit from its node values `f` (M + 1 of them): the series' roots
-/// (kind 1), searched only where its Bernstein coefficients change sign, and the fit's ends where the series,
-/// extended linearly, reaches t0 within end_reach beyond them (kind 2). `a`, `b`: scratch of M + 1 entries.
-void fit_candidates(const fit_context& c, int fit, const double* f, std::vector<double>& a, std::vector<double>& b,
-                    std::vector<double>& candidates, line_root_stats& stats) {
+/// (kind 1) and the fit's ends where the series, extended linearly, reaches t0 within end_reach beyond them
+/// (kind 2). Probes (Å, appended to `probes`): the series' extrema within probe_margin × the fit error estimate
+/// of t0, where φ itself may cross t0 and back unseen by the series; φ sampled there joins the sign walk. A fit
+/// whose Bernstein coefficients all lie on one side of t0, beyond that margin, has neither (it is quiet).
+void fit_candidates(const fit_context& c, int fit, const double* f, fit_scratch& scratch,
+                    std::vector<double>& candidates, std::vector<double>& probes, line_root_stats& stats) {
   const int points = c.fitter.points();
+  const std::span<const double> values(f, static_cast<std::size_t>(points));
   const double mid = c.geometry.fit_mid[static_cast<std::size_t>(fit)];
   const double half = c.geometry.fit_half[static_cast<std::size_t>(fit)];
+  std::vector<double>& b = scratch.b;
   ++stats.fits;
   int changes = 0;
+  double nearest = std::numeric_limits<double>::infinity();
   for (int j = 0; j < points; ++j) {
     const double* row = c.values_to_bernstein.data() + static_cast<std::size_t>(j * points);
     double sum = 0;
     for (int m = 0; m < points; ++m) sum += row[m] * f[m];
     b[static_cast<std::size_t>(j)] = sum - c.t0;  // the Bernstein coefficients of t0 are all t0
+    nearest = std::min(nearest, std::abs(b[static_cast<std::size_t>(j)]));
     if (j > 0) changes += (b[static_cast<std::size_t>(j)] >= 0) != (b[static_cast<std::size_t>(j - 1)] >= 0);
   }
-  if (changes > 0) {
-    c.fitter.coefficients(std::span<const double>(f, static_cast<std::size_t>(points)), a);  // eq. 6
-    a[0] -= c.t0;
-    const std::size_t before = candidates.size();
-    legendre_roots(a, b, candidates);
-    for (std::size_t n = before; n < candidates.size(); ++n) candidates[n] = mid + half * candidates[n];
-  } else {
+  const double margin =
+      c.settings.probe_margin > 0 ? c.settings.probe_margin * fit_error_estimate(c.fitter, values) : 0;
+  if (changes == 0 && nearest > margin) {
     ++stats.quiet_fits;
+  } else {
+    std::vector<double>& a = scratch.a;
+    c.fitter.coefficients(values, a);  // eq. 6
+    a[0] -= c.t0;
+    if (changes > 0) {
+      const std::size_t before = candidates.size();
+      legendre_roots(a, b, candidates);
+      for (std::size_t n = before; n < candidates.size(); ++n) candidates[n] = mid + half * candidates[n];
+    }
+    if (margin > 0 && points > 2) {
+      legendre_derivative(a, scratch.slope);
+      const auto slope_count = static_cast<std::size_t>(points - 1);
+      for (std::size_t j = 0; j < slope_count; ++j) {
+        double sum = 0;
+        for (std::size_t n = 0; n < slope_count; ++n) {
+          sum += c.derivative_to_bernstein[j * slope_count + n] * scratch.slope[n];
+        }
+        scratch.slope_b[j] = sum;
+      }
+      scratch.extrema.clear();
+      legendre_roots(std::span<const double>(scratch.slope.data(), slope_count),
+                     std::span<const double>(scratch.slope_b.data(), slope_count), scratch.extrema);
+      for (const double s : scratch.extrema) {
+        if (std::abs(legendre_value(a, s)) <= margin) probes.push_back(mid + half * s);
+      }
+    }
   }
   // Kind 2: the series' value and slope (d/ds) at each end, from the Bernstein coefficients.
   const auto last = static_cast<std::size_t>(points - 1);
@@ -433,8 +491,28 @@ void fit_candidates(const fit_context& c, int fit, const double* f, std::vector<
   const double slope_lo = 0.5 * degree * (b[1] - b[0]), slope_hi = 0.5 * degree * (b[last] - b[last - 1]);
   const double reach_lo = slope_lo != 0 ? -b[0] / slope_lo : 1.0;
   const double reach_hi = slope_hi != 0 ? -b[last] / slope_hi : -1.0;
-  if (reach_lo <= 0 && reach_lo >= -c.end_reach) candidates.push_back(mid + half * (-1 + reach_lo));
-  if (reach_hi >= 0 && reach_hi <= c.end_reach) candidates.push_back(mid + half * (1 + reach_hi));
+  if (reach_lo <= 0 && reach_lo >= -c.settings.end_reach) candidates.push_back(mid + half * (-1 + reach_lo));
+  if (reach_hi >= 0 && reach_hi <= c.settings.end_reach) candidates.push_back(mid + half * (1 + reach_hi));
+}
+
+/// The line's samples for the sign walk (ws.walk_x, ws.walk_value, ascending x): the span ends and nodes
+/// (`node_x`, `node_values`) merged with φ at the probes (evaluated here, on the exact field).
+template <int W>
+[[gnu::always_inline]] inline void walk_samples(line_root_finder::workspace& ws, std::span<const double> node_x,
+                                                std::span<const double> node_values, line_root_stats& stats) {
+  ws.walk_x.clear();
+  ws.walk_value.clear();
+  std::size_t p = 0;
+  for (std::size_t n = 0; n < node_x.size(); ++n) {
+    for (; p < ws.probes.size() && ws.probes[p] < node_x[n]; ++p) {
+      ws.walk_x.push_back(ws.probes[p]);
+      ws.walk_value.push_back(evaluate_line<W>(ws, ws.probes[p]).value);
+      ++stats.field_evaluations;
+      ++stats.probes;
+    }
+    ws.walk_x.push_back(node_x[n]);
+    ws.walk_value.push_back(node_values[n]);
+  }
 }
 
 /// The roots of the current line (its atoms gathered in ws) from its candidates, then its sign walk: appended to
@@ -443,6 +521,7 @@ template <int W>
 [[gnu::always_inline]] inline void solve_line(line_root_finder::workspace& ws, const block_geometry& geometry, double h,
                                               double t0, bool sign_walk, std::span<const double> node_x,
                                               std::span<const double> node_values, line_root_stats& stats) {
+  if (sign_walk) walk_samples<W>(ws, node_x, node_values, stats);
   std::vector<line_root>& found = ws.accepted;
   found.clear();
   for (const double start : ws.candidates) {
@@ -458,12 +537,12 @@ template <int W>
   sort_unique(found);
   stats.polynomial_roots += found.size();
   if (!sign_walk) return;
-  find_walk_gaps(node_x, node_values, t0, found, ws.gaps);
+  find_walk_gaps(ws.walk_x, ws.walk_value, t0, found, ws.gaps);
   const std::size_t walked = found.size();
   for (const line_root_finder::walk_gap& gap : ws.gaps) {
     line_root root{};
     if (!polish_bracket<W>(ws, t0, gap.lo, gap.lo_inside, gap.hi, root, stats.field_evaluations)) continue;
-    if (!(root.x >= gap.lo && root.x <= gap.hi)) continue;
+    if (!(root.x >= gap.lo && root.x <= gap.hi && root.x >= geometry.x_lo && root.x < geometry.x_hi)) continue;
     if ((gap.lo_is_root && root.x - gap.lo <= duplicate_distance) ||
         (gap.hi_is_root && gap.hi - root.x <= duplicate_distance)) {
       continue;  // converged onto the root that bounds the gap
@@ -488,17 +567,22 @@ bool crosses_level(const double* values, int count, double t0) {
 void line_root_finder::find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
                             std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats) {
   workspace& ws = scratch_;
+  // The samples of a line, ascending in x: the span's lower end, the nodes of each fit, the span's upper end (the
+  // ends only feed the sign walk; the lower end of one block is the upper end of the previous one, computed from the
+  // same atoms in the same order, so the two blocks agree on its sign).
   const int points = fitter_.points();
-  const int nodes = points * fits_per_line;
-  const int node_stride = static_cast<int>(padded_size(static_cast<std::size_t>(nodes)));
+  const int samples = points * fits_per_line + 2;
+  const int node_stride = static_cast<int>(padded_size(static_cast<std::size_t>(samples)));
   const block_geometry geometry = make_geometry(lat, block);
   const double h = lat.spacing(), t0 = field.t0();
 
   prepare_workspace(field, atoms, static_cast<std::size_t>(node_stride), ws);
   ws.node_x.assign(static_cast<std::size_t>(node_stride), geometry.x_hi + 1e6);  // padding: beyond every cutoff
+  ws.node_x[0] = geometry.x_lo;
+  ws.node_x[static_cast<std::size_t>(samples - 1)] = geometry.x_hi;
   for (int q = 0; q < fits_per_line; ++q) {
     for (int m = 0; m < points; ++m) {
-      ws.node_x[static_cast<std::size_t>(q * points + m)] =
+      ws.node_x[static_cast<std::size_t>(1 + q * points + m)] =
           geometry.fit_mid[static_cast<std::size_t>(q)] +
           geometry.fit_half[static_cast<std::size_t>(q)] * fitter_.rule().nodes[static_cast<std::size_t>(m)];
     }
@@ -507,8 +591,11 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
   ws.bernstein.resize(static_cast<std::size_t>(points));
   const auto line_y = line_coordinates(block.j, h), line_z = line_coordinates(block.k, h);
   const std::size_t count = atoms.size(), stride = padded_size(count);
-  const fit_context context{fitter_, values_to_bernstein_, geometry, t0, settings_.end_reach};
-  const std::span<const double> node_x(ws.node_x.data(), static_cast<std::size_t>(nodes));
+  const fit_context context{fitter_, values_to_bernstein_, derivative_to_bernstein_, geometry, t0, settings_};
+  ws.slope.resize(static_cast<std::size_t>(points));
+  ws.slope_bernstein.resize(static_cast<std::size_t>(points));
+  fit_scratch scratch{ws.legendre, ws.bernstein, ws.slope, ws.slope_bernstein, ws.extrema};
+  const std::span<const double> node_x(ws.node_x.data(), static_cast<std::size_t>(samples));
   out.roots.clear();
   out.first[0] = 0;
 
@@ -516,17 +603,19 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
     constexpr int W = decltype(lanes)::value;
     sample_nodes<W>(field, ws, count, stride, node_stride, line_y, line_z);
     stats.lines += lines_per_block;
-    stats.field_evaluations += static_cast<std::size_t>(lines_per_block) * static_cast<std::size_t>(nodes);
+    stats.field_evaluations += static_cast<std::size_t>(lines_per_block) * static_cast<std::size_t>(samples);
     for (int line = 0; line < lines_per_block; ++line) {
       const double* values = ws.sums.data() + static_cast<std::size_t>(line) * static_cast<std::size_t>(node_stride);
       ws.candidates.clear();
+      ws.probes.clear();
       for (int q = 0; q < fits_per_line; ++q) {
-        fit_candidates(context, q, values + q * points, ws.legendre, ws.bernstein, ws.candidates, stats);
+        fit_candidates(context, q, values + 1 + q * points, scratch, ws.candidates, ws.probes, stats);
       }
-      if (!ws.candidates.empty() || (settings_.sign_walk && crosses_level(values, nodes, t0))) {
+      if (!settings_.sign_walk) ws.probes.clear();
+      if (!ws.candidates.empty() || !ws.probes.empty() || (settings_.sign_walk && crosses_level(values, samples, t0))) {
         gather_line_atoms<W>(ws, count, stride, line % block_lines, line / block_lines, field.d());
         solve_line<W>(ws, geometry, h, t0, settings_.sign_walk, node_x,
-                      std::span<const double>(values, static_cast<std::size_t>(nodes)), stats);
+                      std::span<const double>(values, static_cast<std::size_t>(samples)), stats);
         out.roots.insert(out.roots.end(), ws.accepted.begin(), ws.accepted.end());
       }
       out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());

@@ -11,9 +11,13 @@
 ///  1. the series' roots in [−1, 1];
 ///  2. an end of a fit where the series, extended linearly, reaches t0 within end_reach (in units of the fit's half
 ///     width) beyond that end (a root the fit puts just outside its span, as happens at seams);
-///  3. a *sign walk*: the node samples are exact values of φ, so along each line the sign of φ − t0 at the nodes and
+///  3. a *sign walk* (with probes, below): the node samples are exact values of φ, so along each line the sign of φ −
+///  t0 at the nodes and
 ///     on either side of every accepted root (given by the sign of φ_x) must alternate consistently. Where it does
-///     not, a root is missing in between and is solved for inside that bracket.
+///     not, a root is missing in between and is solved for inside that bracket. φ is also sampled at both ends of
+///     the span (bit-identical in the two blocks that share an end), so roots between an end and the nearest node
+///     are bracketed too. Where a fit's series has an extremum within a few times its error estimate of t0
+///     (a near tangency, where φ may cross t0 and back unseen), φ is *probed* there and the sample joins the walk.
 /// Polishing uses third-order steps on ln(φ/t0) (the quadratic Taylor model from φ, φ_x, φ_xx: exact for a single
 /// atom), safeguarded by bisection for bracketed roots. A root is accepted when the last correction is at most
 /// 1e-10 Å (root = last point + correction, φ_x from the last evaluation), which leaves |φ − t0| ≲ 1e-13·t0 for a
@@ -41,10 +45,11 @@ struct line_root {
 
 struct line_root_stats {
   std::size_t lines = 0;              ///< line spans searched
-  std::size_t field_evaluations = 0;  ///< φ values computed (quadrature nodes + Newton steps), one per point
+  std::size_t field_evaluations = 0;  ///< φ values computed (quadrature nodes, span ends, Newton steps), one per point
   std::size_t polynomial_roots = 0;   ///< distinct roots found from the Legendre series (its roots, kinds 1 and 2)
   std::size_t rejected_roots = 0;     ///< series candidates that Newton did not confirm inside the span
   std::size_t sign_walk_roots = 0;    ///< roots the series missed, found by the sign walk (kind 3)
+  std::size_t probes = 0;             ///< φ sampled at extrema of a series close to t0 (for the sign walk)
   std::size_t quiet_fits = 0;         ///< fits dismissed without a root search (Bernstein hull on one side of t0)
   std::size_t fits = 0;               ///< fits computed
 
@@ -70,7 +75,10 @@ struct block_line_roots {
 struct line_root_settings {
   int degree = 10;          ///< M, degree of the Legendre series (paper: 10); 1..legendre_max_degree
   double end_reach = 0.05;  ///< kind-2 candidates: reach beyond a fit's end, in units of its half width
-  bool sign_walk = true;    ///< kind-3 candidates (off: the series alone, as in the paper)
+  bool sign_walk = true;    ///< kind-3 candidates and probes (off: the series alone, as in the paper)
+  /// Probes: φ is sampled at an extremum of a fit's series that comes within probe_margin × (|a_M| + |a_{M−1}|) of
+  /// t0; the sample joins the sign walk, which then brackets a pair of roots the series missed. 0: no probes.
+  double probe_margin = 4;
 };
 
 /// The stateful form: tables for one degree and scratch reused from block to block (no allocation once warm).
@@ -98,23 +106,27 @@ class line_root_finder {
   /// Scratch of one block (sizes grow to the largest block seen). Public so that the kernels in line_roots.cpp
   /// can take it; not part of the interface.
   struct workspace {
-    std::vector<double> node_x;                    ///< x of the quadrature nodes of a line, padded
+    std::vector<double> node_x;                    ///< x of a line's samples (span ends and nodes), padded
     std::vector<double> node_factor, node_dx2;     ///< one atom's x factors and δx² at the nodes
     std::vector<double> x, y, z, inv_r2, cutoff2;  ///< the block's atoms, padded
     std::vector<double> ey, dy2, ez, dz2;          ///< per line y (z) and atom: 1-D factor and squared offset
     std::vector<double> sums;                      ///< φ at the nodes, per line
     std::vector<double> line_x, line_d_inv_r2, line_weight, line_dy2, line_dz2, line_cutoff2;  ///< one line's atoms
-    std::size_t line_count = 0;               ///< atoms in the line arrays
-    std::vector<line_root> accepted;          ///< roots of the current line
-    std::vector<double> candidates;           ///< candidates of the current line, Å
-    std::vector<double> legendre, bernstein;  ///< one fit's coefficients
-    std::vector<walk_gap> gaps;               ///< the current line's sign-walk gaps
+    std::size_t line_count = 0;                           ///< atoms in the line arrays
+    std::vector<line_root> accepted;                      ///< roots of the current line
+    std::vector<double> candidates;                       ///< candidates of the current line, Å
+    std::vector<double> legendre, bernstein;              ///< one fit's coefficients
+    std::vector<double> slope, slope_bernstein, extrema;  ///< its derivative's coefficients and roots
+    std::vector<double> probes;                           ///< x of the current line's probes, Å
+    std::vector<double> walk_x, walk_value;               ///< the current line's samples for the sign walk
+    std::vector<walk_gap> gaps;                           ///< the current line's sign-walk gaps
   };
 
  private:
   line_root_settings settings_;
   legendre_fitter fitter_;
-  std::vector<double> values_to_bernstein_;  ///< (M+1)²: Bernstein coefficients of the fit from the node values
+  std::vector<double> values_to_bernstein_;      ///< (M+1)²: Bernstein coefficients of the fit from the node values
+  std::vector<double> derivative_to_bernstein_;  ///< M²: Legendre → Bernstein at degree M − 1
   workspace scratch_;
 };
 

@@ -20,6 +20,7 @@ struct rule_limits {
   double area_coef;   ///< |cross|² ≥ area_coef · longest⁴  ⇔  area ≥ min_area_ratio · longest²
   double cos2;        ///< min_normal_cosine²: cos > c compared as dot² against c² · |cross|² · |Σn|²
   enum class rule2 { non_negative, negative, off } orientation;  ///< sign of min_normal_cosine; off when ≤ −1
+  bool agreement_objective;  ///< loop_triangulation_settings::maximise_normal_agreement
 
   explicit rule_limits(const loop_triangulation_settings& s)
       : min_edge2(s.min_edge_length * s.min_edge_length),
@@ -27,7 +28,8 @@ struct rule_limits {
         cos2(s.min_normal_cosine * s.min_normal_cosine),
         orientation(s.min_normal_cosine >= 0  ? rule2::non_negative
                     : s.min_normal_cosine > -1 ? rule2::negative
-                                               : rule2::off) {}
+                                               : rule2::off),
+        agreement_objective(s.maximise_normal_agreement) {}
 };
 
 /// q² of triangle a, b, c (in this order) when it satisfies rules 1 (common wall) 2 and 3 (area), else
@@ -51,6 +53,12 @@ inline double evaluate_triangle(const loop_vertex& a, const loop_vertex& b, cons
     } else if (!(agreement >= 0) && !(agreement * agreement < bound2)) {
       return infeasible;
     }
+  }
+  if (limits.agreement_objective) {
+    const vec3 normals = a.normal + b.normal + c.normal;
+    const double cosine = dot(face, normals) / std::sqrt(face2 * squared_norm(normals));
+    const double agreement = 0.5 * (1 + std::clamp(cosine, -1.0, 1.0));
+    return agreement * agreement;  // squared like q²
   }
   const double shortest2 = std::min(ab2, std::min(bc2, ca2));
   const double sum2 = ab2 + bc2 + ca2;

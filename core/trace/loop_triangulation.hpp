@@ -53,6 +53,10 @@ struct loop_triangulation_settings {
   double min_edge_length = 1e-6;
   /// Rule 3: area at least this × (longest edge)².
   double min_area_ratio = 1e-9;
+  /// Objective: false maximises the worst shape q (above); true maximises the worst agreement between each face's
+  /// normal and its corners' field normals, (1 + cos)/2 — the triangulation that lies flattest on the surface, for
+  /// loops whose best-shaped triangulation folds over itself (a fallback of the trace path).
+  bool maximise_normal_agreement = false;
 };
 
 /// What the triangulations did. Every call adds to the counters (so one object can sum a thread's loops; merge

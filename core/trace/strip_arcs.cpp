@@ -148,6 +148,7 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
   step.v_low = low_v(strip, h);
   step.v_high = step.v_low + h;
   step.extreme_tolerance = settings.extreme_tolerance;
+  step.walk_field = settings.walk_field;
 
   for (int side = 0; side < 2; ++side) {
     for (std::size_t i = 0; i < roots[side].size(); ++i) {
@@ -226,8 +227,10 @@ strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, c
       return out;
     }
     // A conflict means some arc jumped to another branch of the contour (near a saddle of φ in the plane): trace
-    // the whole strip again with shorter steps and a tighter turn limit, so that the earlier arcs are redone too.
+    // the whole strip again on the exact field with shorter steps and a tighter turn limit, so that the earlier
+    // arcs are redone too.
     retraced += out.arcs.size() + out.failures;
+    attempt_settings.walk_field = nullptr;  // the approximate field's jumps at its cutoff may be the cause
     attempt_settings.max_step /= retry_step_divisor;
     attempt_settings.cos_bound = std::max(attempt_settings.cos_bound, retry_cos_bound);
   }

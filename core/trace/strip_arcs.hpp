@@ -56,6 +56,7 @@ struct strip_settings {
   double cos_bound = 0.94;     ///< δ
   double extreme_tolerance = 0.02;  ///< ε
   double resample_spacing = 1;  ///< Å: kept interior points are about this far apart along the arc (§7.7)
+  const gaussian_field* walk_field = nullptr;  ///< see trace_step_settings::walk_field
 };
 
 /// Traces every arc of `strip` from the roots of its two lines in `lines`.

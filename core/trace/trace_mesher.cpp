@@ -209,7 +209,8 @@ surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cel
 
 double trace_line_spacing(double density) { return line_spacing_at_unit_density / std::sqrt(density); }
 
-result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const lattice& lat,
+result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussian_field& walk_field,
+                                       const lattice& lat,
                                        const std::vector<lattice_index>& blocks, const trace_parameters& params,
                                        const mesh_limits& limits, progress_token& progress, stage_clock& clock,
                                        trace_stats& stats) {
@@ -232,6 +233,7 @@ result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const lattic
   settings.cos_bound = params.cos_bound;
   settings.extreme_tolerance = params.extreme_tolerance;
   settings.resample_spacing = resample_spacing_factor * h;
+  settings.walk_field = &walk_field;
   if (status s = trace_all_strips(field, settings, surface, progress, stats); !s) return s;
   number_interior_points(surface, stats);
   clock.finish(mesh_stage::tracing);

@@ -25,7 +25,9 @@ double trace_line_spacing(double density);
 /// manifold, outward oriented, with the field normals at the vertices; atom_index left empty. Finishes the stages
 /// roots, tracing and triangulating on `clock` and fills `stats`. Errors: limit_exceeded, nothing_to_mesh,
 /// cancelled, internal_error (a polygon that could not be closed or triangulated even by the counted fallback).
-result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const lattice& lat,
+/// `walk_field`: the same surface's field with a looser cutoff, on which the traces walk between lines.
+result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussian_field& walk_field,
+                                       const lattice& lat,
                                        const std::vector<lattice_index>& blocks, const trace_parameters& params,
                                        const mesh_limits& limits, progress_token& progress, stage_clock& clock,
                                        trace_stats& stats);

@@ -67,7 +67,7 @@ double next_step(double h, double turn, const trace_step_settings& settings) {
 }  // namespace
 
 bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations, double tolerance) {
+                      surface_sample& out, std::size_t& evaluations, double tolerance, double blind_step) {
   const int v = plane.v_axis();
   const vec3 origin = p;
   for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
@@ -92,6 +92,12 @@ bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec
     p.x -= dx;
     p[v] -= dv;
     if (distance(p, origin) > max_move) return false;
+    if (length < blind_step) {  // the update's own error, ~curvature × length², is far below the walk's needs
+      out.position = p;
+      out.gradient = gradient;
+      out.extreme = false;
+      return true;
+    }
   }
   return false;
 }
@@ -139,7 +145,11 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
       predicted.x += h * t.x;
       predicted[v] += h * t.v;
       surface_sample p1;
-      if (!correct_in_plane(field, plane, predicted, h, p1, evaluations, settings.corrector_tolerance)) {
+      const double to_line = std::min(std::abs(predicted[v] - settings.v_low), std::abs(predicted[v] - settings.v_high));
+      const gaussian_field& walk =
+          settings.walk_field != nullptr && to_line > settings.exact_near_line + h ? *settings.walk_field : field;
+      if (!correct_in_plane(walk, plane, predicted, h, p1, evaluations, settings.corrector_tolerance,
+                            settings.blind_step)) {
         h *= 0.5;
         continue;
       }

@@ -56,6 +56,14 @@ struct trace_step_settings {
   /// Å: the corrector stops this close to the contour (step 3). The points the mesh keeps are polished to 1e-11 Å
   /// afterwards (strip_arcs.cpp); a walk point only needs to be close enough for the next prediction.
   double corrector_tolerance = 1e-5;
+  /// Å: a corrector update shorter than this ends the correction without a further evaluation (one evaluation per
+  /// step where the prediction was good; the point is then within ~curvature × blind_step² of the contour).
+  double blind_step = 2e-3;
+  /// A cheaper approximation of the field (a looser cutoff, gaussian_field's `tolerance`) to walk on away from the
+  /// lines; null walks on the exact field. Crossings and kept points are always solved on the exact field, and so
+  /// is every step that comes within exact_near_line of a line, where near-tangencies are decided.
+  const gaussian_field* walk_field = nullptr;
+  double exact_near_line = 0.05;  ///< Å
   std::size_t max_steps = 100000;   ///< bounds the walk (a closed contour that never meets a line)
   /// x of the known roots on each line, ascending: a step that passes over one close to its line is shortened.
   std::span<const double> low_roots, high_roots;
@@ -78,8 +86,11 @@ bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, su
                     std::size_t& evaluations);
 
 /// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0}, to `tolerance` Å
-/// (first-order distance |φ − t0| / |∇φ|). False when it does not converge within `max_move` Å.
+/// (first-order distance |φ − t0| / |∇φ|). A Newton update shorter than `blind_step` Å is applied without
+/// evaluating the field again (the result's gradient is then that of the point before the update). False when it
+/// does not converge within `max_move` Å.
 bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations, double tolerance = 1e-11);
+                      surface_sample& out, std::size_t& evaluations, double tolerance = 1e-11,
+                      double blind_step = 0);
 
 }  // namespace tracemesh
