@@ -12,12 +12,33 @@ namespace {
 
 /// Pieces narrower than this (in u = (s + 1)/2) that still show several sign changes are not split further.
 constexpr int max_subdivision_depth = 40;
-/// Polishing of an isolated root stops when a Newton step or the bracket is this small (in s).
-constexpr double root_step_tolerance = 1e-15;
+/// Polishing of an isolated root stops when a Newton step is below the caller's tolerance, or the bracket below
+/// root_bracket_tolerance (in s), or once the steps are below noise_step and stop shrinking (rounding noise in the
+/// series' value).
+constexpr double noise_step = 1e-10;
 constexpr double root_bracket_tolerance = 4e-16;
 constexpr int max_polish_iterations = 100;
 
 using bernstein_array = std::array<double, legendre_max_degree + 1>;
+
+/// The constants of Clenshaw's recurrence for Legendre series, (2k+1)/(k+1) and (k+1)/(k+2), as tables for the
+/// degrees supported (no divisions in the recurrence).
+constexpr std::array<double, legendre_max_degree + 1> make_clenshaw_table(bool alpha) {
+  std::array<double, legendre_max_degree + 1> table{};
+  for (int k = 0; k <= legendre_max_degree; ++k) {
+    table[static_cast<std::size_t>(k)] = alpha ? (2 * k + 1) / (k + 1.0) : (k + 1.0) / (k + 2);
+  }
+  return table;
+}
+constexpr std::array<double, legendre_max_degree + 1> clenshaw_alpha = make_clenshaw_table(true);
+constexpr std::array<double, legendre_max_degree + 1> clenshaw_beta = make_clenshaw_table(false);
+
+double alpha_of(int k) {
+  return k <= legendre_max_degree ? clenshaw_alpha[static_cast<std::size_t>(k)] : (2 * k + 1) / (k + 1.0);
+}
+double beta_of(int k) {
+  return k <= legendre_max_degree ? clenshaw_beta[static_cast<std::size_t>(k)] : (k + 1.0) / (k + 2);
+}
 
 /// Pₙ(s) and Pₙ₋₁(s) by the recurrence (n + 1)Pₙ₊₁ = (2n + 1)sPₙ − nPₙ₋₁ (n ≥ 1).
 void legendre_pair(int n, double s, double& p_n, double& p_previous) {
@@ -71,17 +92,22 @@ void split_half(const double* b, int count, double* left, double* right) {
 
 /// The root of the series in [lo, hi] (s), where its values at the ends, value_lo and value_hi, have opposite signs
 /// (0 counts as positive): safeguarded Newton from the regula falsi point of the end values.
-double polish_root(std::span<const double> a, double lo, double hi, double value_lo, double value_hi) {
+double polish_root(std::span<const double> a, double lo, double hi, double value_lo, double value_hi,
+                   double tolerance) {
   const bool lo_positive = value_lo >= 0;
   double s = value_lo != value_hi ? lo + (hi - lo) * (value_lo / (value_lo - value_hi)) : 0.5 * (lo + hi);
   if (!(s > lo && s < hi)) s = 0.5 * (lo + hi);
+  double previous_step = std::numeric_limits<double>::infinity();
   for (int iteration = 0; iteration < max_polish_iterations; ++iteration) {
     double slope = 0;
     const double value = legendre_value(a, s, slope);
     if (value == 0) return s;
     ((value >= 0) == lo_positive ? lo : hi) = s;
     const double step = slope != 0 ? value / slope : std::numeric_limits<double>::infinity();
-    if (std::abs(step) <= root_step_tolerance) return std::clamp(s - step, lo, hi);
+    if (std::abs(step) <= tolerance || (std::abs(step) <= noise_step && std::abs(step) > 0.5 * previous_step)) {
+      return std::clamp(s - step, lo, hi);
+    }
+    previous_step = std::abs(step);
     double next = s - step;
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
     if (hi - lo <= root_bracket_tolerance) return next;
@@ -92,7 +118,7 @@ double polish_root(std::span<const double> a, double lo, double hi, double value
 
 /// Roots in the piece [u_lo, u_lo + width] whose Bernstein coefficients are b (count of them), ascending.
 void isolate(std::span<const double> a, const double* b, int count, double u_lo, double width, int depth, double scale,
-             std::vector<double>& roots) {
+             double tolerance, std::vector<double>& roots) {
   const int changes = sign_variations(b, count);
   if (changes == 0) return;
   const double s_lo = 2 * u_lo - 1, s_hi = 2 * (u_lo + width) - 1;
@@ -101,7 +127,7 @@ void isolate(std::span<const double> a, const double* b, int count, double u_lo,
     // better conditioned than the Bernstein form); should rounding make them agree, the piece is split further.
     const double value_lo = legendre_value(a, s_lo), value_hi = legendre_value(a, s_hi);
     if ((value_lo >= 0) != (value_hi >= 0)) {
-      roots.push_back(polish_root(a, s_lo, s_hi, value_lo, value_hi));
+      roots.push_back(polish_root(a, s_lo, s_hi, value_lo, value_hi, tolerance));
       return;
     }
   }
@@ -113,8 +139,8 @@ void isolate(std::span<const double> a, const double* b, int count, double u_lo,
   }
   bernstein_array left, right;
   split_half(b, count, left.data(), right.data());
-  isolate(a, left.data(), count, u_lo, 0.5 * width, depth + 1, scale, roots);
-  isolate(a, right.data(), count, u_lo + 0.5 * width, 0.5 * width, depth + 1, scale, roots);
+  isolate(a, left.data(), count, u_lo, 0.5 * width, depth + 1, scale, tolerance, roots);
+  isolate(a, right.data(), count, u_lo + 0.5 * width, 0.5 * width, depth + 1, scale, tolerance, roots);
 }
 
 void check_degree(std::size_t coefficient_count) {
@@ -182,8 +208,7 @@ double legendre_value(std::span<const double> coefficients, double s) {
   // b_k = a_k + α_k b_{k+1} + β_{k+1} b_{k+2}, α_k = (2k+1)s/(k+1), β_k = −k/(k+1); the series is b₀.
   double b1 = 0, b2 = 0;
   for (int k = static_cast<int>(coefficients.size()) - 1; k >= 0; --k) {
-    const double b0 =
-        coefficients[static_cast<std::size_t>(k)] + (2 * k + 1) * s / (k + 1) * b1 - (k + 1.0) / (k + 2) * b2;
+    const double b0 = coefficients[static_cast<std::size_t>(k)] + alpha_of(k) * s * b1 - beta_of(k) * b2;
     b2 = b1;
     b1 = b0;
   }
@@ -194,7 +219,7 @@ double legendre_value(std::span<const double> coefficients, double s, double& de
   // Clenshaw's recurrence and its derivative in s: b'_k = α_k b'_{k+1} + α'_k b_{k+1} + β_{k+1} b'_{k+2}.
   double b1 = 0, b2 = 0, d1 = 0, d2 = 0;
   for (int k = static_cast<int>(coefficients.size()) - 1; k >= 0; --k) {
-    const double alpha_slope = (2 * k + 1) / (k + 1.0), beta = (k + 1.0) / (k + 2);
+    const double alpha_slope = alpha_of(k), beta = beta_of(k);
     const double b0 = coefficients[static_cast<std::size_t>(k)] + alpha_slope * s * b1 - beta * b2;
     const double d0 = alpha_slope * s * d1 + alpha_slope * b1 - beta * d2;
     b2 = b1;
@@ -228,22 +253,22 @@ void legendre_to_bernstein(std::span<const double> coefficients, std::span<doubl
   }
 }
 
-void legendre_roots(std::span<const double> coefficients, std::vector<double>& roots) {
+void legendre_roots(std::span<const double> coefficients, std::vector<double>& roots, double tolerance) {
   check_degree(coefficients.size());
   bernstein_array b{};
   legendre_to_bernstein(coefficients, std::span<double>(b.data(), coefficients.size()));
-  legendre_roots(coefficients, std::span<const double>(b.data(), coefficients.size()), roots);
+  legendre_roots(coefficients, std::span<const double>(b.data(), coefficients.size()), roots, tolerance);
 }
 
-void legendre_roots(std::span<const double> coefficients, std::span<const double> bernstein,
-                    std::vector<double>& roots) {
+void legendre_roots(std::span<const double> coefficients, std::span<const double> bernstein, std::vector<double>& roots,
+                    double tolerance) {
   check_degree(coefficients.size());
   if (bernstein.empty()) return;
   double scale = 0;
   for (const double b : bernstein) scale = std::max(scale, std::abs(b));
   if (scale == 0) return;  // identically zero
   const std::size_t first = roots.size();
-  isolate(coefficients, bernstein.data(), static_cast<int>(bernstein.size()), 0.0, 1.0, 0, scale, roots);
+  isolate(coefficients, bernstein.data(), static_cast<int>(bernstein.size()), 0.0, 1.0, 0, scale, tolerance, roots);
   // A root exactly on a split point can be reported by both pieces.
   const auto unique_end = std::unique(roots.begin() + static_cast<std::ptrdiff_t>(first), roots.end(),
                                       [](double x, double y) { return std::abs(x - y) <= 4 * root_bracket_tolerance; });

@@ -62,20 +62,22 @@ void legendre_derivative(std::span<const double> coefficients, std::span<double>
 void legendre_to_bernstein(std::span<const double> coefficients, std::span<double> bernstein);
 
 /// Appends to `roots` the real roots s ∈ [−1, 1] of Σₙ aₙPₙ(s) (subtract a level from a₀ to solve Σ aₙPₙ = level),
-/// ascending, each to within a few ulp (|step| ≤ 1e-15 or a bracket of 4e-16). Roots of odd multiplicity are
-/// found; see the file comment for even ones. An identically zero series has none. Degree ≤ legendre_max_degree.
-void legendre_roots(std::span<const double> coefficients, std::vector<double>& roots);
+/// ascending, each polished until a Newton step is at most `tolerance` (in s; or stops shrinking below 1e-10, the
+/// rounding noise of the series). Roots of odd multiplicity are found; see the file comment for even ones. An
+/// identically zero series has none. Degree ≤ legendre_max_degree (std::invalid_argument otherwise).
+void legendre_roots(std::span<const double> coefficients, std::vector<double>& roots, double tolerance = 1e-14);
 
 /// The same, with the Bernstein coefficients already computed (legendre_to_bernstein of `coefficients`).
-void legendre_roots(std::span<const double> coefficients, std::span<const double> bernstein,
-                    std::vector<double>& roots);
+void legendre_roots(std::span<const double> coefficients, std::span<const double> bernstein, std::vector<double>& roots,
+                    double tolerance = 1e-14);
 
 /// A degree-M fit with its tables computed once: the (M+1)-point Gauss rule, the matrix of eq. 6 (values at the
 /// nodes → Legendre coefficients) and the matrix Legendre → Bernstein. Immutable after construction: one object may
 /// be shared by threads.
 class legendre_fitter {
  public:
-  /// 1 ≤ degree ≤ legendre_max_degree.
+  /// 1 ≤ degree ≤ legendre_max_degree; std::invalid_argument otherwise (a programmer error: mesh_params are
+  /// validated against parameter_ranges first).
   explicit legendre_fitter(int degree);
 
   int degree() const { return degree_; }

@@ -15,6 +15,9 @@ constexpr double duplicate_distance = 1e-9;
 constexpr int max_newton_iterations = 16;
 /// Bracketed polishing (sign walk) gives up after this many steps (bisection alone needs ~40 on a fit).
 constexpr int max_bracket_iterations = 100;
+/// Roots and extrema of a fit's series are polished to this (in s): they only start polishing on φ itself, from
+/// which the series differs by its fit error (≳ 1e-8 of the span).
+constexpr double series_root_tolerance = 1e-9;
 /// Lines per block edge.
 constexpr int block_lines = lattice::block_cells;
 
@@ -44,8 +47,9 @@ double log_step(const line_sample& s, double t0) {
 /// The lines' y (or z) coordinates, as lat.point() computes them, padded to a whole vector.
 std::array<double, simd::max_lanes> line_coordinates(std::int64_t block_index, double h) {
   std::array<double, simd::max_lanes> c{};
-  for (int n = 0; n < block_lines; ++n)
+  for (int n = 0; n < block_lines; ++n) {
     c[static_cast<std::size_t>(n)] = static_cast<double>(block_index * block_lines + n) * h;
+  }
   return c;
 }
 
@@ -288,16 +292,18 @@ void find_walk_gaps(std::span<const double> node_x, std::span<const double> node
     const bool take_root = r < roots.size() && (n == node_x.size() || roots[r].x <= node_x[n]);
     if (take_root) {
       const bool before = roots[r].phi_x < 0;  // φ increases through the root: outside before it
-      if (known && inside != before)
+      if (known && inside != before) {
         gaps.push_back(line_root_finder::walk_gap{position, roots[r].x, inside, at_root, true});
+      }
       inside = roots[r].phi_x >= 0;
       position = roots[r].x;
       at_root = true;
       ++r;
     } else {
       const bool here = node_value[n] >= t0;
-      if (known && inside != here)
+      if (known && inside != here) {
         gaps.push_back(line_root_finder::walk_gap{position, node_x[n], inside, at_root, false});
+      }
       inside = here;
       position = node_x[n];
       at_root = false;
@@ -322,18 +328,20 @@ line_root_stats& line_root_stats::operator+=(const line_root_stats& other) {
 }
 
 line_root_finder::line_root_finder(const line_root_settings& settings) : settings_(settings), fitter_(settings.degree) {
-  // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix.
-  const int count = fitter_.points();
-  values_to_bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
+  // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix, stored by column
+  // (node), with two more rows: a_M and a_{M−1}, for the fit's error estimate.
+  const int count = fitter_.points(), rows = count + 2;
+  values_to_bernstein_.assign(static_cast<std::size_t>(count * rows), 0.0);
   std::vector<double> unit(static_cast<std::size_t>(count)), a(unit.size()), b(unit.size());
   for (int m = 0; m < count; ++m) {
     std::fill(unit.begin(), unit.end(), 0.0);
     unit[static_cast<std::size_t>(m)] = 1;
     fitter_.coefficients(unit, a);
     fitter_.bernstein(a, b);
-    for (int j = 0; j < count; ++j) {
-      values_to_bernstein_[static_cast<std::size_t>(j * count + m)] = b[static_cast<std::size_t>(j)];
-    }
+    double* column = values_to_bernstein_.data() + static_cast<std::size_t>(m * rows);
+    for (int j = 0; j < count; ++j) column[j] = b[static_cast<std::size_t>(j)];
+    column[count] = a[static_cast<std::size_t>(count - 1)];
+    column[count + 1] = count >= 3 ? a[static_cast<std::size_t>(count - 2)] : 0.0;
   }
   // Legendre → Bernstein at degree M − 1, for the derivative series (its extrema are probed).
   const int slope_count = count - 1;
@@ -373,15 +381,22 @@ block_geometry make_geometry(const lattice& lat, const lattice_index& block) {
   return g;
 }
 
+/// Makes `column` hold at least `size` entries.
+void grow_to(std::vector<double>& column, std::size_t size) {
+  if (column.size() < size) column.resize(size);
+}
+
 /// Sizes the workspace for `count` atoms and `node_stride` nodes per line and copies the atoms into it.
 void prepare_workspace(const gaussian_field& field, std::span<const std::uint32_t> atoms, std::size_t node_stride,
                        line_root_finder::workspace& ws) {
   const std::size_t count = atoms.size(), stride = padded_size(count);
-  // Columns are resized, not cleared: every entry read is written first, except the padding of the atom columns,
-  // which vector loads read and which is set here (cutoff2 = 0: never contributes).
+  // Columns only grow (a vector that grows back value-initialises, i.e. clears, what it regains), and are not
+  // cleared: every entry read is written first, except the padding of the atom columns, which vector loads read and
+  // which is set here (cutoff2 = 0: never contributes).
   for (auto* column : {&ws.x, &ws.y, &ws.z, &ws.inv_r2, &ws.cutoff2}) {
-    column->resize(stride);
-    std::fill(column->begin() + static_cast<std::ptrdiff_t>(count), column->end(), 0.0);
+    grow_to(*column, stride);
+    std::fill(column->begin() + static_cast<std::ptrdiff_t>(count),
+              column->begin() + static_cast<std::ptrdiff_t>(stride), 0.0);
   }
   const gaussian_field::atom_arrays all = field.atoms();
   for (std::size_t n = 0; n < count; ++n) {
@@ -392,11 +407,11 @@ void prepare_workspace(const gaussian_field& field, std::span<const std::uint32_
     ws.inv_r2[n] = all.inv_r2[k];
     ws.cutoff2[n] = all.cutoff2[k];
   }
-  for (auto* column : {&ws.ey, &ws.dy2, &ws.ez, &ws.dz2}) column->resize(stride * block_lines);
-  ws.node_factor.resize(node_stride);
-  ws.node_dx2.resize(node_stride);
+  for (auto* column : {&ws.ey, &ws.dy2, &ws.ez, &ws.dz2}) grow_to(*column, stride * block_lines);
+  grow_to(ws.node_factor, node_stride);
+  grow_to(ws.node_dx2, node_stride);
   for (auto* column : {&ws.line_x, &ws.line_d_inv_r2, &ws.line_weight, &ws.line_dy2, &ws.line_dz2, &ws.line_cutoff2}) {
-    column->resize(stride);
+    grow_to(*column, stride);
   }
   ws.sums.assign(static_cast<std::size_t>(lines_per_block) * node_stride, 0.0);
 }
@@ -424,11 +439,15 @@ struct fit_scratch {
   std::vector<double>& extrema;  ///< roots of the derivative, s
 };
 
-/// Estimated error of a degree-M fit: |a_M| + |a_{M−1}| (for the smooth fields here the coefficients decay fast,
-/// so the neglected tail is below the last two).
-double fit_error_estimate(const legendre_fitter& fitter, std::span<const double> f) {
-  const int m = fitter.degree();
-  return std::abs(fitter.coefficient(f, m)) + (m >= 2 ? std::abs(fitter.coefficient(f, m - 1)) : 0.0);
+/// out[r] = Σₘ matrix[m·rows + r]·f[m], r < rows, m < columns (a column-major matrix–vector product; the inner
+/// loop runs over contiguous entries, which the compiler vectorises).
+void multiply_columns(const double* matrix, int rows, int columns, const double* f, double* out) {
+  std::fill(out, out + rows, 0.0);
+  for (int m = 0; m < columns; ++m) {
+    const double* column = matrix + static_cast<std::ptrdiff_t>(m) * rows;
+    const double value = f[m];
+    for (int r = 0; r < rows; ++r) out[r] += column[r] * value;
+  }
 }
 
 /// Candidates (Å, appended to `candidates`) of one fit from its node values `f` (M + 1 of them): the series' roots
@@ -442,20 +461,20 @@ void fit_candidates(const fit_context& c, int fit, const double* f, fit_scratch&
   const std::span<const double> values(f, static_cast<std::size_t>(points));
   const double mid = c.geometry.fit_mid[static_cast<std::size_t>(fit)];
   const double half = c.geometry.fit_half[static_cast<std::size_t>(fit)];
-  std::vector<double>& b = scratch.b;
+  std::vector<double>& b = scratch.b;  // M + 3 entries: the Bernstein coefficients, then a_M and a_{M−1}
   ++stats.fits;
+  multiply_columns(c.values_to_bernstein.data(), points + 2, points, f, b.data());
   int changes = 0;
   double nearest = std::numeric_limits<double>::infinity();
   for (int j = 0; j < points; ++j) {
-    const double* row = c.values_to_bernstein.data() + static_cast<std::size_t>(j * points);
-    double sum = 0;
-    for (int m = 0; m < points; ++m) sum += row[m] * f[m];
-    b[static_cast<std::size_t>(j)] = sum - c.t0;  // the Bernstein coefficients of t0 are all t0
+    b[static_cast<std::size_t>(j)] -= c.t0;  // the Bernstein coefficients of t0 are all t0
     nearest = std::min(nearest, std::abs(b[static_cast<std::size_t>(j)]));
     if (j > 0) changes += (b[static_cast<std::size_t>(j)] >= 0) != (b[static_cast<std::size_t>(j - 1)] >= 0);
   }
-  const double margin =
-      c.settings.probe_margin > 0 ? c.settings.probe_margin * fit_error_estimate(c.fitter, values) : 0;
+  // The fit's error, estimated as |a_M| + |a_{M−1}| (the coefficients of these smooth fields decay fast).
+  const double error =
+      std::abs(b[static_cast<std::size_t>(points)]) + std::abs(b[static_cast<std::size_t>(points + 1)]);
+  const double margin = c.settings.probe_margin * error;
   if (changes == 0 && nearest > margin) {
     ++stats.quiet_fits;
   } else {
@@ -464,7 +483,8 @@ void fit_candidates(const fit_context& c, int fit, const double* f, fit_scratch&
     a[0] -= c.t0;
     if (changes > 0) {
       const std::size_t before = candidates.size();
-      legendre_roots(a, b, candidates);
+      legendre_roots(a, std::span<const double>(b.data(), static_cast<std::size_t>(points)), candidates,
+                     series_root_tolerance);
       for (std::size_t n = before; n < candidates.size(); ++n) candidates[n] = mid + half * candidates[n];
     }
     if (margin > 0 && points > 2) {
@@ -479,7 +499,8 @@ void fit_candidates(const fit_context& c, int fit, const double* f, fit_scratch&
       }
       scratch.extrema.clear();
       legendre_roots(std::span<const double>(scratch.slope.data(), slope_count),
-                     std::span<const double>(scratch.slope_b.data(), slope_count), scratch.extrema);
+                     std::span<const double>(scratch.slope_b.data(), slope_count), scratch.extrema,
+                     series_root_tolerance);
       for (const double s : scratch.extrema) {
         if (std::abs(legendre_value(a, s)) <= margin) probes.push_back(mid + half * s);
       }
@@ -588,7 +609,7 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
     }
   }
   ws.legendre.resize(static_cast<std::size_t>(points));
-  ws.bernstein.resize(static_cast<std::size_t>(points));
+  ws.bernstein.resize(static_cast<std::size_t>(points + 2));
   const auto line_y = line_coordinates(block.j, h), line_z = line_coordinates(block.k, h);
   const std::size_t count = atoms.size(), stride = padded_size(count);
   const fit_context context{fitter_, values_to_bernstein_, derivative_to_bernstein_, geometry, t0, settings_};

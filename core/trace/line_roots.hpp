@@ -85,6 +85,7 @@ struct line_root_settings {
 /// Not thread-safe: use one finder per thread. Results never depend on what the finder computed before.
 class line_root_finder {
  public:
+  /// std::invalid_argument when settings.degree is outside 1..legendre_max_degree.
   explicit line_root_finder(const line_root_settings& settings = {});
 
   const line_root_settings& settings() const { return settings_; }

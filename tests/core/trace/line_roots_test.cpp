@@ -1,0 +1,426 @@
+#include "core/trace/line_roots.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <tuple>
+
+#include "core/field/band_culling.hpp"
+#include "core/io/pqr_reader.hpp"
+#include "support/test_paths.hpp"
+
+namespace tracemesh {
+namespace {
+
+using testing::molecule_path;
+
+block_line_roots roots_of_block(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                                line_root_stats& stats, int degree = 10) {
+  std::vector<std::uint32_t> atoms;
+  field.atoms_near_box(lat.block_box(block), atoms);
+  block_line_roots out;
+  find_block_line_roots(field, lat, block, atoms, degree, out, stats);
+  return out;
+}
+
+/// y and z of line (j, k) of a block, as the lattice computes them.
+vec3 line_point(const lattice& lat, const lattice_index& block, int j, int k, double x) {
+  vec3 p = lat.point({0, block.j * lattice::block_cells + j, block.k * lattice::block_cells + k});
+  p.x = x;
+  return p;
+}
+
+std::span<const line_root> line_of(const block_line_roots& r, int line) {
+  return std::span<const line_root>(r.roots).subspan(
+      r.first[static_cast<std::size_t>(line)],
+      r.first[static_cast<std::size_t>(line + 1)] - r.first[static_cast<std::size_t>(line)]);
+}
+
+/// For isolated spheres: the closed-form roots c_x ± √(R² − ρ²) of every line of the blocks in [lo, hi]³ must be
+/// found (each exactly once, by the block whose half-open span holds it), and nothing else.
+void expect_sphere_roots(const molecule& mol, double d, double t0, double h, std::int64_t lo, std::int64_t hi) {
+  const gaussian_field field(mol, d, t0);
+  const lattice lat(h, {-64, -64, -64});
+  line_root_stats stats;
+  std::size_t expected_total = 0;
+  for (std::int64_t bi = lo; bi <= hi; ++bi) {
+    for (std::int64_t bj = lo; bj <= hi; ++bj) {
+      for (std::int64_t bk = lo; bk <= hi; ++bk) {
+        const lattice_index block{bi, bj, bk};
+        const block_line_roots found = roots_of_block(field, lat, block, stats);
+        const box3 box = lat.block_box(block);
+        for (int k = 0; k < lattice::block_cells; ++k) {
+          for (int j = 0; j < lattice::block_cells; ++j) {
+            const vec3 p = line_point(lat, block, j, k, 0);
+            std::vector<line_root> expected;
+            for (const atom& a : mol.atoms) {
+              const double big_r2 = a.radius * a.radius * (1 + std::log(t0) / d);
+              const double rho2 = (p.y - a.center.y) * (p.y - a.center.y) + (p.z - a.center.z) * (p.z - a.center.z);
+              if (rho2 >= big_r2) continue;
+              const double half = std::sqrt(big_r2 - rho2);
+              for (const double x : {a.center.x - half, a.center.x + half}) {
+                if (x >= box.lo.x && x < box.hi.x) expected.push_back({x, x < a.center.x ? 1.0 : -1.0});
+              }
+            }
+            std::sort(expected.begin(), expected.end(), [](auto& u, auto& v) { return u.x < v.x; });
+            expected_total += expected.size();
+            const auto roots = line_of(found, j + lattice::block_cells * k);
+            ASSERT_EQ(roots.size(), expected.size())
+                << "block " << bi << ' ' << bj << ' ' << bk << " line " << j << ' ' << k;
+            for (std::size_t n = 0; n < roots.size(); ++n) {
+              EXPECT_NEAR(roots[n].x, expected[n].x, 1e-9);
+              EXPECT_EQ(roots[n].phi_x > 0, expected[n].phi_x > 0);
+            }
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(expected_total, 20u);
+  EXPECT_EQ(stats.lines, static_cast<std::size_t>((hi - lo + 1) * (hi - lo + 1) * (hi - lo + 1)) * 64);
+}
+
+// One atom: the line at distance ρ from the centre crosses the sphere of radius R = r·√(1 + ln(t0)/d) at
+// c_x ± √(R² − ρ²).
+TEST(line_roots, single_atom_closed_form) {
+  molecule mol;
+  mol.atoms.push_back({{0.37, 0.52, -0.41}, 1.7, 0});
+  expect_sphere_roots(mol, -1, 0.5, 0.7, -1, 0);
+  expect_sphere_roots(mol, -2.3, 1, 1.0, -1, 0);
+  expect_sphere_roots(mol, -1, 1, 0.55, -1, 0);
+}
+
+// Two atoms far enough apart that no point within one's cutoff is near the other's sphere: two closed-form spheres.
+TEST(line_roots, two_separate_atoms_closed_form) {
+  molecule mol;
+  mol.atoms.push_back({{-3.1, 0.2, 0.3}, 1.5, 0});
+  mol.atoms.push_back({{20.3, 0.8, -0.6}, 1.9, 0});
+  const gaussian_field field(mol, -1, 1);
+  ASSERT_LT(std::sqrt(field.atom_at(0).cutoff2) + std::sqrt(field.atom_at(1).cutoff2) + 1.9, 23.4);
+  expect_sphere_roots(mol, -1, 1, 0.7, -1, 4);
+}
+
+/// Roots of φ = t0 on [x_lo, x_hi] by a dense sign scan with gaussian_field::value: the intervals
+/// [x_m, x_{m+1}] (step = (x_hi − x_lo)/samples) where the sign changes.
+std::vector<std::pair<double, double>> scan_line(const gaussian_field& field, vec3 p, double x_lo, double x_hi,
+                                                 int samples) {
+  std::vector<std::pair<double, double>> changes;
+  p.x = x_lo;
+  double previous_x = x_lo;
+  bool previous_inside = field.value(p) >= field.t0();
+  for (int m = 1; m <= samples; ++m) {
+    p.x = x_lo + (x_hi - x_lo) * m / samples;
+    const bool inside = field.value(p) >= field.t0();
+    if (inside != previous_inside) changes.emplace_back(previous_x, p.x);
+    previous_x = p.x;
+    previous_inside = inside;
+  }
+  return changes;
+}
+
+struct line_check {
+  std::size_t roots = 0, scanned = 0, missed = 0;
+  double worst_residual = 0;  ///< max |φ − t0|/t0 at the roots
+};
+
+/// Checks every root of a block against gaussian_field (residual, order, span, uniqueness, sign of φ_x) and,
+/// with scan_samples > 0, counts the dense-scan sign changes with no root in them.
+void check_block(const gaussian_field& field, const lattice& lat, const lattice_index& block,
+                 const block_line_roots& found, int scan_samples, line_check& check) {
+  const box3 box = lat.block_box(block);
+  const double t0 = field.t0();
+  ASSERT_EQ(found.first[0], 0u);
+  ASSERT_EQ(found.first[64], found.roots.size());
+  for (int line = 0; line < 64; ++line) {
+    const auto roots = line_of(found, line);
+    const int j = line % 8, k = line / 8;
+    for (std::size_t n = 0; n < roots.size(); ++n) {
+      const vec3 p = line_point(lat, block, j, k, roots[n].x);
+      const double value = field.value(p);
+      check.worst_residual = std::max(check.worst_residual, std::abs(value - t0) / t0);
+      EXPECT_LE(std::abs(value - t0), 1e-9 * t0) << "x = " << roots[n].x;
+      EXPECT_GE(roots[n].x, box.lo.x);
+      EXPECT_LT(roots[n].x, box.hi.x);
+      vec3 gradient;
+      field.value_and_gradient(p, gradient);
+      EXPECT_NEAR(roots[n].phi_x, gradient.x, 1e-9 * (1 + std::abs(gradient.x)));
+      if (n > 0) {
+        EXPECT_LT(roots[n - 1].x, roots[n].x);
+        EXPECT_TRUE(roots[n].x - roots[n - 1].x > 1e-9 || (roots[n].phi_x >= 0) != (roots[n - 1].phi_x >= 0));
+      }
+    }
+    check.roots += roots.size();
+    if (scan_samples == 0) continue;
+    const vec3 p = line_point(lat, block, j, k, 0);
+    for (const auto& [lo, hi] : scan_line(field, p, box.lo.x, box.hi.x, scan_samples)) {
+      ++check.scanned;
+      const bool has_root = std::any_of(roots.begin(), roots.end(),
+                                        [&](const line_root& r) { return r.x >= lo - 1e-9 && r.x <= hi + 1e-9; });
+      if (!has_root) ++check.missed;
+    }
+  }
+}
+
+// Two overlapping atoms (no closed form): every root is a root of gaussian_field's φ and every sign change of a
+// dense scan holds one.
+TEST(line_roots, two_overlapping_atoms_match_a_dense_scan) {
+  molecule mol;
+  mol.atoms.push_back({{0.05, 0.1, -0.2}, 1.5, 0});
+  mol.atoms.push_back({{2.2, 0.3, 0.1}, 1.2, 0});
+  const gaussian_field field(mol, -1, 1);
+  const lattice lat(0.6, {-64, -64, -64});
+  line_check check;
+  line_root_stats stats;
+  for (std::int64_t bi = -1; bi <= 0; ++bi) {
+    for (std::int64_t bj = -1; bj <= 0; ++bj) {
+      for (std::int64_t bk = -1; bk <= 0; ++bk) {
+        const lattice_index block{bi, bj, bk};
+        check_block(field, lat, block, roots_of_block(field, lat, block, stats), 2000, check);
+      }
+    }
+  }
+  EXPECT_GT(check.scanned, 30u);
+  EXPECT_EQ(check.missed, 0u);
+  EXPECT_EQ(check.roots, check.scanned);
+}
+
+// A root on a block's upper end belongs to the next block; one just below it to this block: each appears once.
+TEST(line_roots, roots_next_to_a_block_end_are_found_once) {
+  const double h = 0.7, radius = 1.6;
+  const lattice lat(h, {-64, -64, -64});
+  const double end = static_cast<double>(8) * h;  // upper end of block i = 0 (lower end of i = 1)
+  for (const double offset : {-1e-3, -1e-7, 0.0, 1e-7, 1e-3}) {
+    molecule mol;
+    mol.atoms.push_back({{end - radius + offset, 0, 0}, radius, 0});  // on the line j = k = 0 of block (0, 0, 0)
+    const gaussian_field field(mol, -1, 1);
+    line_root_stats stats;
+    std::vector<double> xs;
+    for (std::int64_t bi = -1; bi <= 1; ++bi) {
+      const block_line_roots r = roots_of_block(field, lat, {bi, 0, 0}, stats);
+      for (const line_root& root : line_of(r, 0)) xs.push_back(root.x);
+    }
+    ASSERT_EQ(xs.size(), 2u) << "offset " << offset;
+    EXPECT_NEAR(xs[0], end - 2 * radius + offset, 1e-9);
+    EXPECT_NEAR(xs[1], end + offset, 1e-9);
+  }
+}
+
+result<molecule> read_molecule(const std::string& name) {
+  mesh_limits limits;
+  return read_pqr_file(molecule_path(name), limits);
+}
+
+// Real lines through fas2: every root is on the surface to 1e-9·t0, sorted, inside its span, unique, and the
+// dense scan finds no sign change without a root (counted).
+TEST(line_roots, fas2_roots_are_on_the_surface_and_complete) {
+  const result<molecule> mol = read_molecule("fas2.pqr");
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  const gaussian_field field(*mol, -1, 1);
+  for (const double h : {1.0, 0.7}) {
+    const result<lattice> lat = make_lattice(field, h, mesh_limits{});
+    ASSERT_TRUE(lat.ok());
+    progress_token progress;
+    const result<std::vector<lattice_index>> blocks = cull_blocks(field, *lat, progress);
+    ASSERT_TRUE(blocks.ok());
+    line_check check;
+    line_root_stats stats;
+    line_root_finder finder;
+    std::vector<std::uint32_t> atoms;
+    block_line_roots found;
+    for (std::size_t n = 0; n < blocks->size(); ++n) {
+      field.atoms_near_box(lat->block_box((*blocks)[n]), atoms);
+      finder.find(field, *lat, (*blocks)[n], atoms, found, stats);
+      check_block(field, *lat, (*blocks)[n], found, n % 3 == 0 ? 400 : 0, check);
+    }
+    std::printf(
+        "[ fas2 h=%.2f ] blocks %zu, roots %zu (series %zu, sign walk %zu, rejected %zu, probes %zu), dense-scan "
+        "sign changes %zu, missed %zu, worst |phi - t0|/t0 %.2e, evaluations/line %.1f\n",
+        h, blocks->size(), check.roots, stats.polynomial_roots, stats.sign_walk_roots, stats.rejected_roots,
+        stats.probes, check.scanned, check.missed, check.worst_residual,
+        static_cast<double>(stats.field_evaluations) / static_cast<double>(stats.lines));
+    EXPECT_EQ(check.missed, 0u);
+    EXPECT_GT(check.roots, 1000u);
+    EXPECT_EQ(stats.polynomial_roots + stats.sign_walk_roots, check.roots);
+  }
+}
+
+// Every degree mesh_params accepts (2..30) gives valid roots, complete from degree 6 on. Below, three or four nodes
+// per 4-cell fit miss pairs of roots between two nodes (φ dips across t0 and back) that neither the series nor the
+// sign walk can see: 1-2% of them on fas2, left to the trace.
+TEST(line_roots, every_allowed_degree_gives_valid_complete_roots) {
+  const result<molecule> mol = read_molecule("fas2.pqr");
+  ASSERT_TRUE(mol.ok());
+  const gaussian_field field(*mol, -1, 1);
+  const result<lattice> lat = make_lattice(field, 1.0, mesh_limits{});
+  ASSERT_TRUE(lat.ok());
+  progress_token progress;
+  const result<std::vector<lattice_index>> blocks = cull_blocks(field, *lat, progress);
+  ASSERT_TRUE(blocks.ok());
+  for (const int degree : {2, 3, 6, 16, legendre_max_degree}) {
+    line_check check;
+    line_root_stats stats;
+    for (std::size_t n = 0; n < blocks->size(); n += 2) {
+      check_block(field, *lat, (*blocks)[n], roots_of_block(field, *lat, (*blocks)[n], stats, degree), 200, check);
+    }
+    std::printf(
+        "[ fas2 degree %d ] roots %zu (series %zu, sign walk %zu, rejected %zu), scan sign changes %zu, "
+        "missed %zu\n",
+        degree, check.roots, stats.polynomial_roots, stats.sign_walk_roots, stats.rejected_roots, check.scanned,
+        check.missed);
+    if (degree >= 6) {
+      EXPECT_EQ(check.missed, 0u) << "degree " << degree;
+    } else {
+      EXPECT_LE(check.missed, check.scanned / 20) << "degree " << degree;
+    }
+  }
+}
+
+// The sign walk recovers roots the series misses: at degree 3 (four nodes per fit) the series alone misses some
+// roots that a sign change between two nodes reveals; with the walk every one of those is found.
+TEST(line_roots, sign_walk_recovers_roots_the_series_misses) {
+  const result<molecule> mol = read_molecule("fas2.pqr");
+  ASSERT_TRUE(mol.ok());
+  const gaussian_field field(*mol, -1, 1);
+  const result<lattice> lat = make_lattice(field, 1.0, mesh_limits{});
+  ASSERT_TRUE(lat.ok());
+  progress_token progress;
+  const result<std::vector<lattice_index>> blocks = cull_blocks(field, *lat, progress);
+  ASSERT_TRUE(blocks.ok());
+  std::array<line_check, 2> checks;
+  std::array<line_root_stats, 2> stats;
+  for (const bool walk : {false, true}) {
+    line_root_settings settings;
+    settings.degree = 3;
+    settings.sign_walk = walk;
+    line_root_finder finder(settings);
+    std::vector<std::uint32_t> atoms;
+    block_line_roots found;
+    for (const lattice_index& block : *blocks) {
+      field.atoms_near_box(lat->block_box(block), atoms);
+      finder.find(field, *lat, block, atoms, found, stats[walk]);
+      check_block(field, *lat, block, found, 100, checks[walk]);
+    }
+  }
+  EXPECT_EQ(stats[false].sign_walk_roots, 0u);
+  EXPECT_GT(stats[true].sign_walk_roots, 0u);
+  EXPECT_EQ(checks[true].roots, checks[false].roots + stats[true].sign_walk_roots);
+  EXPECT_LT(checks[true].missed, checks[false].missed);
+  EXPECT_EQ(stats[true].polynomial_roots, stats[false].polynomial_roots);
+}
+
+TEST(line_roots, no_atoms_no_roots) {
+  molecule mol;
+  mol.atoms.push_back({{100, 100, 100}, 1.5, 0});
+  const gaussian_field field(mol, -1, 1);
+  const lattice lat(1.0, {-64, -64, -64});
+  block_line_roots found;
+  found.roots.push_back({1, 1});  // overwritten
+  line_root_stats stats;
+  find_block_line_roots(field, lat, {0, 0, 0}, {}, 10, found, stats);
+  EXPECT_TRUE(found.roots.empty());
+  for (const std::uint32_t first : found.first) EXPECT_EQ(first, 0u);
+  EXPECT_EQ(stats.lines, 64u);
+  EXPECT_EQ(stats.field_evaluations, 64u * 24u);  // 2 × 11 nodes and the 2 ends
+  EXPECT_EQ(stats.fits, 128u);
+  EXPECT_EQ(stats.quiet_fits, 128u);
+  line_root_stats total;
+  total += stats;
+  total += stats;
+  EXPECT_EQ(total.field_evaluations, 2 * 64u * 24u);
+}
+
+// Same bits whatever the history of the finder (scratch reuse) and through the free function.
+TEST(line_roots, deterministic) {
+  const result<molecule> mol = read_molecule("fas2.pqr");
+  ASSERT_TRUE(mol.ok());
+  const gaussian_field field(*mol, -1, 1);
+  const result<lattice> lat = make_lattice(field, 0.8, mesh_limits{});
+  ASSERT_TRUE(lat.ok());
+  progress_token progress;
+  const result<std::vector<lattice_index>> blocks = cull_blocks(field, *lat, progress);
+  ASSERT_TRUE(blocks.ok());
+  line_root_finder warm;
+  std::vector<std::uint32_t> atoms;
+  line_root_stats stats;
+  for (std::size_t n = blocks->size(); n-- > 0;) {  // reverse order: different scratch history
+    const lattice_index& block = (*blocks)[n];
+    field.atoms_near_box(lat->block_box(block), atoms);
+    block_line_roots a, b;
+    warm.find(field, *lat, block, atoms, a, stats);
+    find_block_line_roots(field, *lat, block, atoms, 10, b, stats);
+    ASSERT_EQ(a.first, b.first);
+    ASSERT_EQ(a.roots.size(), b.roots.size());
+    for (std::size_t r = 0; r < a.roots.size(); ++r) {
+      EXPECT_EQ(a.roots[r].x, b.roots[r].x);
+      EXPECT_EQ(a.roots[r].phi_x, b.roots[r].phi_x);
+    }
+  }
+}
+
+// Timing and completeness on larger molecules, run by hand:
+//   core_tests --gtest_also_run_disabled_tests --gtest_filter='line_roots.DISABLED_timing'
+// Per molecule and density: time per block and line (finding only, and with atoms_near_box), evaluations per line,
+// and sign changes of a dense scan (200 samples per cell) missed by the series alone and with the sign walk.
+TEST(line_roots, DISABLED_timing) {
+  for (const char* name : {"mache.pqr", "2buk_12asu.pqr"}) {
+    const result<molecule> mol = read_molecule(name);
+    ASSERT_TRUE(mol.ok());
+    const gaussian_field field(*mol, -1, 1);
+    for (const double density : {1.0, 2.0}) {
+      const double h = 1 / std::sqrt(density);
+      const result<lattice> lat = make_lattice(field, h, mesh_limits{});
+      ASSERT_TRUE(lat.ok());
+      progress_token progress;
+      const result<std::vector<lattice_index>> blocks = cull_blocks(field, *lat, progress);
+      ASSERT_TRUE(blocks.ok());
+      std::vector<std::vector<std::uint32_t>> atoms(blocks->size());
+      for (std::size_t n = 0; n < blocks->size(); ++n) field.atoms_near_box(lat->block_box((*blocks)[n]), atoms[n]);
+      std::size_t atom_total = 0;
+      for (const auto& a : atoms) atom_total += a.size();
+      for (const bool walk : {true, false}) {
+        line_root_settings settings;
+        settings.sign_walk = walk;
+        line_root_finder finder(settings);
+        line_root_stats stats;
+        block_line_roots found;
+        double best = 1e300;
+        for (int repeat = 0; repeat < 3; ++repeat) {
+          stats = {};
+          const auto start = std::chrono::steady_clock::now();
+          for (std::size_t n = 0; n < blocks->size(); ++n)
+            finder.find(field, *lat, (*blocks)[n], atoms[n], found, stats);
+          best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        }
+        // Completeness on every 8th block against a dense scan.
+        line_check check;
+        line_root_stats unused;
+        const int samples = 200 * lattice::block_cells;
+        for (std::size_t n = 0; n < blocks->size(); n += 8) {
+          finder.find(field, *lat, (*blocks)[n], atoms[n], found, unused);
+          check_block(field, *lat, (*blocks)[n], found, samples, check);
+        }
+        std::printf(
+            "[ %s density %.0f walk %d ] %zu blocks (%.0f atoms/block), %.3f s: %.1f us/block, %.3f us/line; "
+            "evaluations/line %.2f, roots/line %.3f (series %zu, walk %zu, rejected %zu, probes %zu), quiet fits "
+            "%.1f%%; "
+            "scan: %zu sign changes on %zu lines, missed %zu (%.2e per line), worst residual %.1e\n",
+            name, density, walk ? 1 : 0, blocks->size(),
+            static_cast<double>(atom_total) / static_cast<double>(blocks->size()), best,
+            1e6 * best / static_cast<double>(blocks->size()), 1e6 * best / static_cast<double>(blocks->size() * 64),
+            static_cast<double>(stats.field_evaluations) / static_cast<double>(stats.lines),
+            static_cast<double>(stats.polynomial_roots + stats.sign_walk_roots) / static_cast<double>(stats.lines),
+            stats.polynomial_roots, stats.sign_walk_roots, stats.rejected_roots, stats.probes,
+            100.0 * static_cast<double>(stats.quiet_fits) / static_cast<double>(stats.fits), check.scanned,
+            (blocks->size() + 7) / 8 * 64, check.missed,
+            static_cast<double>(check.missed) / static_cast<double>((blocks->size() + 7) / 8 * 64),
+            check.worst_residual);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace tracemesh
