@@ -14,6 +14,8 @@ constexpr double retry_step_divisor = 4;
 constexpr double retry_cos_bound = 0.984807753012208;  // cos 10°
 /// An arc's crossing is matched to a root of the right φ_x sign within this × h̃ of it.
 constexpr double end_match_fraction = 0.25;
+/// Extreme points closer than this × the resampling spacing (along the arc) to another kept point are not kept.
+constexpr double min_extreme_gap = 0.1;
 /// The first step from a root is at most this × the distance to the next root of its line, so that a walk from one
 /// root of a near-tangency cannot step over the other.
 constexpr double first_step_fraction = 0.5;
@@ -49,8 +51,22 @@ std::vector<std::uint32_t> resample(const std::vector<surface_sample>& points, d
   const std::vector<double> length = arc_lengths(points);
   const std::size_t last = points.size() - 1;
   std::vector<std::uint32_t> forced{0};
+  const auto phi_x = [&](std::size_t n) {  // |φ_x| / |g| in the plane
+    const vec3& g = points[n].gradient;
+    return std::abs(g.x) / std::hypot(g.x, g[v_axis]);
+  };
+  // One extreme point per run of consecutive ones (near a tangency every walk point qualifies), the flattest, and
+  // none closer than min_extreme_gap × spacing to a kept end: a shorter edge would be all but degenerate.
+  const double min_gap = min_extreme_gap * spacing;
   for (std::size_t n = 1; n < last; ++n) {
-    if (points[n].extreme) forced.push_back(static_cast<std::uint32_t>(n));
+    if (!points[n].extreme) continue;
+    std::size_t best = n;
+    for (; n + 1 < last && points[n + 1].extreme; ++n) {
+      if (phi_x(n + 1) < phi_x(best)) best = n + 1;
+    }
+    const bool near_start = length[best] - length[forced.back()] < min_gap;
+    const bool near_end = length[last] - length[best] < min_gap;
+    if (!near_start && !near_end) forced.push_back(static_cast<std::uint32_t>(best));
   }
   forced.push_back(static_cast<std::uint32_t>(last));
   std::vector<std::uint32_t> kept;

@@ -46,10 +46,13 @@ TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
   EXPECT_NEAR(end.x, std::sqrt(rho * rho - 1.44), 1e-9);
   EXPECT_DOUBLE_EQ(end.y, 1.2);
   EXPECT_DOUBLE_EQ(end.z, plane_z);
+  // Walk points are corrected to within settings.corrector_tolerance (or a blind step's second-order error) of the
+  // contour; the start and the crossing are exact roots.
   for (const surface_sample& p : arc.points) {
-    EXPECT_NEAR(std::hypot(p.position.x, p.position.y), rho, 1e-9);
+    EXPECT_NEAR(std::hypot(p.position.x, p.position.y), rho, 1e-6);
     EXPECT_EQ(p.position.z, plane_z);  // the walk never leaves its plane
   }
+  EXPECT_NEAR(std::hypot(end.x, end.y), rho, 1e-10);
   // Steps are at most h₁ and the normal turns by at most acos δ per step.
   for (std::size_t n = 1; n < arc.points.size(); ++n) {
     EXPECT_LE(distance(arc.points[n - 1].position, arc.points[n].position), settings.max_step * 1.0001);

@@ -1,0 +1,357 @@
+// Tests of core/trace/cell_polygons.hpp (Algorithm 2): a traced_surface is built by hand — roots on the lattice lines
+// (closed form for one atom, dense sampling + bisection otherwise), every strip beside a line traced with
+// trace_strip, late roots added until none appear — and every cell is closed and triangulated by mesh_cell. The
+// cells' triangles, put together, must form a closed surface in which every directed edge appears exactly once and
+// its reverse exactly once (orientation from the walls, method.md §7.9).
+#include "core/trace/cell_polygons.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <vector>
+
+#include "core/analysis/mesh_analysis.hpp"
+#include "core/field/gaussian_field.hpp"
+#include "core/io/pqr_reader.hpp"
+#include "core/mesh.hpp"
+#include "core/mesher.hpp"
+#include "core/molecule.hpp"
+#include "support/test_paths.hpp"
+
+namespace tracemesh {
+namespace {
+
+molecule atoms(std::vector<atom> list) { return molecule{std::move(list), 0}; }
+
+/// Roots of φ = t0 on line (j, k) for x ∈ [lo, hi]: sign changes among samples 0.005 Å apart, refined by bisection.
+std::vector<line_point> sampled_roots(const gaussian_field& field, double y, double z, double lo, double hi) {
+  std::vector<line_point> out;
+  const auto f = [&](double x) { return field.value({x, y, z}) - field.t0(); };
+  constexpr double step = 0.005;
+  double a = lo, fa = f(a);
+  for (double b = lo + step; b <= hi; b += step) {
+    const double fb = f(b);
+    if ((fa < 0) != (fb < 0)) {
+      double l = a, r = b, fl = fa;
+      for (int n = 0; n < 80; ++n) {
+        const double m = 0.5 * (l + r), fm = f(m);
+        if ((fm < 0) == (fl < 0)) {
+          l = m;
+          fl = fm;
+        } else {
+          r = m;
+        }
+      }
+      line_point p{0.5 * (l + r), {}, false};
+      field.value_and_gradient({p.x, y, z}, p.gradient);
+      out.push_back(p);
+    }
+    a = b;
+    fa = fb;
+  }
+  return out;
+}
+
+/// The lines J, K ∈ [lo, hi] of spacing h with their roots (closed-form ones when `exact_radius` is set: one atom of
+/// that radius at the origin).
+trace_lines make_lines(const gaussian_field& field, double h, std::int64_t lo, std::int64_t hi,
+                       std::optional<double> exact_radius, double x_extent) {
+  std::vector<trace_lines::entry> entries;
+  for (std::int64_t j = lo; j <= hi; ++j) {
+    for (std::int64_t k = lo; k <= hi; ++k) {
+      const double y = static_cast<double>(j) * h, z = static_cast<double>(k) * h;
+      if (exact_radius) {
+        const double rest = *exact_radius * *exact_radius - y * y - z * z;
+        if (rest <= 0) continue;
+        for (const double x : {-std::sqrt(rest), std::sqrt(rest)}) {
+          line_point p{x, {}, false};
+          field.value_and_gradient({x, y, z}, p.gradient);
+          entries.push_back({{j, k}, p});
+        }
+      } else {
+        for (const line_point& p : sampled_roots(field, y, z, -x_extent, x_extent)) entries.push_back({{j, k}, p});
+      }
+    }
+  }
+  return trace_lines(std::move(entries));
+}
+
+std::vector<strip_id> strips_beside(const trace_lines& lines) {
+  std::vector<strip_id> strips;
+  for (std::size_t n = 0; n < lines.line_count(); ++n) {
+    const line_id& l = lines.id(n);
+    strips.push_back({0, l.j - 1, l.k});
+    strips.push_back({0, l.j, l.k});
+    strips.push_back({1, l.j, l.k - 1});
+    strips.push_back({1, l.j, l.k});
+  }
+  std::sort(strips.begin(), strips.end());
+  strips.erase(std::unique(strips.begin(), strips.end()), strips.end());
+  return strips;
+}
+
+/// Traces every strip, adds late roots and re-traces until none appear; numbers the interior points.
+traced_surface trace_surface(const gaussian_field& field, double h, trace_lines lines, std::size_t& late_roots) {
+  traced_surface surface;
+  surface.spacing = h;
+  surface.lines = std::move(lines);
+  strip_settings settings;
+  settings.spacing = h;
+  settings.max_step = 0.5 * h;
+  settings.resample_spacing = h;
+  late_roots = 0;
+  for (int round = 0; round < 8; ++round) {
+    surface.strips = strips_beside(surface.lines);
+    surface.traces.clear();
+    std::vector<trace_lines::entry> late;
+    for (const strip_id& s : surface.strips) {
+      surface.traces.push_back(trace_strip(field, surface.lines, s, settings));
+      late.insert(late.end(), surface.traces.back().late_roots.begin(), surface.traces.back().late_roots.end());
+    }
+    if (late.empty()) break;
+    late_roots += surface.lines.add(std::move(late));
+  }
+  std::uint32_t next = static_cast<std::uint32_t>(surface.lines.root_count());
+  surface.interior_first.clear();
+  for (const strip_trace& t : surface.traces) {
+    surface.interior_first.push_back(next);
+    next += static_cast<std::uint32_t>(t.interior.size());
+  }
+  return surface;
+}
+
+std::vector<cell_id> cells_beside(const traced_surface& surface) {
+  std::vector<cell_id> cells;
+  for (std::size_t s = 0; s < surface.strips.size(); ++s) {
+    if (surface.traces[s].arcs.empty()) continue;
+    const strip_id& st = surface.strips[s];
+    cells.push_back({st.j, st.k});
+    cells.push_back(st.orientation == 0 ? cell_id{st.j, st.k - 1} : cell_id{st.j - 1, st.k});
+  }
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  return cells;
+}
+
+struct meshed_cells {
+  surface_mesh mesh;
+  std::vector<cell_id> cells;
+  std::vector<cell_mesh> meshes;
+};
+
+/// mesh_cell on every cell, assembled like the mesher does: roots, interior points, then each cell's Steiner points.
+meshed_cells mesh_all_cells(const gaussian_field& field, const traced_surface& surface) {
+  meshed_cells out;
+  const double h = surface.spacing;
+  for (std::size_t n = 0; n < surface.lines.line_count(); ++n) {
+    const line_id& id = surface.lines.id(n);
+    for (const line_point& p : surface.lines.roots(n)) {
+      out.mesh.positions.push_back({p.x, static_cast<double>(id.j) * h, static_cast<double>(id.k) * h});
+      out.mesh.normals.push_back(normalized(-p.gradient));
+    }
+  }
+  for (const strip_trace& t : surface.traces) {
+    for (const surface_sample& p : t.interior) {
+      out.mesh.positions.push_back(p.position);
+      out.mesh.normals.push_back(normalized(-p.gradient));
+    }
+  }
+  out.cells = cells_beside(surface);
+  for (const cell_id& c : out.cells) {
+    out.meshes.push_back(mesh_cell(field, surface, c));
+    const cell_mesh& m = out.meshes.back();
+    const auto first_steiner = static_cast<std::uint32_t>(out.mesh.positions.size());
+    for (const surface_sample& p : m.steiner) {
+      out.mesh.positions.push_back(p.position);
+      out.mesh.normals.push_back(normalized(-p.gradient));
+    }
+    for (auto t : m.triangles) {
+      for (auto& v : t) {
+        if (v >= steiner_vertex) v = first_steiner + (v - steiner_vertex);
+      }
+      out.mesh.triangles.push_back(t);
+    }
+  }
+  return out;
+}
+
+/// Every directed edge of the mesh appears exactly once, and its reverse exactly once.
+void expect_each_directed_edge_once_with_its_reverse(const surface_mesh& mesh) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+  for (const auto& t : mesh.triangles) {
+    for (int c = 0; c < 3; ++c) ++directed[{t[c], t[(c + 1) % 3]}];
+  }
+  std::size_t bad = 0;
+  for (const auto& [edge, count] : directed) {
+    const auto reverse = directed.find({edge.second, edge.first});
+    const int reverse_count = reverse == directed.end() ? 0 : reverse->second;
+    if (count != 1 || reverse_count != 1) {
+      if (++bad <= 10) {
+        ADD_FAILURE() << "edge " << edge.first << " → " << edge.second << " appears " << count << " times, its reverse "
+                      << reverse_count << " times";
+      }
+    }
+  }
+  EXPECT_EQ(bad, 0u);
+  EXPECT_EQ(directed.size(), 3 * mesh.triangles.size());
+}
+
+void expect_every_cell_closed(const meshed_cells& m) {
+  for (std::size_t c = 0; c < m.cells.size(); ++c) {
+    EXPECT_TRUE(m.meshes[c].closed) << "cell (" << m.cells[c].j << ", " << m.cells[c].k << ")";
+    EXPECT_FALSE(m.meshes[c].intersecting) << "cell (" << m.cells[c].j << ", " << m.cells[c].k << ")";
+    EXPECT_GE(m.meshes[c].loops, 1u) << "cell (" << m.cells[c].j << ", " << m.cells[c].k << ")";
+    EXPECT_FALSE(m.meshes[c].triangles.empty());
+  }
+}
+
+void expect_certified(const surface_mesh& mesh, std::size_t components, long genus) {
+  const mesh_report r = analyze_mesh(mesh);
+  EXPECT_TRUE(r.topologically_certified())
+      << "boundary " << r.boundary_edges << ", non-manifold edges " << r.non_manifold_edges << ", vertices "
+      << r.non_manifold_vertices << ", misoriented " << r.inconsistently_oriented_edges << ", degenerate "
+      << r.degenerate_triangles << ", intersections " << r.self_intersections << ", inward "
+      << r.inward_oriented_components << ", unreferenced " << r.unreferenced_vertices;
+  EXPECT_EQ(r.components.size(), components);
+  EXPECT_EQ(r.genus, genus);
+  EXPECT_GT(r.volume, 0);
+}
+
+// One atom of radius 1.8 at the origin, lines 0.7 Å apart through it: no line is tangent, and each cell whose four
+// corner lines all cut the sphere holds two loops (the caps at x < 0 and x > 0), a cell on the silhouette one.
+TEST(cell_polygons, sphere_cells_chain_closed_loops_into_an_oriented_surface) {
+  constexpr double r = 1.8, h = 0.7;
+  const gaussian_field field(atoms({{{0, 0, 0}, r, 0}}), -1, 1);
+  std::size_t late = 0;
+  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -3, 3, r, 0), late);
+  EXPECT_EQ(late, 0u);
+  const meshed_cells m = mesh_all_cells(field, surface);
+  ASSERT_FALSE(m.cells.empty());
+  expect_every_cell_closed(m);
+  const auto cut = [&](std::int64_t j, std::int64_t k) { return !surface.lines.roots_of({j, k}).empty(); };
+  std::size_t two_loop_cells = 0, one_loop_cells = 0;
+  for (std::size_t c = 0; c < m.cells.size(); ++c) {
+    const cell_id& id = m.cells[c];
+    const int corners = cut(id.j, id.k) + cut(id.j + 1, id.k) + cut(id.j, id.k + 1) + cut(id.j + 1, id.k + 1);
+    const std::size_t expected = corners == 4 ? 2 : 1;
+    EXPECT_EQ(m.meshes[c].loops, expected)
+        << "cell (" << id.j << ", " << id.k << ") with " << corners << " cut corners";
+    (expected == 2 ? two_loop_cells : one_loop_cells) += 1;
+  }
+  EXPECT_GT(two_loop_cells, 0u);
+  EXPECT_GT(one_loop_cells, 0u);
+  expect_each_directed_edge_once_with_its_reverse(m.mesh);
+  // Counter-clockwise seen from outside: every face normal points away from the centre.
+  for (const auto& t : m.mesh.triangles) {
+    const vec3 a = m.mesh.positions[t[0]], b = m.mesh.positions[t[1]], c = m.mesh.positions[t[2]];
+    EXPECT_GT(dot(cross(b - a, c - a), a + b + c), 0);
+  }
+  for (const vec3& p : m.mesh.positions) EXPECT_NEAR(norm(p), r, 1e-9);
+  expect_certified(m.mesh, 1, 0);
+  const mesh_report report = analyze_mesh(m.mesh);
+  EXPECT_NEAR(report.area, 4 * std::numbers::pi * r * r, 0.12 * 4 * std::numbers::pi * r * r);
+}
+
+// Two overlapping atoms (a dumbbell along a diagonal, so that the neck crosses cells obliquely), roots by sampling.
+TEST(cell_polygons, dumbbell_cells_chain_closed_loops_into_an_oriented_surface) {
+  constexpr double h = 0.6;
+  const gaussian_field field(atoms({{{-0.9, -0.55, 0.35}, 1.6, 0}, {{1.1, 0.75, -0.45}, 1.4, 0}}), -1, 1);
+  std::size_t late = 0;
+  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -6, 6, std::nullopt, 5), late);
+  const meshed_cells m = mesh_all_cells(field, surface);
+  ASSERT_FALSE(m.cells.empty());
+  expect_every_cell_closed(m);
+  expect_each_directed_edge_once_with_its_reverse(m.mesh);
+  for (const vec3& p : m.mesh.positions) EXPECT_LE(field.surface_distance(p), 1e-7);
+  expect_certified(m.mesh, 1, 0);
+}
+
+// A ring of atoms around the x axis (a torus whose hole, ≈ 2 Å wide, runs along x): the lines through the hole hold
+// no root, the cells around it two loops each (front and back faces); the handle must survive.
+TEST(cell_polygons, torus_around_the_x_axis_keeps_its_handle) {
+  constexpr double h = 0.7;
+  std::vector<atom> ring;
+  constexpr int count = 12;
+  for (int n = 0; n < count; ++n) {
+    const double angle = 2 * std::numbers::pi * n / count;
+    ring.push_back({{0.05, 3.5 * std::cos(angle) + 0.13, 3.5 * std::sin(angle) - 0.21}, 1.5, 0});
+  }
+  const gaussian_field field(atoms(ring), -1, 1);
+  std::size_t late = 0;
+  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -8, 8, std::nullopt, 4), late);
+  const meshed_cells m = mesh_all_cells(field, surface);
+  ASSERT_FALSE(m.cells.empty());
+  expect_every_cell_closed(m);
+  expect_each_directed_edge_once_with_its_reverse(m.mesh);
+  expect_certified(m.mesh, 1, 1);
+}
+
+// A root the lines lack (no late-root round): the arc that ends there names a point no line holds, so the cells
+// beside that strip cannot close their loops and say so.
+TEST(cell_polygons, a_cell_whose_arc_ends_off_the_lines_reports_it_is_open) {
+  constexpr double r = 1.8, h = 0.7;
+  const gaussian_field field(atoms({{{0, 0, 0}, r, 0}}), -1, 1);
+  trace_lines full = make_lines(field, h, -3, 3, r, 0);
+  std::vector<trace_lines::entry> entries = full.entries();
+  const auto removed = std::find_if(entries.begin(), entries.end(), [](const trace_lines::entry& e) {
+    return e.line == line_id{1, 1} && e.point.x > 0;
+  });
+  ASSERT_NE(removed, entries.end());
+  entries.erase(removed);
+  traced_surface surface;
+  surface.spacing = h;
+  surface.lines = trace_lines(std::move(entries));
+  surface.strips = strips_beside(surface.lines);
+  strip_settings settings;
+  settings.spacing = h;
+  settings.max_step = 0.5 * h;
+  settings.resample_spacing = h;
+  std::uint32_t next = static_cast<std::uint32_t>(surface.lines.root_count());
+  for (const strip_id& s : surface.strips) {
+    surface.traces.push_back(trace_strip(field, surface.lines, s, settings));
+    surface.interior_first.push_back(next);
+    next += static_cast<std::uint32_t>(surface.traces.back().interior.size());
+  }
+  // The four cells around line (1, 1) read an arc ending at the missing root.
+  for (const cell_id c : {cell_id{0, 0}, cell_id{1, 0}, cell_id{0, 1}, cell_id{1, 1}}) {
+    const cell_mesh m = mesh_cell(field, surface, c);
+    EXPECT_FALSE(m.closed) << "cell (" << c.j << ", " << c.k << ")";
+  }
+  // A cell away from it is unaffected.
+  EXPECT_TRUE(mesh_cell(field, surface, {-2, -1}).closed);
+}
+
+// The same through the whole trace path: the raw mesh of a real molecule, where every cell's polygons are those of
+// mesh_cell, has each directed edge once and its reverse once.
+TEST(cell_polygons, raw_trace_mesh_of_a_molecule_has_each_directed_edge_once_with_its_reverse) {
+  auto mol = read_pqr_file(testing::molecule_path("adp.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  for (const double density : {1.0, 2.0}) {
+    mesh_params params;
+    params.method = mesh_method::trace;
+    params.refine = refine_mode::none;
+    params.density = density;
+    progress_token progress;
+    const auto out = mesh_molecule(*mol, params, {}, progress);
+    ASSERT_TRUE(out.ok()) << out.error().message();
+    EXPECT_GT(out->trace.polygons, 0u);
+    expect_each_directed_edge_once_with_its_reverse(out->mesh);
+    expect_certified(out->mesh, 1, 0);
+  }
+}
+
+TEST(cell_polygons, find_strip_returns_the_size_for_an_absent_strip) {
+  traced_surface surface;
+  surface.strips = {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}};
+  EXPECT_EQ(surface.find_strip({0, 1, 0}), 1u);
+  EXPECT_EQ(surface.find_strip({1, 0, 0}), 2u);
+  EXPECT_EQ(surface.find_strip({1, 1, 0}), 3u);
+  EXPECT_EQ(surface.find_strip({0, -1, 0}), 3u);
+}
+
+}  // namespace
+}  // namespace tracemesh

@@ -1,0 +1,288 @@
+// Tests of core/trace/strip_arcs.hpp (Algorithm 1 applied to a whole strip, method.md §7.1, §7.2, §7.7) on one
+// atom: with d = −1 and t0 = 1 a lone atom of radius r at the origin has the sphere of radius r as its surface, so
+// the line y = J·h̃, z = K·h̃ meets it at x = ±√(r² − y² − z²) (closed form), and every planar contour is a circle.
+// r and h̃ are chosen so that no lattice line is tangent to the sphere (y² + z² stays ≥ 0.79 Å² away from r²).
+#include "core/trace/strip_arcs.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <optional>
+#include <vector>
+
+#include "core/field/gaussian_field.hpp"
+#include "core/molecule.hpp"
+
+namespace tracemesh {
+namespace {
+
+constexpr double radius = 1.8;
+constexpr double h = 0.7;
+constexpr std::int64_t grid = 3;  // lines J, K ∈ [−grid, grid] cover the sphere (3·0.7 > 1.8)
+
+molecule one_atom() {
+  molecule mol;
+  mol.atoms.push_back({{0, 0, 0}, radius, 0});
+  return mol;
+}
+
+/// x of the roots of line (j, k) in closed form (empty when the line misses the sphere).
+std::vector<double> exact_roots(std::int64_t j, std::int64_t k) {
+  const double y = static_cast<double>(j) * h, z = static_cast<double>(k) * h;
+  const double rest = radius * radius - y * y - z * z;
+  if (rest <= 0) return {};
+  const double x = std::sqrt(rest);
+  return {-x, x};
+}
+
+/// Lines of the grid built from the exact roots, with the field's gradient at each; `skip` (line, x) is left out.
+struct skipped_root {
+  line_id line;
+  double x;
+};
+trace_lines exact_lines(const gaussian_field& field, std::optional<skipped_root> skip = std::nullopt) {
+  std::vector<trace_lines::entry> entries;
+  for (std::int64_t j = -grid; j <= grid; ++j) {
+    for (std::int64_t k = -grid; k <= grid; ++k) {
+      for (const double x : exact_roots(j, k)) {
+        if (skip && skip->line == line_id{j, k} && std::abs(skip->x - x) < 1e-12) continue;
+        line_point p{x, {}, false};
+        field.value_and_gradient({x, static_cast<double>(j) * h, static_cast<double>(k) * h}, p.gradient);
+        entries.push_back({{j, k}, p});
+      }
+    }
+  }
+  return trace_lines(std::move(entries));
+}
+
+strip_settings settings() {
+  strip_settings s;
+  s.spacing = h;
+  s.max_step = 0.5 * h;
+  s.resample_spacing = h;
+  return s;
+}
+
+int normal_axis(const strip_id& strip) { return strip.orientation == 0 ? 2 : 1; }
+int v_axis(const strip_id& strip) { return strip.orientation == 0 ? 1 : 2; }
+double plane_offset(const strip_id& strip) {
+  return static_cast<double>(strip.orientation == 0 ? strip.k : strip.j) * h;
+}
+double line_v(const strip_id& strip, int side) {
+  return static_cast<double>((strip.orientation == 0 ? strip.j : strip.k) + side) * h;
+}
+
+vec3 end_position(const strip_id& strip, const arc_end& end) {
+  vec3 p{end.x, 0, 0};
+  p[normal_axis(strip)] = plane_offset(strip);
+  p[v_axis(strip)] = line_v(strip, end.side);
+  return p;
+}
+
+/// The arc's points in its stored order: start root, interior points, end root.
+std::vector<vec3> arc_points(const strip_trace& trace, const strip_arc& arc, const strip_id& strip) {
+  std::vector<vec3> points{end_position(strip, arc.start)};
+  for (std::uint32_t n = 0; n < arc.interior_count; ++n)
+    points.push_back(trace.interior[arc.first_interior + n].position);
+  points.push_back(end_position(strip, arc.end));
+  return points;
+}
+
+/// Every root of both lines ends exactly one arc; every arc end is a root of its line.
+void expect_each_root_ends_one_arc(const trace_lines& lines, const strip_trace& trace, const strip_id& strip) {
+  const std::span<const line_point> roots[2] = {lines.roots_of(strip.low_line()), lines.roots_of(strip.high_line())};
+  for (int side = 0; side < 2; ++side) {
+    for (const line_point& root : roots[side]) {
+      int ends = 0;
+      for (const strip_arc& arc : trace.arcs) {
+        for (const arc_end& e : {arc.start, arc.end}) ends += e.side == side && e.x == root.x;
+      }
+      EXPECT_EQ(ends, 1) << "root x = " << root.x << " on side " << side;
+    }
+  }
+  for (const strip_arc& arc : trace.arcs) {
+    for (const arc_end& e : {arc.start, arc.end}) {
+      EXPECT_GE(lines.match(roots[e.side], e.x), 0) << "arc end x = " << e.x << " is not a root of its line";
+    }
+  }
+}
+
+/// The arcs' interior points lie on the sphere, in the strip's plane, between its lines.
+void expect_interior_on_the_contour(const strip_trace& trace, const strip_id& strip) {
+  for (const surface_sample& p : trace.interior) {
+    EXPECT_NEAR(norm(p.position), radius, 1e-9);
+    EXPECT_EQ(p.position[normal_axis(strip)], plane_offset(strip));
+    EXPECT_GE(p.position[v_axis(strip)], line_v(strip, 0) - 1e-12);
+    EXPECT_LE(p.position[v_axis(strip)], line_v(strip, 1) + 1e-12);
+  }
+}
+
+/// Each stored arc runs along +(−φ_v, φ_x) (trace_step.hpp's canonical direction): every chord from one point to
+/// the next has a positive component along that tangent at its first point (and at its last), ∇φ from the field.
+void expect_canonical_direction(const gaussian_field& field, const strip_trace& trace, const strip_id& strip) {
+  const int v = v_axis(strip);
+  for (const strip_arc& arc : trace.arcs) {
+    const std::vector<vec3> points = arc_points(trace, arc, strip);
+    ASSERT_GE(points.size(), 2u);
+    for (std::size_t n = 0; n + 1 < points.size(); ++n) {
+      const vec3 chord = points[n + 1] - points[n];
+      for (const vec3& at : {points[n], points[n + 1]}) {
+        vec3 g;
+        field.value_and_gradient(at, g);
+        const double along = chord.x * -g[v] + chord[v] * g.x;
+        EXPECT_GT(along, 0) << "arc from x = " << arc.start.x << " (side " << arc.start.side << ") chord " << n;
+      }
+    }
+  }
+}
+
+void expect_valid_strip(const gaussian_field& field, const trace_lines& lines, const strip_trace& trace,
+                        const strip_id& strip) {
+  EXPECT_EQ(trace.failures, 0u);
+  expect_each_root_ends_one_arc(lines, trace, strip);
+  expect_interior_on_the_contour(trace, strip);
+  expect_canonical_direction(field, trace, strip);
+  for (const strip_arc& arc : trace.arcs) {
+    if (arc.start.side == arc.end.side) {
+      EXPECT_GE(arc.interior_count, 1u) << "an arc back to its own line needs an interior point (§7.7)";
+    }
+    EXPECT_LE(arc.first_interior + arc.interior_count, trace.interior.size());
+  }
+  if (!trace.arcs.empty()) {
+    EXPECT_GT(trace.evaluations, 0u);
+  }
+}
+
+TEST(strip_arcs, xy_strip_between_two_cut_lines_holds_two_crossing_arcs) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const trace_lines lines = exact_lines(field);
+  const strip_id strip{0, 0, 1};  // plane z = 0.7, lines y = 0 and y = 0.7
+  const strip_trace trace = trace_strip(field, lines, strip, settings());
+  ASSERT_EQ(trace.arcs.size(), 2u);
+  expect_valid_strip(field, lines, trace, strip);
+  for (const strip_arc& arc : trace.arcs) {
+    EXPECT_NE(arc.start.side, arc.end.side);
+    EXPECT_EQ(arc.start.x > 0, arc.end.x > 0);  // each side of the circle links its own two roots
+  }
+  EXPECT_TRUE(trace.late_roots.empty());
+}
+
+TEST(strip_arcs, xz_strip_between_two_cut_lines_holds_two_crossing_arcs) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const trace_lines lines = exact_lines(field);
+  const strip_id strip{1, 1, -1};  // plane y = 0.7, lines z = −0.7 and z = 0
+  const strip_trace trace = trace_strip(field, lines, strip, settings());
+  ASSERT_EQ(trace.arcs.size(), 2u);
+  expect_valid_strip(field, lines, trace, strip);
+  for (const strip_arc& arc : trace.arcs) EXPECT_NE(arc.start.side, arc.end.side);
+  EXPECT_TRUE(trace.late_roots.empty());
+}
+
+TEST(strip_arcs, an_arc_that_returns_to_its_own_line_keeps_an_interior_point) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const trace_lines lines = exact_lines(field);
+  // The high line misses the sphere in each: the contour leaves the low (or high) line and comes back to it over
+  // the top of the circle.
+  for (const strip_id strip : {strip_id{0, 2, 0}, strip_id{1, 0, 2}, strip_id{0, -3, 1}, strip_id{1, 1, -3}}) {
+    SCOPED_TRACE(::testing::Message() << "strip " << strip.orientation << " (" << strip.j << ", " << strip.k << ")");
+    ASSERT_TRUE(lines.roots_of(strip.low_line()).empty() != lines.roots_of(strip.high_line()).empty());
+    const strip_trace trace = trace_strip(field, lines, strip, settings());
+    ASSERT_EQ(trace.arcs.size(), 1u);
+    const strip_arc& arc = trace.arcs[0];
+    EXPECT_EQ(arc.start.side, arc.end.side);
+    EXPECT_NEAR(arc.start.x, -arc.end.x, 1e-12);
+    EXPECT_GE(arc.interior_count, 1u);
+    // One point at least is the far side of the circle, beyond the chord: not on the line.
+    double farthest = 0;
+    for (std::uint32_t n = 0; n < arc.interior_count; ++n) {
+      const vec3& p = trace.interior[arc.first_interior + n].position;
+      farthest = std::max(farthest, std::abs(p[v_axis(strip)] - line_v(strip, arc.start.side)));
+    }
+    EXPECT_GT(farthest, 0.1);
+    expect_valid_strip(field, lines, trace, strip);
+  }
+}
+
+TEST(strip_arcs, every_strip_of_the_sphere_is_valid) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const trace_lines lines = exact_lines(field);
+  std::size_t arcs = 0, strips = 0;
+  for (int orientation = 0; orientation < 2; ++orientation) {
+    for (std::int64_t j = -grid - 1; j <= grid; ++j) {
+      for (std::int64_t k = -grid - 1; k <= grid; ++k) {
+        const strip_id strip{orientation, j, k};
+        SCOPED_TRACE(::testing::Message() << "strip " << orientation << " (" << j << ", " << k << ")");
+        const strip_trace trace = trace_strip(field, lines, strip, settings());
+        const std::size_t roots = lines.roots_of(strip.low_line()).size() + lines.roots_of(strip.high_line()).size();
+        EXPECT_EQ(2 * trace.arcs.size(), roots);  // each arc has two ends, each root ends one arc
+        expect_valid_strip(field, lines, trace, strip);
+        EXPECT_TRUE(trace.late_roots.empty());
+        EXPECT_EQ(trace.retraced, 0u);
+        arcs += trace.arcs.size();
+        strips += !trace.arcs.empty();
+      }
+    }
+  }
+  EXPECT_GT(strips, 30u);
+  EXPECT_GT(arcs, 50u);
+}
+
+TEST(strip_arcs, a_root_missing_from_the_lines_comes_back_as_a_late_root) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const strip_id strip{0, 0, 1};  // lines (0, 1) and (1, 1)
+  const double x_missing = exact_roots(1, 1)[1];
+  const trace_lines lines = exact_lines(field, skipped_root{{1, 1}, x_missing});
+  ASSERT_EQ(lines.roots_of({1, 1}).size(), 1u);
+  const strip_trace trace = trace_strip(field, lines, strip, settings());
+  EXPECT_EQ(trace.failures, 0u);
+  ASSERT_EQ(trace.late_roots.size(), 1u);
+  const trace_lines::entry& late = trace.late_roots[0];
+  EXPECT_EQ(late.line, (line_id{1, 1}));
+  EXPECT_NEAR(late.point.x, x_missing, 1e-9);
+  EXPECT_TRUE(late.point.late);
+  vec3 g;
+  field.value_and_gradient({x_missing, h, h}, g);
+  EXPECT_NEAR(distance(late.point.gradient, g), 0.0, 1e-6 * norm(g));
+  // The arc still ends there (at the late root's x).
+  ASSERT_EQ(trace.arcs.size(), 2u);
+  int ends_at_late = 0;
+  for (const strip_arc& arc : trace.arcs) {
+    for (const arc_end& e : {arc.start, arc.end}) ends_at_late += e.side == 1 && e.x == late.point.x;
+  }
+  EXPECT_EQ(ends_at_late, 1);
+  // With the late root added, the strip traces as if it had been known all along.
+  trace_lines grown = lines;
+  EXPECT_EQ(grown.add(trace.late_roots), 1u);
+  const strip_trace again = trace_strip(field, grown, strip, settings());
+  EXPECT_TRUE(again.late_roots.empty());
+  expect_valid_strip(field, grown, again, strip);
+}
+
+TEST(strip_arcs, a_root_missing_on_the_start_line_comes_back_as_a_late_root_of_that_line) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const strip_id strip{0, 2, 0};  // the contour leaves line (2, 0) and returns to it; line (3, 0) misses the sphere
+  const double x_missing = exact_roots(2, 0)[0];
+  const trace_lines lines = exact_lines(field, skipped_root{{2, 0}, x_missing});
+  ASSERT_EQ(lines.roots_of({2, 0}).size(), 1u);
+  const strip_trace trace = trace_strip(field, lines, strip, settings());
+  EXPECT_EQ(trace.failures, 0u);
+  ASSERT_EQ(trace.late_roots.size(), 1u);
+  EXPECT_EQ(trace.late_roots[0].line, (line_id{2, 0}));
+  EXPECT_NEAR(trace.late_roots[0].point.x, x_missing, 1e-9);
+  EXPECT_TRUE(trace.late_roots[0].point.late);
+  ASSERT_EQ(trace.arcs.size(), 1u);
+  EXPECT_GE(trace.arcs[0].interior_count, 1u);
+}
+
+TEST(strip_arcs, a_strip_whose_lines_hold_no_root_is_empty) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const trace_lines lines = exact_lines(field);
+  const strip_trace trace = trace_strip(field, lines, {0, 5, 5}, settings());
+  EXPECT_TRUE(trace.arcs.empty());
+  EXPECT_TRUE(trace.interior.empty());
+  EXPECT_TRUE(trace.late_roots.empty());
+  EXPECT_EQ(trace.failures, 0u);
+}
+
+}  // namespace
+}  // namespace tracemesh

@@ -1,0 +1,148 @@
+// Acceptance of the trace path (mesh_method::trace) on the small end of the shared molecule ladder — gly, adp,
+// villin, fas2 and mache at densities 1 and 2 — raw (refine none) and refined (refine full): every mesh carries the
+// certificate, meets the quality targets, reaches the requested density, encloses the same surface as the lattice
+// path and reports consistent trace statistics.
+//
+// Reference for area and volume: the lattice path's mesh at the same density with its default refinement (its raw
+// marching-tetrahedra mesh has about four times the requested density, so it is not a mesh "at that density").
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ostream>
+#include <string>
+
+#include "core/io/pqr_reader.hpp"
+#include "core/mesher.hpp"
+#include "support/test_paths.hpp"
+
+namespace tracemesh {
+namespace {
+
+struct trace_case {
+  std::string file;
+  double density;
+};
+
+void PrintTo(const trace_case& c, std::ostream* os) { *os << c.file << " at density " << c.density; }
+
+std::string case_name(const ::testing::TestParamInfo<trace_case>& info) {
+  std::string name = info.param.file.substr(0, info.param.file.find('.'));
+  return name + "_density_" + std::to_string(static_cast<int>(info.param.density));
+}
+
+result<mesh_output> mesh_with(const molecule& mol, double density, mesh_method method, refine_mode refine,
+                              double& seconds) {
+  mesh_params params;
+  params.density = density;
+  params.method = method;
+  params.refine = refine;
+  progress_token progress;
+  const auto start = std::chrono::steady_clock::now();
+  auto out = mesh_molecule(mol, params, {}, progress);
+  seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+void expect_certified(const mesh_output& out) {
+  const mesh_report& r = out.report;
+  EXPECT_TRUE(out.certified);
+  EXPECT_EQ(r.boundary_edges, 0u);
+  EXPECT_EQ(r.non_manifold_edges, 0u);
+  EXPECT_EQ(r.non_manifold_vertices, 0u);
+  EXPECT_EQ(r.inconsistently_oriented_edges, 0u);
+  EXPECT_EQ(r.degenerate_triangles, 0u);
+  EXPECT_EQ(r.self_intersections, 0u);
+  EXPECT_EQ(r.inward_oriented_components, 0u);
+  EXPECT_EQ(r.unreferenced_vertices, 0u);
+  EXPECT_LE(out.max_surface_distance, 1e-3);
+  EXPECT_GT(r.volume, 0);
+  EXPECT_EQ(out.mesh.normals.size(), out.mesh.positions.size());
+  EXPECT_EQ(out.mesh.atom_index.size(), out.mesh.positions.size());
+}
+
+double relative(double value, double reference) { return (value - reference) / reference; }
+
+void print_row(const trace_case& c, const char* refine, const mesh_output& out, const mesh_output& lattice,
+               double seconds) {
+  const mesh_report& r = out.report;
+  std::printf(
+      "[ trace    ] %-16s d=%.0f %-4s %6.2fs V=%-6zu density %.3f edge ratio %.3f (<0.2: %.4f%%) area %+.3f%% "
+      "volume %+.3f%% vs lattice, components %zu (lattice %zu), cavities %zu, genus %ld | lines %zu roots "
+      "%zu+%zu+%zu arcs %zu polygons %zu fallbacks %zu retraced %zu evaluations %zu\n",
+      c.file.c_str(), c.density, refine, seconds, r.vertices, r.achieved_density, r.quality.edge_ratio_mean,
+      100 * r.quality.fraction_below_0_2, 100 * relative(r.area, lattice.report.area),
+      100 * relative(r.volume, lattice.report.volume), r.components.size(), lattice.report.components.size(),
+      r.cavities, r.genus, out.trace.lines, out.trace.polynomial_roots, out.trace.bracketed_roots, out.trace.late_roots,
+      out.trace.arcs, out.trace.polygons, out.trace.fallback_loops, out.trace.retraced_arcs,
+      out.trace.field_evaluations);
+}
+
+class trace_ladder : public ::testing::TestWithParam<trace_case> {};
+
+TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_path) {
+  const trace_case& c = GetParam();
+  auto mol = read_pqr_file(testing::molecule_path(c.file));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+
+  double lattice_seconds = 0, raw_seconds = 0, refined_seconds = 0;
+  const auto lattice = mesh_with(*mol, c.density, mesh_method::lattice, refine_mode::full, lattice_seconds);
+  ASSERT_TRUE(lattice.ok()) << "lattice reference: " << lattice.error().message();
+  const auto raw = mesh_with(*mol, c.density, mesh_method::trace, refine_mode::none, raw_seconds);
+  ASSERT_TRUE(raw.ok()) << "trace, refine none: " << raw.error().message();
+  const auto refined = mesh_with(*mol, c.density, mesh_method::trace, refine_mode::full, refined_seconds);
+  ASSERT_TRUE(refined.ok()) << "trace, refine full: " << refined.error().message();
+  print_row(c, "raw", *raw, *lattice, raw_seconds);
+  print_row(c, "full", *refined, *lattice, refined_seconds);
+
+  const double area = lattice->report.area, volume = lattice->report.volume;
+  {
+    SCOPED_TRACE("refine none");
+    const mesh_report& r = raw->report;
+    expect_certified(*raw);
+    EXPECT_EQ(raw->method, mesh_method::trace);
+    EXPECT_EQ(raw->refine, refine_mode::none);
+    EXPECT_GE(r.quality.edge_ratio_mean, 0.62);
+    EXPECT_NEAR(r.achieved_density, c.density, 0.2 * c.density);
+    EXPECT_NEAR(r.area, area, 0.015 * area);
+    EXPECT_NEAR(r.volume, volume, 0.015 * volume);
+    const trace_stats& t = raw->trace;
+    EXPECT_EQ(t.raw_vertices, r.vertices);
+    EXPECT_EQ(t.raw_triangles, r.triangles);
+    EXPECT_EQ(t.arcs, 2 * (t.polynomial_roots + t.bracketed_roots + t.late_roots));  // one arc per root and strip
+    EXPECT_GT(t.lines, 0u);
+    EXPECT_GT(t.polygons, 0u);
+    EXPECT_GT(t.field_evaluations, 0u);
+    EXPECT_LE(t.fallback_loops, t.polygons / 100 + 5);  // a handful of fallbacks (method.md §7.8: ~0.25%)
+  }
+  {
+    SCOPED_TRACE("refine full");
+    const mesh_report& r = refined->report;
+    expect_certified(*refined);
+    EXPECT_EQ(refined->refine, refine_mode::full);
+    EXPECT_GE(r.quality.edge_ratio_mean, 0.80);
+    EXPECT_LT(r.quality.fraction_below_0_2, 0.005);
+    EXPECT_NEAR(r.achieved_density, c.density, 0.2 * c.density);
+    EXPECT_NEAR(r.area, area, 0.015 * area);
+    EXPECT_NEAR(r.volume, volume, 0.015 * volume);
+    // The quality pass starts from the very mesh of refine none: the same trace, the same statistics.
+    const trace_stats& t = refined->trace;
+    EXPECT_EQ(t.raw_vertices, raw->trace.raw_vertices);
+    EXPECT_EQ(t.raw_triangles, raw->trace.raw_triangles);
+    EXPECT_EQ(t.arcs, raw->trace.arcs);
+    EXPECT_EQ(t.polygons, raw->trace.polygons);
+    EXPECT_EQ(t.field_evaluations, raw->trace.field_evaluations);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(ladder, trace_ladder,
+                         ::testing::Values(trace_case{"gly.pqr", 1}, trace_case{"gly.pqr", 2}, trace_case{"adp.pqr", 1},
+                                           trace_case{"adp.pqr", 2}, trace_case{"villin_1vii.pqr", 1},
+                                           trace_case{"villin_1vii.pqr", 2}, trace_case{"fas2.pqr", 1},
+                                           trace_case{"fas2.pqr", 2}, trace_case{"mache.pqr", 1},
+                                           trace_case{"mache.pqr", 2}),
+                         case_name);
+
+}  // namespace
+}  // namespace tracemesh
