@@ -21,6 +21,24 @@ std::string lowercase(std::string text) {
 /// The raw text of each parameter option given, keyed by the API's field name.
 using parameter_texts = std::map<std::string, std::string, std::less<>>;
 
+/// The option of an API field: "trace_degree" → "--trace-degree".
+std::string option_name(std::string_view field) {
+  std::string option = "--" + std::string(field);
+  std::replace(option.begin(), option.end(), '_', '-');
+  return option;
+}
+
+/// A parameter error names the API field first ("trace_degree must be ..."): name it as the option is spelled on
+/// this command line instead ("trace-degree must be ..."); density, d, t0, method and refine read the same.
+std::string in_option_terms(const std::string& message) {
+  for (const std::string_view field : proto::mesh_parameter_fields) {
+    const bool names_field = message.size() > field.size() && message.compare(0, field.size(), field) == 0 &&
+                             (message[field.size()] == ':' || message[field.size()] == ' ');
+    if (names_field) return option_name(field).substr(2) + message.substr(field.size());
+  }
+  return message;
+}
+
 proto::field_lookup lookup_in(const parameter_texts& texts) {
   return [&texts](std::string_view name) -> std::optional<std::string> {
     const auto found = texts.find(name);
@@ -36,15 +54,53 @@ parsed_command_line usage_error(const std::string& message) {
   return parsed;
 }
 
+/// "[lo, hi], default x" from parameter_ranges and mesh_params{}, so the help never disagrees with the engine.
+std::string range_and_default(double lo, double hi, double fallback) {
+  return "in [" + proto::canonical_number(lo) + ", " + proto::canonical_number(hi) +
+         "], default " + proto::canonical_number(fallback);
+}
+
 void describe_options(CLI::App& app, cli_options& options, parameter_texts& texts, std::string& format_text,
                       std::string& report_text) {
+  using r = parameter_ranges;
+  const mesh_params defaults;
+  const trace_parameters& trace = defaults.trace;
   app.add_option("input", options.input, "PQR file, plain or gzip-compressed")->required();
   app.add_option("-o,--output", options.output,
                  "Mesh file to write; its extension (.off, .drc, .vert/.face) picks the format")
       ->required();
-  app.add_option("--density", texts["density"], "Vertices per Å² (default 1)");
-  app.add_option("--d", texts["d"], "Kernel decay rate d < 0 (default -1)");
-  app.add_option("--t0", texts["t0"], "Isovalue t0 > 0 (default 1)");
+  app.add_option("--density", texts["density"],
+                 "Vertices per Å², " + range_and_default(r::min_density, r::max_density, defaults.density))
+      ->type_name("F");
+  app.add_option("--d", texts["d"], "Kernel decay rate d, " + range_and_default(r::min_d, r::max_d, defaults.d))
+      ->type_name("F");
+  app.add_option("--t0", texts["t0"], "Isovalue t0, " + range_and_default(r::min_t0, r::max_t0, defaults.t0))
+      ->type_name("F");
+  app.add_option("--method", texts["method"],
+                 std::string("trace (the paper's traced contours) | lattice (marching tetrahedra); default ") +
+                     method_name(defaults.method))
+      ->type_name("trace|lattice");
+  app.add_option("--refine", texts["refine"],
+                 std::string("full (quality pass) | none (the polygons' triangles as they are); default ") +
+                     refine_name(defaults.refine))
+      ->type_name("none|full");
+  app.add_option("--trace-degree", texts["trace_degree"],
+                 "Trace: Legendre degree M along each line, an integer in [" +
+                     std::to_string(r::min_legendre_degree) + ", " + std::to_string(r::max_legendre_degree) +
+                     "], default " + std::to_string(trace.legendre_degree))
+      ->type_name("N");
+  app.add_option("--trace-step", texts["trace_step"],
+                 "Trace: step h₁ as a fraction of the line spacing h̃, " +
+                     range_and_default(r::min_trace_step_fraction, r::max_trace_step_fraction, trace.step_fraction))
+      ->type_name("F");
+  app.add_option("--trace-cos-bound", texts["trace_cos_bound"],
+                 "Trace: δ, cosine of the largest normal turn per step, " +
+                     range_and_default(r::min_trace_cos_bound, r::max_trace_cos_bound, trace.cos_bound))
+      ->type_name("F");
+  app.add_option("--trace-extreme-tolerance", texts["trace_extreme_tolerance"],
+                 "Trace: ε, |φ_x| < ε·|∇φ| marks an extreme point in x, " +
+                     range_and_default(r::min_extreme_tolerance, r::max_extreme_tolerance, trace.extreme_tolerance))
+      ->type_name("F");
   app.add_option("--threads", options.params.threads, "Worker threads, 0 = all cores (never changes the output)")
       ->check(CLI::Range(0U, max_threads));
   app.add_option("--format", format_text, "off | draco | msms (default: from the output's extension)");
@@ -56,10 +112,10 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
 /// The options CLI11 left as text: parameters through the service's parser, then the output format.
 status finish_options(const CLI::App& app, cli_options& options, parameter_texts& texts,
                       const std::string& format_text, const std::string& report_text) {
-  std::erase_if(texts, [&app](const auto& entry) { return app.count("--" + entry.first) == 0; });
+  std::erase_if(texts, [&app](const auto& entry) { return app.count(option_name(entry.first)) == 0; });
   const unsigned threads = options.params.threads;
   const result<mesh_params> params = proto::parse_mesh_params(lookup_in(texts));
-  if (!params) return params.error();
+  if (!params) return {params.error().code(), in_option_terms(params.error().message())};
   options.params = *params;
   options.params.threads = threads;
 

@@ -1,9 +1,12 @@
 #pragma once
 /// @file options.hpp
 /// The `tracemesh` command line:
-///   tracemesh INPUT.pqr[.gz] -o OUT.{off,drc,vert} [--density 1] [--d -1] [--t0 1] [--threads N]
-///             [--format off|draco|msms] [--report FILE|-] [--verbose]
-/// Parameters are parsed exactly as the HTTP service parses them (proto::parse_mesh_params).
+///   tracemesh INPUT.pqr[.gz] -o OUT.{off,drc,vert} [--density 1] [--d -1] [--t0 1] [--method trace|lattice]
+///             [--refine none|full] [--trace-degree N] [--trace-step F] [--trace-cos-bound F]
+///             [--trace-extreme-tolerance F] [--threads N] [--format off|draco|msms] [--report FILE|-] [--verbose]
+/// Parameters are parsed exactly as the HTTP service parses them (proto::parse_mesh_params; option --x-y is the
+/// service's field x_y), with the same defaults (mesh_params{}); an error names the option ("trace-step must be
+/// ..."), and is a usage error (exit 2).
 
 #include <filesystem>
 #include <optional>

@@ -55,9 +55,19 @@ void print_summary(const mesh_output& output) {
   for (const stage_timing& timing : output.timings) {
     std::fprintf(stderr, "tracemesh: %-13s %9.3f s\n", stage_name(timing.stage), timing.seconds);
   }
-  std::fprintf(stderr, "tracemesh: %zu atoms, %zu vertices, %zu triangles, area %.2f Å², volume %.2f Å³, %s\n",
+  if (output.method == mesh_method::trace) {
+    const trace_stats& t = output.trace;
+    std::fprintf(stderr,
+                 "tracemesh: trace: %zu lines, %zu polygons, %zu fallback loops, %zu raw vertices, %.1f field "
+                 "evaluations per vertex\n",
+                 t.lines, t.polygons, t.fallback_loops, t.raw_vertices,
+                 t.raw_vertices == 0 ? 0.0
+                                     : static_cast<double>(t.field_evaluations) / static_cast<double>(t.raw_vertices));
+  }
+  std::fprintf(stderr, "tracemesh: %zu atoms, %zu vertices, %zu triangles, area %.2f Å², volume %.2f Å³, %s %s, %s\n",
                output.atoms_meshed, output.report.vertices, output.report.triangles, output.report.area,
-               output.report.volume, output.certified ? "certified" : "NOT certified");
+               output.report.volume, method_name(output.method), refine_name(output.refine),
+               output.certified ? "certified" : "NOT certified");
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <string>
 #include <system_error>
 
 #include "proto/detail/quote.hpp"
@@ -25,6 +26,28 @@ status read_number_field(const field_lookup& lookup, std::string_view field, dou
   return status::success();
 }
 
+status read_integer_field(const field_lookup& lookup, std::string_view field, int min, int max, int& target) {
+  const std::optional<std::string> text = lookup(field);
+  if (!text) return status::success();
+  const result<int> value = parse_parameter_integer(field, *text, min, max);
+  if (!value) return value.error();
+  target = *value;
+  return status::success();
+}
+
+/// A name field ("method", "refine"): `parse` must accept the exact text.
+template <typename Enum>
+status read_name_field(const field_lookup& lookup, std::string_view field, bool (*parse)(std::string_view, Enum&),
+                       std::string_view expected, Enum& target) {
+  const std::optional<std::string> text = lookup(field);
+  if (!text) return status::success();
+  if (!parse(*text, target)) {
+    return {errc::invalid_argument,
+            std::string(field) + ": expected " + std::string(expected) + ", got " + detail::quoted(*text)};
+  }
+  return status::success();
+}
+
 }  // namespace
 
 result<double> parse_parameter_number(std::string_view field, std::string_view text) {
@@ -39,11 +62,41 @@ result<double> parse_parameter_number(std::string_view field, std::string_view t
   return value;
 }
 
+result<int> parse_parameter_integer(std::string_view field, std::string_view text, int min, int max) {
+  const result<double> value = parse_parameter_number(field, text);
+  if (!value) return value.error();
+  // Compared as doubles before any conversion: 1e300 must not reach an int.
+  if (*value != std::trunc(*value) || *value < min || *value > max) {
+    return status{errc::invalid_argument, std::string(field) + " must be an integer in [" + std::to_string(min) +
+                                              ", " + std::to_string(max) + "], got " + canonical_number(*value)};
+  }
+  return static_cast<int>(*value);
+}
+
 result<mesh_params> parse_mesh_params(const field_lookup& lookup) {
   mesh_params params;
+  trace_parameters& trace = params.trace;
   for (const auto& [field, target] : {std::pair<std::string_view, double*>{"density", &params.density},
                                       std::pair<std::string_view, double*>{"d", &params.d},
                                       std::pair<std::string_view, double*>{"t0", &params.t0}}) {
+    if (const status read = read_number_field(lookup, field, *target); !read) return read;
+  }
+  if (const status read = read_name_field(lookup, "method", parse_method, "trace or lattice", params.method); !read) {
+    return read;
+  }
+  if (const status read = read_name_field(lookup, "refine", parse_refine, "none or full", params.refine); !read) {
+    return read;
+  }
+  using r = parameter_ranges;
+  if (const status read = read_integer_field(lookup, "trace_degree", r::min_legendre_degree, r::max_legendre_degree,
+                                             trace.legendre_degree);
+      !read) {
+    return read;
+  }
+  for (const auto& [field, target] :
+       {std::pair<std::string_view, double*>{"trace_step", &trace.step_fraction},
+        std::pair<std::string_view, double*>{"trace_cos_bound", &trace.cos_bound},
+        std::pair<std::string_view, double*>{"trace_extreme_tolerance", &trace.extreme_tolerance}}) {
     if (const status read = read_number_field(lookup, field, *target); !read) return read;
   }
   if (const status valid = validate(params); !valid) return valid;
@@ -70,8 +123,17 @@ std::string canonical_number(double value) {
 }
 
 std::string canonical_parameters(const mesh_params& params) {
-  return "density=" + canonical_number(params.density) + ";d=" + canonical_number(params.d) +
-         ";t0=" + canonical_number(params.t0);
+  std::string text = "density=" + canonical_number(params.density) + ";d=" + canonical_number(params.d) +
+                     ";t0=" + canonical_number(params.t0) + ";method=" + method_name(params.method) +
+                     ";refine=" + refine_name(params.refine);
+  if (params.method == mesh_method::trace) {
+    const trace_parameters& trace = params.trace;
+    text += ";trace_degree=" + std::to_string(trace.legendre_degree) +
+            ";trace_step=" + canonical_number(trace.step_fraction) +
+            ";trace_cos_bound=" + canonical_number(trace.cos_bound) +
+            ";trace_extreme_tolerance=" + canonical_number(trace.extreme_tolerance);
+  }
+  return text;
 }
 
 nlohmann::json error_body(std::string_view code, std::string_view message) {

@@ -15,6 +15,35 @@ nlohmann::json parameters_to_json(const mesh_params& params) {
   return {{"density", number(params.density)}, {"d", number(params.d)}, {"t0", number(params.t0)}};
 }
 
+nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& stats) {
+  const double per_vertex =
+      stats.raw_vertices == 0 ? 0.0
+                              : static_cast<double>(stats.field_evaluations) / static_cast<double>(stats.raw_vertices);
+  return {
+      {"parameters",
+       {{"legendre_degree", params.legendre_degree},
+        {"step_fraction", number(params.step_fraction)},
+        {"step", number(stats.step)},
+        {"line_spacing", number(stats.line_spacing)},
+        {"cos_bound", number(params.cos_bound)},
+        {"extreme_tolerance", number(params.extreme_tolerance)}}},
+      {"lines", stats.lines},
+      {"polynomial_roots", stats.polynomial_roots},
+      {"late_roots", stats.late_roots},
+      {"arcs", stats.arcs},
+      {"bracketed_roots", stats.bracketed_roots},
+      {"polygons", stats.polygons},
+      {"annular_cells", stats.annular_cells},
+      {"extreme_points", stats.extreme_points},
+      {"retraced_arcs", stats.retraced_arcs},
+      {"fallback_loops", stats.fallback_loops},
+      {"field_evaluations", stats.field_evaluations},
+      {"raw_vertices", stats.raw_vertices},
+      {"raw_triangles", stats.raw_triangles},
+      {"field_evaluations_per_vertex", number(per_vertex)},
+  };
+}
+
 nlohmann::json component_to_json(const component_report& component) {
   return {
       {"vertices", component.vertices},
@@ -76,6 +105,9 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
   return {
       {"engine_version", engine_version},
       {"parameters", parameters_to_json(params)},
+      {"method", method_name(params.method)},
+      {"refine", refine_name(params.refine)},
+      {"trace", params.method == mesh_method::trace ? trace_to_json(params.trace, output.trace) : nlohmann::json()},
       {"atoms_meshed", output.atoms_meshed},
       {"zero_radius_atoms", output.zero_radius_atoms},
       {"vertices", report.vertices},

@@ -10,14 +10,22 @@
 
 namespace tracemesh::proto {
 
-/// Report of one meshing run: engine_version, parameters {density, d, t0}, atoms_meshed, zero_radius_atoms,
+/// Report of one meshing run: engine_version, parameters {density, d, t0}, method ("trace" | "lattice"), refine
+/// ("none" | "full"), trace (trace_to_json when params.method is trace, else null), atoms_meshed, zero_radius_atoms,
 /// vertices, triangles, area, volume, components [...], cavities, genus, euler_characteristic, certificate {...},
 /// quality {...}, achieved_density and timings {<stage name>: seconds, ..., total}.
 /// Everything but `timings` is a function of the input and parameters only (params.threads is not reported).
+/// method, refine and the trace parameters are echoed from `params` (what was asked), the trace counters come from
+/// output.trace (what was done).
 nlohmann::json report_to_json(const mesh_output& output, const mesh_params& params);
 
 /// The parts of report_to_json, for callers that assemble their own documents.
 nlohmann::json parameters_to_json(const mesh_params& params);
+/// The trace path's section: {parameters: {legendre_degree, step_fraction, step (Å, stats.step), line_spacing (Å,
+/// stats.line_spacing), cos_bound, extreme_tolerance}, lines, polynomial_roots, bracketed_roots, late_roots, arcs,
+/// polygons, extreme_points, retraced_arcs, fallback_loops, field_evaluations, raw_vertices, raw_triangles,
+/// field_evaluations_per_vertex (field_evaluations / raw_vertices; 0 without vertices)}.
+nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& stats);
 nlohmann::json component_to_json(const component_report& component);
 nlohmann::json certificate_to_json(const mesh_output& output);
 nlohmann::json quality_to_json(const quality_report& quality);

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <map>
 #include <optional>
+#include <span>
 #include <utility>
 
 #include <boost/asio/post.hpp>
@@ -150,7 +151,7 @@ result<parameter_map> parse_query(std::string_view query) {
 }
 
 /// Every name in `params` must be one of `known`; the error names the first stranger.
-status only_known(const parameter_map& params, std::initializer_list<std::string_view> known, const char* where) {
+status only_known(const parameter_map& params, std::span<const std::string_view> known, const char* where) {
   for (const auto& [name, value] : params) {
     bool found = false;
     for (std::string_view k : known) found = found || name == k;
@@ -160,6 +161,10 @@ status only_known(const parameter_map& params, std::initializer_list<std::string
     }
   }
   return status::success();
+}
+
+status only_known(const parameter_map& params, std::initializer_list<std::string_view> known, const char* where) {
+  return only_known(params, std::span<const std::string_view>(known.begin(), known.size()), where);
 }
 
 // ---- replies ------------------------------------------------------------------------------------------------
@@ -420,7 +425,7 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   const std::string route = plan.route;
   result<parameter_map> query = parse_query(target->query);
   if (!query.ok()) return done(error_reply(400, "invalid_argument", query.error().message(), route));
-  if (const status known = only_known(*query, {"density", "d", "t0", "format"}, "query parameter"); !known.ok()) {
+  if (const status known = only_known(*query, proto::mesh_request_fields, "query parameter"); !known.ok()) {
     return done(error_reply(400, "invalid_argument", known.message(), route));
   }
 
@@ -440,7 +445,7 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
       return done(error_reply(400, "invalid_argument", "a form field is given twice", route));
     }
   }
-  if (const status known = only_known(form, {"density", "d", "t0", "format"}, "form field"); !known.ok()) {
+  if (const status known = only_known(form, proto::mesh_request_fields, "form field"); !known.ok()) {
     return done(error_reply(400, "invalid_argument", known.message(), route));
   }
   if (!pqr) return done(error_reply(400, "invalid_input", "missing the file field 'pqr'", route));

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstring>
 
+#include "proto/api_types.hpp"
 #include "server/content_hash.hpp"
 
 namespace tracemesh::server {
@@ -41,7 +42,7 @@ class canonical_writer {
 std::string compute_job_id(const molecule& mol, const mesh_params& params) {
   sha256 hash;
   canonical_writer out(hash);
-  out.text(std::string_view("tracemesh-job-v1\0", 17));
+  out.text(std::string_view("tracemesh-job-v2\0", 17));
   out.text(engine_version);
   out.text(std::string_view("\0", 1));
   out.u64(mol.atoms.size());
@@ -52,9 +53,7 @@ std::string compute_job_id(const molecule& mol, const mesh_params& params) {
     out.f64(a.radius);
     out.f64(a.charge);
   }
-  out.f64(params.density);
-  out.f64(params.d);
-  out.f64(params.t0);
+  out.text(proto::canonical_parameters(params));
   out.flush();
   return hash.hex_digest();
 }

@@ -4,11 +4,16 @@
 /// and parameters give the same id however the upload was formatted (spacing, remarks, gzip, CRLF).
 ///
 /// Serialization (all numbers little-endian):
-///   "tracemesh-job-v1\0" engine_version "\0"
+///   "tracemesh-job-v2\0" engine_version "\0"
 ///   u64 atom count, then per atom in file order: f64 x, y, z, radius, charge
-///   f64 density, d, t0
-/// params.threads is excluded (it never changes the output); so is the output format: one job produces the mesh,
-/// and its encodings are cached as "<id>.off", "<id>.drc" and the report as "<id>.report".
+///   proto::canonical_parameters(params): "density=…;d=…;t0=…;method=…;refine=…" and, for the trace method only,
+///   ";trace_degree=…;trace_step=…;trace_cos_bound=…;trace_extreme_tolerance=…" (shortest round-trip numbers, so
+///   distinct values never share a spelling)
+/// An omitted request parameter and its default spelled out give the same id; the trace parameters do not change
+/// the id of a lattice job (they do not change its mesh or report). params.threads is excluded (it never changes
+/// the output); so is the output format: one job produces the mesh, and its encodings are cached as "<id>.off",
+/// "<id>.drc" and the report as "<id>.report". (v1 hashed f64 density, d, t0 and knew no method: v1 ids are
+/// simply never asked for again.)
 
 #include <string>
 

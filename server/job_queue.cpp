@@ -11,7 +11,9 @@ namespace {
 
 using clock = std::chrono::steady_clock;
 
-// Stages before done, in pipeline order; overall progress advances by one share per stage.
+// Stages before done, in pipeline order; overall progress advances by one share per stage. A job skips the stages
+// its method does not run (the lattice method has no tracing, the trace method no sampling, refine none no
+// refining): progress then jumps over their shares, forward only.
 constexpr double stage_count = static_cast<double>(static_cast<int>(mesh_stage::done));
 
 double overall_progress(mesh_stage stage, double fraction) {
@@ -31,15 +33,19 @@ struct job_queue::job {
       : id(std::move(job_id)),
         input(std::move(job_in)),
         token([this](mesh_stage s, double f) {
+          // done is the queue's to set (finish()): the mesher reports it before the job encodes its outputs.
+          if (s == mesh_stage::done) return;
           stage.store(static_cast<int>(s), std::memory_order_relaxed);
-          fraction.store(f, std::memory_order_relaxed);
+          // Never backwards, whatever order the work reports in (the token serialises these calls).
+          const double overall = overall_progress(s, f);
+          if (overall > progress.load(std::memory_order_relaxed)) progress.store(overall, std::memory_order_relaxed);
         }) {}
 
   const std::string id;
   const std::shared_ptr<const job_input> input;
   // Written by the pipeline through the token, read by snapshots: atomics, no lock.
   std::atomic<int> stage{0};
-  std::atomic<double> fraction{0};
+  std::atomic<double> progress{0};
   progress_token token;
   // Guarded by job_queue::mutex_.
   job_state state = job_state::queued;
@@ -276,9 +282,7 @@ job_snapshot job_queue::snapshot_of(const job& j) const {
   snapshot.state = j.state;
   snapshot.format = j.input ? j.input->format : proto::mesh_format::off;
   snapshot.stage = static_cast<mesh_stage>(j.stage.load(std::memory_order_relaxed));
-  snapshot.progress = j.state == job_state::done
-                          ? 1.0
-                          : overall_progress(snapshot.stage, j.fraction.load(std::memory_order_relaxed));
+  snapshot.progress = j.state == job_state::done ? 1.0 : j.progress.load(std::memory_order_relaxed);
   if (j.state == job_state::queued) {
     const auto position = std::find_if(queue_.begin(), queue_.end(), [&](const auto& q) { return q.get() == &j; });
     snapshot.queue_position = static_cast<std::size_t>(position - queue_.begin());

@@ -64,7 +64,7 @@ struct job_output {
 struct job_snapshot {
   std::string id;
   job_state state = job_state::queued;
-  double progress = 0;                    ///< 0..1 over the whole pipeline
+  double progress = 0;                    ///< 0..1 over the whole pipeline; never decreases
   mesh_stage stage = mesh_stage::reading;
   std::size_t queue_position = 0;         ///< jobs ahead of this one (queued jobs only; 0 = next)
   proto::mesh_format format = proto::mesh_format::off;  ///< job_input::format

@@ -1,8 +1,9 @@
 // Fuzz target for the request-parameter parser (proto::parse_mesh_request / parse_mesh_params).
 // Input: a JSON object ({"density": "2", "d": -1, ...}; non-string values are passed as their JSON text) or,
 // otherwise, key=value pairs separated by '&' or newlines, as a query string or form would give them.
-// Checks, beyond "no crash": accepted parameters lie in parameter_ranges, and their canonical spelling parses
-// back to the very same values.
+// Checks, beyond "no crash": accepted parameters lie in parameter_ranges (the trace parameters included, whatever
+// the method), and their canonical spelling (canonical_parameters, split on ';') parses back to parameters with the
+// same canonical spelling and the very same values.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -47,17 +48,44 @@ tracemesh::proto::field_lookup lookup_in(const fields& values) {
   };
 }
 
+/// "a=1;b=2" → {a: 1, b: 2}.
+fields fields_from_canonical(std::string_view text) {
+  fields parsed;
+  while (!text.empty()) {
+    const std::size_t end = text.find(';');
+    const std::string_view pair = text.substr(0, end);
+    const std::size_t equals = pair.find('=');
+    if (equals == std::string_view::npos) std::abort();  // canonical_parameters writes name=value pairs only
+    parsed[std::string(pair.substr(0, equals))] = pair.substr(equals + 1);
+    if (end == std::string_view::npos) break;
+    text.remove_prefix(end + 1);
+  }
+  return parsed;
+}
+
 void check_accepted(const tracemesh::mesh_params& params) {
   using r = tracemesh::parameter_ranges;
+  const tracemesh::trace_parameters& t = params.trace;
   const bool in_range = params.density >= r::min_density && params.density <= r::max_density &&
                         params.d >= r::min_d && params.d <= r::max_d && params.t0 >= r::min_t0 &&
-                        params.t0 <= r::max_t0;
+                        params.t0 <= r::max_t0 && t.legendre_degree >= r::min_legendre_degree &&
+                        t.legendre_degree <= r::max_legendre_degree && t.step_fraction >= r::min_trace_step_fraction &&
+                        t.step_fraction <= r::max_trace_step_fraction && t.cos_bound >= r::min_trace_cos_bound &&
+                        t.cos_bound <= r::max_trace_cos_bound && t.extreme_tolerance >= r::min_extreme_tolerance &&
+                        t.extreme_tolerance <= r::max_extreme_tolerance;
   if (!in_range) std::abort();
-  const fields canonical = {{"density", tracemesh::proto::canonical_number(params.density)},
-                            {"d", tracemesh::proto::canonical_number(params.d)},
-                            {"t0", tracemesh::proto::canonical_number(params.t0)}};
-  const auto again = tracemesh::proto::parse_mesh_params(lookup_in(canonical));
-  if (!again || again->density != params.density || again->d != params.d || again->t0 != params.t0) std::abort();
+  const std::string canonical = tracemesh::proto::canonical_parameters(params);
+  const fields spelled = fields_from_canonical(canonical);
+  const auto again = tracemesh::proto::parse_mesh_params(lookup_in(spelled));
+  if (!again || tracemesh::proto::canonical_parameters(*again) != canonical) std::abort();
+  if (again->density != params.density || again->d != params.d || again->t0 != params.t0 ||
+      again->method != params.method || again->refine != params.refine) {
+    std::abort();
+  }
+  const tracemesh::trace_parameters& u = again->trace;
+  const bool same_trace = u.legendre_degree == t.legendre_degree && u.step_fraction == t.step_fraction &&
+                          u.cos_bound == t.cos_bound && u.extreme_tolerance == t.extreme_tolerance;
+  if (params.method == tracemesh::mesh_method::trace && !same_trace) std::abort();
 }
 
 }  // namespace

@@ -208,6 +208,38 @@ class TracemeshdTest : public ::testing::Test {
     return found;
   }
 
+  /// POST /jobs, then polls GET /jobs/{id} until the job is final; the final document (or {"http": status}).
+  nlohmann::json run_job(const server_process& server, const fs::path& pqr, const std::string& fields,
+                         const std::string& query = {}) {
+    curl_reply accepted = upload(server, pqr, fields, "/jobs" + query);
+    if (accepted.status != 202 && accepted.status != 200) return {{"http", accepted.status}, {"body", accepted.body}};
+    const std::string id = nlohmann::json::parse(accepted.body).at("id");
+    const auto deadline = std::chrono::steady_clock::now() + 300s;
+    for (;;) {
+      curl_reply polled = curl("", server.url("/jobs/" + id));
+      if (polled.status != 200) return {{"http", polled.status}, {"body", polled.body}};
+      nlohmann::json doc = nlohmann::json::parse(polled.body);
+      const std::string state = doc.at("status");
+      if (state == "done" || state == "failed" || state == "cancelled") return doc;
+      if (std::chrono::steady_clock::now() > deadline) return {{"timeout", true}, {"last", doc}};
+      std::this_thread::sleep_for(20ms);
+    }
+  }
+
+  /// Checks a done job's certified report against its OFF mesh (fetched by id); returns the report.
+  nlohmann::json expect_certified_job(const server_process& server, const nlohmann::json& job) {
+    EXPECT_EQ(job.value("status", ""), "done") << job;
+    if (job.value("status", "") != "done") return nlohmann::json::object();
+    const nlohmann::json& report = job.at("report");
+    EXPECT_EQ(report.at("certificate").at("certified"), true) << report.at("certificate");
+    curl_reply mesh = curl("", server.url("/jobs/" + job.at("id").get<std::string>() + "/mesh?format=off"));
+    EXPECT_EQ(mesh.status, 200);
+    const auto [vertices, triangles] = off_counts(mesh.body);
+    EXPECT_EQ(report.at("vertices"), vertices);
+    EXPECT_EQ(report.at("triangles"), triangles);
+    return report;
+  }
+
   fs::path write(const std::string& name, const std::string& content) {
     const fs::path path = work_.path() / name;
     std::ofstream(path, std::ios::binary) << content;
@@ -247,6 +279,143 @@ TEST_F(TracemeshdTest, OffAndDracoRoundTripsOnRealMolecules) {
     EXPECT_EQ(decoded_faces, triangles) << name;
   }
   EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 3);
+}
+
+TEST_F(TracemeshdTest, LatticeMethodWithAndWithoutRefinementGivesCertifiedMeshes) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "2"});
+  for (const char* name : {"gly.pqr", "fas2.pqr"}) {
+    std::map<std::string, std::string> ids;
+    std::map<std::string, long> vertices;
+    for (const char* refine : {"none", "full"}) {
+      SCOPED_TRACE(std::string(name) + " refine " + refine);
+      // Form fields on POST /jobs.
+      const nlohmann::json job =
+          run_job(server, molecule_path(name), std::string("-F method=lattice -F refine=") + refine);
+      const nlohmann::json report = expect_certified_job(server, job);
+      if (report.empty()) continue;
+      EXPECT_EQ(report.at("method"), "lattice");
+      EXPECT_EQ(report.at("refine"), refine);
+      EXPECT_TRUE(report.at("trace").is_null());
+      EXPECT_EQ(report.at("timings").contains("refining"), std::string(refine) == "full") << report.at("timings");
+      ids[refine] = job.at("id");
+      vertices[refine] = report.at("vertices");
+      // Query parameters on POST /mesh: the same job, served from the cache.
+      curl_reply sync = curl("-F pqr=@" + molecule_path(name).string(),
+                             server.url(std::string("/mesh?method=lattice&refine=") + refine));
+      EXPECT_EQ(sync.status, 200) << sync.body;
+      EXPECT_EQ(sync.headers["x-job-id"], ids[refine]);
+      EXPECT_EQ(sync.headers["x-cache"], "hit");
+    }
+    EXPECT_NE(ids["none"], ids["full"]) << name << ": refine makes another job";
+    EXPECT_GT(vertices["none"], vertices["full"]) << name;
+  }
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 4);
+}
+
+TEST_F(TracemeshdTest, MethodAndRefineAreDifferentJobsAndSpelledOutDefaultsTheSameJob) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  const fs::path gly = molecule_path("gly.pqr");
+  curl_reply implicit = upload(server, gly);
+  ASSERT_EQ(implicit.status, 200) << implicit.body;
+  const std::string id = implicit.headers["x-job-id"];
+  const nlohmann::json defaults = nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body).at("report");
+  const std::string method = defaults.at("method"), refine = defaults.at("refine");
+  // Every default spelled out, as form fields and as query parameters: the same job, a cache hit.
+  const std::string spelled = "method=" + method + "&refine=" + refine +
+                              "&density=1.0&d=-1&t0=1&trace_degree=10&trace_step=0.5&trace_cos_bound=0.9396926207859084"
+                              "&trace_extreme_tolerance=0.02";
+  curl_reply as_query = curl("-F pqr=@" + gly.string(), server.url("/mesh?" + spelled));
+  EXPECT_EQ(as_query.headers["x-job-id"], id) << as_query.body;
+  EXPECT_EQ(as_query.headers["x-cache"], "hit");
+  std::string form;
+  std::istringstream pairs(spelled);
+  for (std::string pair; std::getline(pairs, pair, '&');) form += " -F " + pair;
+  curl_reply as_form = upload(server, gly, form);
+  EXPECT_EQ(as_form.headers["x-job-id"], id) << as_form.body;
+  EXPECT_EQ(as_form.body, implicit.body);
+  // The other method and the other refine mode are other jobs.
+  const std::string other_method = method == "trace" ? "lattice" : "trace";
+  const std::string other_refine = refine == "full" ? "none" : "full";
+  curl_reply by_refine = upload(server, gly, "-F refine=" + other_refine);
+  EXPECT_EQ(by_refine.status, 200) << by_refine.body;
+  EXPECT_NE(by_refine.headers["x-job-id"], id);
+  curl_reply by_method = upload(server, gly, "-F method=" + other_method);
+  EXPECT_NE(by_method.headers["x-job-id"], id) << by_method.body;
+  EXPECT_NE(by_method.headers["x-job-id"], by_refine.headers["x-job-id"]);
+}
+
+TEST_F(TracemeshdTest, BadMethodRefineAndTraceParametersGet400NamingThem) {
+  server_process server(work_.path(), {});
+  const fs::path gly = molecule_path("gly.pqr");
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"method", "Trace"},         {"refine", "partial"},          {"trace_degree", "2.5"},
+      {"trace_degree", "100"},     {"trace_step", "0"},            {"trace_cos_bound", "1"},
+      {"trace_extreme_tolerance", "0.5"}};
+  for (const auto& [name, value] : bad) {
+    for (const char* route : {"/mesh", "/jobs"}) {
+      curl_reply as_form = upload(server, gly, "-F " + name + "=" + value, route);
+      expect_error(as_form, 400, "invalid_argument", name + " as a form field on " + route);
+      EXPECT_EQ(nlohmann::json::parse(as_form.body)["error"]["message"].get<std::string>().rfind(name, 0), 0u)
+          << as_form.body;
+      curl_reply as_query = upload(server, gly, "", std::string(route) + "?" + name + "=" + value);
+      expect_error(as_query, 400, "invalid_argument", name + " as a query parameter on " + route);
+      EXPECT_EQ(nlohmann::json::parse(as_query.body)["error"]["message"].get<std::string>().rfind(name, 0), 0u)
+          << as_query.body;
+    }
+  }
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 0);
+}
+
+// The trace method end to end (these need the trace engine in core/trace: they fail while it is a stub).
+TEST_F(TracemeshdTest, TraceMethodGivesCertifiedMeshesWithTraceReports) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "2"});
+  for (const char* name : {"gly.pqr", "fas2.pqr"}) {
+    std::map<std::string, std::string> ids;
+    for (const char* refine : {"none", "full"}) {
+      SCOPED_TRACE(std::string(name) + " refine " + refine);
+      const nlohmann::json job =
+          run_job(server, molecule_path(name), "", std::string("?method=trace&refine=") + refine);
+      const nlohmann::json report = expect_certified_job(server, job);
+      if (report.empty()) continue;
+      ids[refine] = job.at("id");
+      EXPECT_EQ(report.at("method"), "trace");
+      EXPECT_EQ(report.at("refine"), refine);
+      const nlohmann::json& trace = report.at("trace");
+      ASSERT_TRUE(trace.is_object()) << report;
+      EXPECT_GT(trace.at("lines").get<double>(), 0);
+      EXPECT_GT(trace.at("polygons").get<double>(), 0);
+      EXPECT_GT(trace.at("raw_vertices").get<double>(), 0);
+      EXPECT_GT(trace.at("field_evaluations_per_vertex").get<double>(), 0);
+      EXPECT_TRUE(trace.contains("fallback_loops"));
+      EXPECT_TRUE(trace.at("fallback_loops").is_number_unsigned());
+      EXPECT_GT(trace.at("parameters").at("line_spacing").get<double>(), 0);
+      EXPECT_GT(trace.at("parameters").at("step").get<double>(), 0);
+      EXPECT_TRUE(report.at("timings").contains("tracing")) << report.at("timings");
+      // The same request as form fields is the same job (a hit), and the lattice method another one.
+      curl_reply again = upload(server, molecule_path(name), std::string("-F method=trace -F refine=") + refine);
+      EXPECT_EQ(again.status, 200) << again.body;
+      EXPECT_EQ(again.headers["x-job-id"], ids[refine]);
+      EXPECT_EQ(again.headers["x-cache"], "hit");
+    }
+    EXPECT_NE(ids["none"], ids["full"]) << name;
+  }
+}
+
+TEST_F(TracemeshdTest, TraceMethodParametersReachTheEngineAndItsReport) {
+  server_process server(work_.path(), {});
+  const nlohmann::json job = run_job(server, molecule_path("gly.pqr"),
+                                     "-F method=trace -F trace_degree=12 -F trace_step=0.25 -F trace_cos_bound=0.95 "
+                                     "-F trace_extreme_tolerance=0.01");
+  const nlohmann::json report = expect_certified_job(server, job);
+  ASSERT_FALSE(report.empty());
+  const nlohmann::json& parameters = report.at("trace").at("parameters");
+  EXPECT_EQ(parameters.at("legendre_degree"), 12);
+  EXPECT_EQ(parameters.at("step_fraction"), 0.25);
+  EXPECT_EQ(parameters.at("cos_bound"), 0.95);
+  EXPECT_EQ(parameters.at("extreme_tolerance"), 0.01);
+  EXPECT_DOUBLE_EQ(parameters.at("step").get<double>(), 0.25 * parameters.at("line_spacing").get<double>());
+  const nlohmann::json defaults = run_job(server, molecule_path("gly.pqr"), "-F method=trace");
+  EXPECT_NE(defaults.value("id", ""), job.value("id", "")) << "trace parameters are part of a trace job";
 }
 
 TEST_F(TracemeshdTest, CacheHitsOnTheSecondRequestAndAfterARestart) {

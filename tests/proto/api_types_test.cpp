@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace tracemesh::proto {
 namespace {
@@ -77,6 +80,97 @@ TEST(ParseMeshParams, MissingFieldsKeepTheDefaults) {
   EXPECT_EQ(parsed->density, defaults.density);
   EXPECT_EQ(parsed->d, defaults.d);
   EXPECT_EQ(parsed->t0, defaults.t0);
+  EXPECT_EQ(parsed->method, defaults.method);
+  EXPECT_EQ(parsed->refine, defaults.refine);
+  EXPECT_EQ(parsed->trace.legendre_degree, defaults.trace.legendre_degree);
+  EXPECT_EQ(parsed->trace.step_fraction, defaults.trace.step_fraction);
+  EXPECT_EQ(parsed->trace.cos_bound, defaults.trace.cos_bound);
+  EXPECT_EQ(parsed->trace.extreme_tolerance, defaults.trace.extreme_tolerance);
+}
+
+TEST(ParseMeshParams, ReadsMethodRefineAndTheTraceParameters) {
+  const result<mesh_params> parsed =
+      parse_mesh_params(fields({{"method", "trace"}, {"refine", "none"}, {"trace_degree", "12"},
+                                {"trace_step", "0.25"}, {"trace_cos_bound", "0.95"},
+                                {"trace_extreme_tolerance", "1e-2"}}));
+  ASSERT_TRUE(parsed) << parsed.error().message();
+  EXPECT_EQ(parsed->method, mesh_method::trace);
+  EXPECT_EQ(parsed->refine, refine_mode::none);
+  EXPECT_EQ(parsed->trace.legendre_degree, 12);
+  EXPECT_EQ(parsed->trace.step_fraction, 0.25);
+  EXPECT_EQ(parsed->trace.cos_bound, 0.95);
+  EXPECT_EQ(parsed->trace.extreme_tolerance, 0.01);
+  const result<mesh_params> lattice = parse_mesh_params(fields({{"method", "lattice"}, {"refine", "full"}}));
+  ASSERT_TRUE(lattice);
+  EXPECT_EQ(lattice->method, mesh_method::lattice);
+  EXPECT_EQ(lattice->refine, refine_mode::full);
+}
+
+TEST(ParseMeshParams, TraceDegreeIsAWholeNumberInAnySpelling) {
+  for (const char* spelling : {"10", "10.0", "1e1", "010", "100e-1"}) {
+    const result<mesh_params> parsed = parse_mesh_params(fields({{"trace_degree", spelling}}));
+    ASSERT_TRUE(parsed) << spelling << ": " << parsed.error().message();
+    EXPECT_EQ(parsed->trace.legendre_degree, 10) << spelling;
+  }
+  using r = parameter_ranges;
+  for (const int degree : {r::min_legendre_degree, r::max_legendre_degree}) {
+    const result<mesh_params> parsed = parse_mesh_params(fields({{"trace_degree", std::to_string(degree)}}));
+    ASSERT_TRUE(parsed) << degree;
+    EXPECT_EQ(parsed->trace.legendre_degree, degree);
+  }
+  for (const char* text : {"10.5", "2.0000001", "1", "31", "-10", "1e300", "-1e300", "1e999", "ten", "", "nan"}) {
+    expect_invalid_naming(parse_mesh_params(fields({{"trace_degree", text}})), "trace_degree");
+  }
+}
+
+TEST(ParseMeshParams, MethodAndRefineAreExactLowerCaseNames) {
+  for (const char* text : {"Trace", "LATTICE", " trace", "trace ", "", "tmsmesh", "trace\n"}) {
+    expect_invalid_naming(parse_mesh_params(fields({{"method", text}})), "method");
+  }
+  for (const char* text : {"Full", "NONE", "yes", "0", "", "full;"}) {
+    expect_invalid_naming(parse_mesh_params(fields({{"refine", text}})), "refine");
+  }
+  const result<mesh_params> bad = parse_mesh_params(fields({{"method", std::string(5000, 'x') + "\x01"}}));
+  ASSERT_FALSE(bad);
+  EXPECT_LT(bad.error().message().size(), 200U) << "the echoed value is cut";
+  EXPECT_EQ(bad.error().message().find('\x01'), std::string::npos);
+}
+
+TEST(ParseMeshParams, TraceParametersOutOfRangeNameTheirField) {
+  using r = parameter_ranges;
+  const std::pair<const char*, double> bad[] = {
+      {"trace_step", r::min_trace_step_fraction / 2},  {"trace_step", r::max_trace_step_fraction * 2},
+      {"trace_cos_bound", r::min_trace_cos_bound - 0.1}, {"trace_cos_bound", 1.0},
+      {"trace_extreme_tolerance", 0.0},                 {"trace_extreme_tolerance", r::max_extreme_tolerance * 2}};
+  for (const auto& [field, value] : bad) {
+    // Validated whatever the method: a request that is wrong for the trace method is wrong for the lattice one.
+    for (const char* method : {"trace", "lattice"}) {
+      expect_invalid_naming(parse_mesh_params(fields({{"method", method}, {field, canonical_number(value)}})), field);
+    }
+  }
+  expect_invalid_naming(parse_mesh_params(fields({{"trace_step", "inf"}})), "trace_step");
+  expect_invalid_naming(parse_mesh_params(fields({{"trace_cos_bound", "0x1p-1"}})), "trace_cos_bound");
+  expect_invalid_naming(parse_mesh_params(fields({{"trace_extreme_tolerance", "1e-2 "}})), "trace_extreme_tolerance");
+  const result<mesh_params> ends = parse_mesh_params(
+      fields({{"trace_step", canonical_number(r::max_trace_step_fraction)},
+              {"trace_cos_bound", canonical_number(r::min_trace_cos_bound)},
+              {"trace_extreme_tolerance", canonical_number(r::min_extreme_tolerance)}}));
+  ASSERT_TRUE(ends) << ends.error().message();
+  EXPECT_EQ(ends->trace.step_fraction, r::max_trace_step_fraction);
+}
+
+TEST(ParseMeshParams, TheFieldListNamesEveryFieldRead) {
+  // A lookup that records what parse_mesh_params asks for: exactly mesh_parameter_fields.
+  std::vector<std::string> asked;
+  const field_lookup recorder = [&asked](std::string_view name) -> std::optional<std::string> {
+    asked.emplace_back(name);
+    return std::nullopt;
+  };
+  ASSERT_TRUE(parse_mesh_params(recorder));
+  EXPECT_EQ(asked, std::vector<std::string>(mesh_parameter_fields.begin(), mesh_parameter_fields.end()));
+  std::vector<std::string> request(mesh_parameter_fields.begin(), mesh_parameter_fields.end());
+  request.emplace_back("format");
+  EXPECT_EQ(std::vector<std::string>(mesh_request_fields.begin(), mesh_request_fields.end()), request);
 }
 
 TEST(ParseMeshParams, ReadsEveryField) {
@@ -93,7 +187,8 @@ TEST(ParseMeshParams, CanonicalSpellingsGiveIdenticalParameters) {
       parse_mesh_params(fields({{"density", "1.0"}, {"d", "-1.000"}, {"t0", "10e-1"}}));
   ASSERT_TRUE(short_form && long_form);
   EXPECT_EQ(canonical_parameters(*short_form), canonical_parameters(*long_form));
-  EXPECT_EQ(canonical_parameters(*short_form), "density=1;d=-1;t0=1");
+  EXPECT_EQ(canonical_parameters(*short_form), canonical_parameters(mesh_params{}));
+  EXPECT_EQ(canonical_parameters(*short_form).rfind("density=1;d=-1;t0=1;method=", 0), 0U);
 }
 
 TEST(ParseMeshParams, RangeEndsAreAccepted) {
@@ -175,6 +270,54 @@ TEST(CanonicalNumber, ShortestRoundTrip) {
     const result<double> back = parse_parameter_number("x", canonical_number(value));
     ASSERT_TRUE(back);
     EXPECT_EQ(*back, value);
+  }
+}
+
+TEST(CanonicalParameters, SpellsMethodRefineAndForTheTraceMethodItsParameters) {
+  mesh_params lattice;
+  lattice.method = mesh_method::lattice;
+  lattice.refine = refine_mode::full;
+  EXPECT_EQ(canonical_parameters(lattice), "density=1;d=-1;t0=1;method=lattice;refine=full");
+  mesh_params trace;
+  trace.method = mesh_method::trace;
+  trace.refine = refine_mode::none;
+  trace.trace.legendre_degree = 12;
+  trace.trace.step_fraction = 0.25;
+  trace.trace.cos_bound = 0.95;
+  trace.trace.extreme_tolerance = 0.01;
+  EXPECT_EQ(canonical_parameters(trace),
+            "density=1;d=-1;t0=1;method=trace;refine=none;trace_degree=12;trace_step=0.25;trace_cos_bound=0.95;"
+            "trace_extreme_tolerance=0.01");
+  // The lattice method ignores the trace parameters, and so does its key.
+  mesh_params lattice_tuned = lattice;
+  lattice_tuned.trace = trace.trace;
+  EXPECT_EQ(canonical_parameters(lattice_tuned), canonical_parameters(lattice));
+}
+
+TEST(CanonicalParameters, EveryParameterOfTheTraceMethodCounts) {
+  mesh_params base;
+  base.method = mesh_method::trace;
+  std::vector<mesh_params> changed(6, base);
+  changed[0].refine = base.refine == refine_mode::full ? refine_mode::none : refine_mode::full;
+  changed[1].method = mesh_method::lattice;
+  changed[2].trace.legendre_degree += 1;
+  changed[3].trace.step_fraction = std::nextafter(base.trace.step_fraction, 1.0);
+  changed[4].trace.cos_bound = std::nextafter(base.trace.cos_bound, 0.0);
+  changed[5].trace.extreme_tolerance = std::nextafter(base.trace.extreme_tolerance, 1.0);
+  for (std::size_t i = 0; i < changed.size(); ++i) {
+    EXPECT_NE(canonical_parameters(changed[i]), canonical_parameters(base)) << i;
+    const std::string text = canonical_parameters(changed[i]);
+    // The canonical string parses back to the same parameters.
+    std::map<std::string, std::string, std::less<>> parsed_fields;
+    std::string_view rest = text;
+    while (!rest.empty()) {
+      const std::string_view pair = rest.substr(0, rest.find(';'));
+      rest.remove_prefix(std::min(rest.size(), pair.size() + 1));
+      parsed_fields[std::string(pair.substr(0, pair.find('=')))] = std::string(pair.substr(pair.find('=') + 1));
+    }
+    const result<mesh_params> back = parse_mesh_params(fields(parsed_fields));
+    ASSERT_TRUE(back) << text << ": " << back.error().message();
+    EXPECT_EQ(canonical_parameters(*back), text);
   }
 }
 

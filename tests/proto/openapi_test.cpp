@@ -102,6 +102,47 @@ TEST(OpenApi, ParameterRangesMatchTheEngine) {
   EXPECT_EQ(t0.at("minimum"), parameter_ranges::min_t0);
   EXPECT_EQ(t0.at("maximum"), parameter_ranges::max_t0);
   EXPECT_EQ(t0.at("default"), mesh_params{}.t0);
+
+  const trace_parameters trace;
+  const nlohmann::json& degree = schema(doc, "TraceDegree");
+  EXPECT_EQ(degree.at("type"), "integer");
+  EXPECT_EQ(degree.at("minimum"), parameter_ranges::min_legendre_degree);
+  EXPECT_EQ(degree.at("maximum"), parameter_ranges::max_legendre_degree);
+  EXPECT_EQ(degree.at("default"), trace.legendre_degree);
+  const nlohmann::json& step = schema(doc, "TraceStepFraction");
+  EXPECT_EQ(step.at("minimum"), parameter_ranges::min_trace_step_fraction);
+  EXPECT_EQ(step.at("maximum"), parameter_ranges::max_trace_step_fraction);
+  EXPECT_EQ(step.at("default"), trace.step_fraction);
+  const nlohmann::json& cos_bound = schema(doc, "TraceCosBound");
+  EXPECT_EQ(cos_bound.at("minimum"), parameter_ranges::min_trace_cos_bound);
+  EXPECT_EQ(cos_bound.at("maximum"), parameter_ranges::max_trace_cos_bound);
+  EXPECT_EQ(cos_bound.at("default"), trace.cos_bound);
+  const nlohmann::json& tolerance = schema(doc, "TraceExtremeTolerance");
+  EXPECT_EQ(tolerance.at("minimum"), parameter_ranges::min_extreme_tolerance);
+  EXPECT_EQ(tolerance.at("maximum"), parameter_ranges::max_extreme_tolerance);
+  EXPECT_EQ(tolerance.at("default"), trace.extreme_tolerance);
+  EXPECT_EQ(mesh_params{}.trace.legendre_degree, trace.legendre_degree);
+}
+
+TEST(OpenApi, UploadRoutesDocumentEveryRequestField) {
+  // Each field the service reads is a query parameter and a form field of POST /mesh and POST /jobs, and nothing
+  // else is: the document and the parser list the same names.
+  const nlohmann::json doc = document();
+  const std::set<std::string> fields(mesh_request_fields.begin(), mesh_request_fields.end());
+  for (const char* path : {"/mesh", "/jobs"}) {
+    std::set<std::string> query;
+    for (const nlohmann::json& parameter : doc.at("paths").at(path).at("post").at("parameters")) {
+      const std::string ref = parameter.at("$ref");
+      const nlohmann::json& resolved = doc.at(nlohmann::json::json_pointer(ref.substr(1)));
+      EXPECT_EQ(resolved.at("in"), "query") << ref;
+      query.insert(resolved.at("name").get<std::string>());
+    }
+    EXPECT_EQ(query, fields) << path;
+  }
+  std::set<std::string> form = keys_of(doc.at("components").at("requestBodies").at("MeshUpload").at("content").at(
+      "multipart/form-data").at("schema").at("properties"));
+  EXPECT_EQ(form.erase("pqr"), 1U);
+  EXPECT_EQ(form, fields);
 }
 
 TEST(OpenApi, EnumerationsMatchTheCode) {
@@ -118,18 +159,36 @@ TEST(OpenApi, EnumerationsMatchTheCode) {
   }
   EXPECT_EQ(strings_of(schema(doc, "JobStatus").at("enum")), states);
 
+  const std::set<std::string> methods = {method_name(mesh_method::trace), method_name(mesh_method::lattice)};
+  EXPECT_EQ(strings_of(schema(doc, "MeshMethod").at("enum")), methods);
+  EXPECT_EQ(schema(doc, "MeshMethod").at("default"), method_name(mesh_params{}.method));
+  const std::set<std::string> refines = {refine_name(refine_mode::none), refine_name(refine_mode::full)};
+  EXPECT_EQ(strings_of(schema(doc, "RefineMode").at("enum")), refines);
+  EXPECT_EQ(schema(doc, "RefineMode").at("default"), refine_name(mesh_params{}.refine));
+
   std::set<std::string> stages;
   for (int s = 0; s <= static_cast<int>(mesh_stage::done); ++s) stages.insert(stage_name(static_cast<mesh_stage>(s)));
   EXPECT_EQ(strings_of(schema(doc, "Stage").at("enum")), stages);
+  EXPECT_EQ(stages.count("tracing"), 1U);
 }
 
 TEST(OpenApi, ReportSchemaMatchesReportToJson) {
   const nlohmann::json doc = document();
   mesh_output output;
   output.report.components.resize(1);
-  const nlohmann::json report = report_to_json(output, mesh_params{});
+  mesh_params lattice, trace;
+  lattice.method = mesh_method::lattice;
+  trace.method = mesh_method::trace;
+  const nlohmann::json report = report_to_json(output, lattice);
   EXPECT_EQ(strings_of(schema(doc, "MeshReport").at("required")), keys_of(report));
   EXPECT_EQ(keys_of(schema(doc, "MeshReport").at("properties")), keys_of(report));
+  EXPECT_EQ(keys_of(report_to_json(output, trace)), keys_of(report)) << "trace is null or an object, never absent";
+  const nlohmann::json trace_section = report_to_json(output, trace).at("trace");
+  EXPECT_EQ(strings_of(schema(doc, "TraceReport").at("required")), keys_of(trace_section));
+  EXPECT_EQ(keys_of(schema(doc, "TraceReport").at("properties")), keys_of(trace_section));
+  EXPECT_EQ(strings_of(schema(doc, "TraceParameters").at("required")), keys_of(trace_section.at("parameters")));
+  EXPECT_EQ(keys_of(schema(doc, "TraceParameters").at("properties")), keys_of(trace_section.at("parameters")));
+  EXPECT_EQ(schema(doc, "MeshReport").at("properties").at("trace").at("nullable"), true);
   EXPECT_EQ(strings_of(schema(doc, "Certificate").at("required")), keys_of(report.at("certificate")));
   EXPECT_EQ(strings_of(schema(doc, "Quality").at("required")), keys_of(report.at("quality")));
   EXPECT_EQ(strings_of(schema(doc, "Component").at("required")), keys_of(report.at("components").at(0)));

@@ -49,6 +49,8 @@ mesh_output sample_output() {
 
 mesh_params sample_params() {
   mesh_params params;
+  params.method = mesh_method::lattice;
+  params.refine = refine_mode::full;
   params.density = 2;
   params.d = -0.75;
   params.t0 = 1.25;
@@ -64,10 +66,108 @@ std::set<std::string> keys_of(const nlohmann::json& object) {
 
 TEST(ReportJson, HasExactlyTheDocumentedTopLevelFields) {
   const nlohmann::json json = report_to_json(sample_output(), sample_params());
-  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "atoms_meshed",
-                                                  "zero_radius_atoms", "vertices", "triangles", "area", "volume",
-                                                  "components", "cavities", "genus", "euler_characteristic",
-                                                  "certificate", "quality", "achieved_density", "timings"}));
+  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "method", "refine", "trace",
+                                                  "atoms_meshed", "zero_radius_atoms", "vertices", "triangles",
+                                                  "area", "volume", "components", "cavities", "genus",
+                                                  "euler_characteristic", "certificate", "quality",
+                                                  "achieved_density", "timings"}));
+}
+
+/// What a trace run counted, distinct numbers in every field.
+trace_stats sample_trace_stats() {
+  trace_stats t;
+  t.line_spacing = 0.75;
+  t.step = 0.375;
+  t.lines = 101;
+  t.polynomial_roots = 102;
+  t.late_roots = 3;
+  t.arcs = 104;
+  t.bracketed_roots = 5;
+  t.annular_cells = 11;
+  t.polygons = 106;
+  t.extreme_points = 7;
+  t.retraced_arcs = 8;
+  t.fallback_loops = 9;
+  t.field_evaluations = 2500;
+  t.raw_vertices = 100;
+  t.raw_triangles = 196;
+  return t;
+}
+
+mesh_params trace_params() {
+  mesh_params params = sample_params();
+  params.method = mesh_method::trace;
+  params.refine = refine_mode::none;
+  params.trace.legendre_degree = 12;
+  params.trace.step_fraction = 0.5;
+  params.trace.cos_bound = 0.95;
+  params.trace.extreme_tolerance = 0.01;
+  return params;
+}
+
+TEST(ReportJson, EchoesMethodAndRefine) {
+  for (const mesh_method method : {mesh_method::trace, mesh_method::lattice}) {
+    for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
+      mesh_params params = sample_params();
+      params.method = method;
+      params.refine = refine;
+      const nlohmann::json json = report_to_json(sample_output(), params);
+      EXPECT_EQ(json.at("method"), method_name(method));
+      EXPECT_EQ(json.at("refine"), refine_name(refine));
+      EXPECT_EQ(json.at("trace").is_null(), method == mesh_method::lattice) << json.at("trace");
+    }
+  }
+}
+
+TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
+  mesh_output output = sample_output();
+  output.method = mesh_method::trace;
+  output.trace = sample_trace_stats();
+  const nlohmann::json trace = report_to_json(output, trace_params()).at("trace");
+  EXPECT_EQ(trace.at("parameters"), (nlohmann::json{{"legendre_degree", 12},
+                                                    {"step_fraction", 0.5},
+                                                    {"step", 0.375},
+                                                    {"line_spacing", 0.75},
+                                                    {"cos_bound", 0.95},
+                                                    {"extreme_tolerance", 0.01}}));
+  EXPECT_EQ(trace, (nlohmann::json{{"parameters", trace.at("parameters")},
+                                   {"lines", 101},
+                                   {"polynomial_roots", 102},
+                                   {"late_roots", 3},
+                                   {"arcs", 104},
+                                   {"bracketed_roots", 5},
+                                   {"polygons", 106},
+                                   {"annular_cells", 11},
+                                   {"extreme_points", 7},
+                                   {"retraced_arcs", 8},
+                                   {"fallback_loops", 9},
+                                   {"field_evaluations", 2500},
+                                   {"raw_vertices", 100},
+                                   {"raw_triangles", 196},
+                                   {"field_evaluations_per_vertex", 25.0}}));
+  EXPECT_EQ(trace, trace_to_json(trace_params().trace, sample_trace_stats()));
+}
+
+TEST(ReportJson, FieldEvaluationsPerVertexIsZeroWithoutVertices) {
+  trace_stats empty;
+  empty.field_evaluations = 12;
+  const nlohmann::json trace = trace_to_json(trace_parameters{}, empty);
+  EXPECT_EQ(trace.at("field_evaluations_per_vertex"), 0.0);
+  EXPECT_EQ(trace.at("raw_vertices"), 0);
+  EXPECT_EQ(nlohmann::json::parse(trace.dump()), trace);
+}
+
+TEST(ReportJson, ALatticeReportIgnoresTraceStatsAndParameters) {
+  mesh_output output = sample_output();
+  output.trace = sample_trace_stats();
+  mesh_params params = trace_params();
+  params.method = mesh_method::lattice;
+  const nlohmann::json json = report_to_json(output, params);
+  EXPECT_TRUE(json.at("trace").is_null());
+  mesh_params untuned = sample_params();
+  untuned.method = mesh_method::lattice;
+  untuned.refine = refine_mode::none;
+  EXPECT_EQ(json, report_to_json(output, untuned));
 }
 
 TEST(ReportJson, CopiesEveryValue) {
@@ -75,6 +175,9 @@ TEST(ReportJson, CopiesEveryValue) {
   const nlohmann::json json = report_to_json(output, sample_params());
   EXPECT_EQ(json["engine_version"], engine_version);
   EXPECT_EQ(json["parameters"], (nlohmann::json{{"density", 2.0}, {"d", -0.75}, {"t0", 1.25}}));
+  EXPECT_EQ(json["method"], "lattice");
+  EXPECT_EQ(json["refine"], "full");
+  EXPECT_TRUE(json["trace"].is_null());
   EXPECT_EQ(json["atoms_meshed"], 906);
   EXPECT_EQ(json["zero_radius_atoms"], 3);
   EXPECT_EQ(json["vertices"], 5000);
@@ -126,6 +229,17 @@ TEST(ReportJson, CertifiedComesFromTheOutputNotTheReport) {
   EXPECT_EQ(report_to_json(output, {})["certificate"]["certified"], true);
 }
 
+TEST(ReportJson, TimingsNameTheTracingStage) {
+  mesh_output output = sample_output();
+  output.timings = {{mesh_stage::culling, 0.5}, {mesh_stage::roots, 0.25}, {mesh_stage::tracing, 1.0},
+                    {mesh_stage::triangulating, 0.25}, {mesh_stage::certifying, 0.5}};
+  const nlohmann::json timings = report_to_json(output, trace_params())["timings"];
+  EXPECT_EQ(keys_of(timings),
+            (std::set<std::string>{"culling", "roots", "tracing", "triangulating", "certifying", "total"}));
+  EXPECT_DOUBLE_EQ(timings["tracing"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(timings["total"].get<double>(), 2.5);
+}
+
 TEST(ReportJson, TimingsSumPerStageAndInTotal) {
   const nlohmann::json timings = report_to_json(sample_output(), sample_params())["timings"];
   EXPECT_EQ(keys_of(timings), (std::set<std::string>{"culling", "sampling", "total"}));
@@ -157,9 +271,11 @@ TEST(ReportJson, NonFiniteNumbersBecomeNullAndSurviveADump) {
   mesh_output output = sample_output();
   output.max_surface_distance = INFINITY;
   output.report.quality.min_angle_deg = NAN;
-  const nlohmann::json json = report_to_json(output, sample_params());
+  output.trace.step = NAN;
+  const nlohmann::json json = report_to_json(output, trace_params());
   EXPECT_TRUE(json["certificate"]["max_surface_distance"].is_null());
   EXPECT_TRUE(json["quality"]["min_angle_deg"].is_null());
+  EXPECT_TRUE(json["trace"]["parameters"]["step"].is_null());
   EXPECT_EQ(nlohmann::json::parse(json.dump()), json);
 }
 

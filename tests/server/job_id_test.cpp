@@ -1,8 +1,14 @@
 // Tests of server/job_id.hpp: the job id is a function of the parsed atoms and parameters only
-// (service-test-list item 32: same PQR, different params → different keys; spelling → same key).
+// (service-test-list item 32: same PQR, different params → different keys; spelling → same key), method and refine
+// included, and the trace parameters for the trace method.
 #include "server/job_id.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+#include <vector>
 
 #include "core/io/pqr_reader.hpp"
 #include "server/content_hash.hpp"
@@ -56,6 +62,42 @@ TEST(JobId, ChangesWithEveryInputThatChangesTheMesh) {
   molecule reordered = mol;
   std::swap(reordered.atoms[0], reordered.atoms[1]);
   EXPECT_NE(base, compute_job_id(reordered, mesh_params{}));
+}
+
+TEST(JobId, ChangesWithMethodAndRefine) {
+  const molecule mol = parse(two_atoms);
+  std::set<std::string> ids;
+  for (const mesh_method method : {mesh_method::trace, mesh_method::lattice}) {
+    for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
+      mesh_params params;
+      params.method = method;
+      params.refine = refine;
+      ids.insert(compute_job_id(mol, params));
+    }
+  }
+  EXPECT_EQ(ids.size(), 4u);
+  EXPECT_EQ(ids.count(compute_job_id(mol, mesh_params{})), 1u) << "the defaults are one of the four";
+}
+
+TEST(JobId, TraceParametersCountForTheTraceMethodOnly) {
+  const molecule mol = parse(two_atoms);
+  for (const mesh_method method : {mesh_method::trace, mesh_method::lattice}) {
+    mesh_params base;
+    base.method = method;
+    const std::string id = compute_job_id(mol, base);
+    std::vector<mesh_params> changed(4, base);
+    changed[0].trace.legendre_degree = 12;
+    changed[1].trace.step_fraction = 0.25;
+    changed[2].trace.cos_bound = std::nextafter(base.trace.cos_bound, 0.0);
+    changed[3].trace.extreme_tolerance = 0.01;
+    for (std::size_t i = 0; i < changed.size(); ++i) {
+      if (method == mesh_method::trace) {
+        EXPECT_NE(compute_job_id(mol, changed[i]), id) << "trace parameter " << i;
+      } else {
+        EXPECT_EQ(compute_job_id(mol, changed[i]), id) << "trace parameter " << i << " does not change a lattice mesh";
+      }
+    }
+  }
 }
 
 TEST(JobId, IgnoresThreadCountAndTheSignOfZero) {

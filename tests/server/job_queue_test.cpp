@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace tracemesh::server {
@@ -216,6 +217,47 @@ TEST(JobQueue, ReportsProgressWhileRunning) {
   const job_snapshot done = wait_final(queue, "job");
   EXPECT_EQ(done.progress, 1.0);
   EXPECT_EQ(*done.report, "{}");
+}
+
+TEST(JobQueue, ProgressFollowsEitherMethodsStagesAndNeverGoesBack) {
+  // The trace method's stages (roots → tracing → triangulating, no sampling), then the mesher's own "done" before
+  // the job encodes, then a stage out of order: the job's progress only moves forward, and its stage is never
+  // "done" before the job is.
+  metrics stats;
+  job_queue* queue_seen = nullptr;
+  std::vector<std::pair<mesh_stage, double>> seen;
+  const job_work work = [&](const std::string& id, const job_input&, progress_token& token) -> result<job_output> {
+    const std::pair<mesh_stage, double> reports[] = {
+        {mesh_stage::culling, 1.0},      {mesh_stage::roots, 0.5},     {mesh_stage::tracing, 0.0},
+        {mesh_stage::tracing, 0.75},     {mesh_stage::triangulating, 1.0}, {mesh_stage::certifying, 1.0},
+        {mesh_stage::done, 1.0},         {mesh_stage::encoding, 0.0},  {mesh_stage::sampling, 0.9}};
+    for (const auto& [stage, fraction] : reports) {
+      token.report(stage, fraction);
+      const auto job = queue_seen->find(id);
+      seen.emplace_back(job ? job->stage : mesh_stage::reading, job ? job->progress : -1.0);
+    }
+    job_output output;
+    output.report = std::make_shared<const std::string>("{}");
+    return output;
+  };
+  job_queue queue(options(1, 4), work, stats);
+  queue_seen = &queue;
+  queue.submit("trace", any_input());
+  const job_snapshot done = wait_final(queue, "trace");
+  ASSERT_EQ(seen.size(), 9u);
+  EXPECT_EQ(seen[2].first, mesh_stage::tracing);
+  EXPECT_GT(seen[2].second, seen[1].second) << "tracing comes after roots";
+  EXPECT_GT(seen[3].second, seen[2].second) << "and advances within its share";
+  EXPECT_GT(seen[4].second, seen[3].second);
+  for (std::size_t i = 1; i < seen.size(); ++i) {
+    EXPECT_GE(seen[i].second, seen[i - 1].second) << "report " << i;
+    EXPECT_GT(seen[i].second, 0.0) << "report " << i;
+    EXPECT_LT(seen[i].second, 1.0) << "report " << i << ": only the finished job is complete";
+    EXPECT_NE(seen[i].first, mesh_stage::done) << "report " << i;
+  }
+  EXPECT_EQ(seen[7].first, mesh_stage::encoding);
+  EXPECT_EQ(done.stage, mesh_stage::done);
+  EXPECT_EQ(done.progress, 1.0);
 }
 
 TEST(JobQueue, ShutdownLetsRunningJobsFinishWithinGraceThenFailsTheRest) {

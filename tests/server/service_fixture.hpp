@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <filesystem>
 #include <fstream>
@@ -37,19 +38,37 @@ using tracemesh::testing::raw_connection;
 using tracemesh::testing::round_trip;
 using tracemesh::testing::upload_request;
 
-/// Stands in for mesh_molecule: a tetrahedron, after a gate the test may hold closed (polling the token).
+/// Stands in for mesh_molecule: a tetrahedron, after a gate the test may hold closed (polling the token). Keeps the
+/// parameters of its last run; for the trace method it reports the tracing stage and fills trace_stats with
+/// recognisable numbers (lines 11, polygons 4, field_evaluations 40 for 4 raw vertices...).
 class fake_mesher {
  public:
   mesher_function function() {
-    return [this](const molecule& mol, const mesh_params&, const mesh_limits&,
+    return [this](const molecule& mol, const mesh_params& params, const mesh_limits&,
                   progress_token& token) -> result<mesh_output> {
       runs_.fetch_add(1);
       std::unique_lock lock(mutex_);
+      last_params_ = params;
+      const mesh_stage stage = params.method == mesh_method::trace ? mesh_stage::tracing : mesh_stage::sampling;
       while (!open_) {
-        if (!token.report(mesh_stage::sampling, 0.25)) return status(errc::cancelled, "cancelled");
+        if (!token.report(stage, 0.25)) return status(errc::cancelled, "cancelled");
         changed_.wait_for(lock, 2ms);
       }
       mesh_output out;
+      out.method = params.method;
+      out.refine = params.refine;
+      if (params.method == mesh_method::trace) {
+        out.trace.line_spacing = 1.0 / std::sqrt(params.density);
+        out.trace.step = params.trace.step_fraction * out.trace.line_spacing;
+        out.trace.lines = 11;
+        out.trace.polynomial_roots = 6;
+        out.trace.arcs = 6;
+        out.trace.polygons = 4;
+        out.trace.fallback_loops = 0;
+        out.trace.field_evaluations = 40;
+        out.trace.raw_vertices = 4;
+        out.trace.raw_triangles = 4;
+      }
       const double r = mol.atoms.empty() ? 1.0 : mol.atoms.front().radius;
       out.mesh.positions = {{r, r, r}, {r, -r, -r}, {-r, r, -r}, {-r, -r, r}};
       out.mesh.triangles = {{{0, 1, 2}}, {{0, 3, 1}}, {{0, 2, 3}}, {{1, 3, 2}}};
@@ -66,9 +85,15 @@ class fake_mesher {
     changed_.notify_all();
   }
   int runs() const { return runs_.load(); }
+  /// The parameters of the last run (mesh_params{} before any).
+  mesh_params last_params() {
+    std::lock_guard lock(mutex_);
+    return last_params_;
+  }
 
  private:
   std::mutex mutex_;
+  mesh_params last_params_;
   std::condition_variable changed_;
   bool open_ = true;
   std::atomic<int> runs_{0};

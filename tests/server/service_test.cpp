@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "proto/api_types.hpp"
 #include "server/content_hash.hpp"
 #include "server/service_fixture.hpp"
 
@@ -491,6 +492,195 @@ TEST_F(ServiceTest, MetricsParseAsPrometheusTextAfterRealTraffic) {
     EXPECT_EQ(series.back().second, counts.at(family)) << family;
   }
   EXPECT_EQ(counts.at("tracemesh_job_seconds"), 2) << "one done, one cancelled";
+}
+
+// ---- method, refine and the trace parameters ----------------------------------------------------------------
+
+/// The id a POST /jobs answers with (202 or 200), or "" on any other status.
+std::string job_id_of(const http_reply& r) {
+  if (r.status != 202 && r.status != 200) return {};
+  return nlohmann::json::parse(r.body).at("id");
+}
+
+/// A query string from fields: "?a=1&b=2".
+std::string query_of(const std::vector<std::pair<std::string, std::string>>& fields) {
+  std::string query;
+  for (const auto& [name, value] : fields) query += (query.empty() ? "?" : "&") + name + "=" + value;
+  return query;
+}
+
+const std::vector<std::pair<std::string, std::string>> trace_fields = {
+    {"method", "trace"},     {"refine", "none"},           {"trace_degree", "12"},
+    {"trace_step", "0.25"},  {"trace_cos_bound", "0.95"},  {"trace_extreme_tolerance", "0.01"}};
+
+void expect_trace_fields(const mesh_params& params) {
+  EXPECT_EQ(params.method, mesh_method::trace);
+  EXPECT_EQ(params.refine, refine_mode::none);
+  EXPECT_EQ(params.trace.legendre_degree, 12);
+  EXPECT_EQ(params.trace.step_fraction, 0.25);
+  EXPECT_EQ(params.trace.cos_bound, 0.95);
+  EXPECT_EQ(params.trace.extreme_tolerance, 0.01);
+}
+
+TEST_F(ServiceTest, MethodRefineAndTraceParametersAreReadFromFormFieldsAndQueryParameters) {
+  start();
+  // Form fields, synchronous route.
+  const http_reply form = post("/mesh", gly_, trace_fields);
+  ASSERT_EQ(form.status, 200) << form.body;
+  expect_trace_fields(mesher_.last_params());
+  // The same parameters as query parameters (other spellings of the same numbers) are the same job.
+  const http_reply query = post("/mesh?method=trace&refine=none&trace_degree=12.0&trace_step=2.5e-1"
+                                "&trace_cos_bound=0.950&trace_extreme_tolerance=1e-2",
+                                gly_);
+  ASSERT_EQ(query.status, 200) << query.body;
+  EXPECT_EQ(query.header("x-job-id"), form.header("x-job-id"));
+  EXPECT_EQ(query.header("x-cache"), "hit");
+  EXPECT_EQ(mesher_.runs(), 1);
+
+  // Asynchronous route, query parameters, one parameter at a time.
+  for (const auto& [name, value] : trace_fields) {
+    std::vector<std::pair<std::string, std::string>> fields = {{name, value}};
+    if (name != "method") fields.emplace_back("method", "trace");
+    const http_reply accepted = post("/jobs" + query_of(fields), gly_);
+    ASSERT_TRUE(accepted.status == 202 || accepted.status == 200) << name << ": " << accepted.body;
+    ASSERT_EQ(wait_job(job_id_of(accepted)).at("status"), "done") << name;
+  }
+  // Asynchronous route, form fields: the job ran with them.
+  const http_reply jobs_form = post("/jobs", atom_line(1, 0.0), trace_fields);
+  ASSERT_EQ(jobs_form.status, 202) << jobs_form.body;
+  ASSERT_EQ(wait_job(job_id_of(jobs_form)).at("status"), "done");
+  expect_trace_fields(mesher_.last_params());
+  const http_reply jobs_query = post("/jobs" + query_of(trace_fields), atom_line(1, 0.0));
+  EXPECT_EQ(job_id_of(jobs_query), job_id_of(jobs_form)) << "form fields and query parameters are the same job";
+
+  // A form field wins over the query parameter of the same name.
+  const http_reply both = post("/jobs?method=trace&refine=none", atom_line(1, 5.0), {{"method", "lattice"}});
+  ASSERT_EQ(both.status, 202) << both.body;
+  ASSERT_EQ(wait_job(job_id_of(both)).at("status"), "done");
+  EXPECT_EQ(mesher_.last_params().method, mesh_method::lattice);
+  EXPECT_EQ(mesher_.last_params().refine, refine_mode::none);
+}
+
+TEST_F(ServiceTest, BadMethodRefineAndTraceParametersAre400NamingTheParameter) {
+  start();
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"method", "Trace"},  {"method", ""},   {"method", "marching"},     {"refine", "partial"},
+      {"refine", "FULL"},   {"refine", "1"},  {"trace_degree", "2.5"},    {"trace_degree", "1"},
+      {"trace_degree", "31"}, {"trace_degree", "1e300"}, {"trace_degree", "ten"}, {"trace_step", "0"},
+      {"trace_step", "2.5"},  {"trace_step", "nan"}, {"trace_cos_bound", "1"}, {"trace_cos_bound", "0.4"},
+      {"trace_cos_bound", "-0.9"}, {"trace_extreme_tolerance", "0"}, {"trace_extreme_tolerance", "0.3"},
+      {"trace_extreme_tolerance", "1e-2x"}};
+  for (const auto& [name, value] : bad) {
+    for (const std::string route : {"/mesh", "/jobs"}) {
+      // The trace fields are validated whatever the method: a request wrong for one method is wrong for both.
+      const http_reply as_form = post(route, gly_, {{name, value}});
+      expect_error(as_form, 400, "invalid_argument");
+      const std::string form_message = nlohmann::json::parse(as_form.body)["error"]["message"];
+      EXPECT_EQ(form_message.rfind(name, 0), 0u) << name << "=" << value << ": " << form_message;
+      const http_reply as_query = post(route + "?" + name + "=" + value, gly_);
+      expect_error(as_query, 400, "invalid_argument");
+      const std::string query_message = nlohmann::json::parse(as_query.body)["error"]["message"];
+      EXPECT_EQ(query_message.rfind(name, 0), 0u) << name << "=" << value << ": " << query_message;
+    }
+  }
+  expect_error(post("/mesh?trace-degree=12", gly_), 400, "invalid_argument");  // the CLI's spelling is not a field
+  expect_error(post("/mesh", gly_, {{"trace_degree", "12"}, {"trace_degree", "13"}}), 400, "invalid_argument");
+  EXPECT_EQ(mesher_.runs(), 0);
+}
+
+TEST_F(ServiceTest, JobIdsDifferByMethodAndRefineAndDefaultsSpelledOutAreTheSameJob) {
+  start();
+  const mesh_params defaults;
+  const auto id_for = [&](const std::vector<std::pair<std::string, std::string>>& fields) {
+    const std::string id = job_id_of(post("/jobs", gly_, fields));
+    EXPECT_TRUE(is_valid_job_id(id)) << id;
+    return id;
+  };
+  const std::string implicit = id_for({});
+  EXPECT_EQ(id_for({{"method", method_name(defaults.method)}}), implicit);
+  EXPECT_EQ(id_for({{"refine", refine_name(defaults.refine)}}), implicit);
+  EXPECT_EQ(id_for({{"method", method_name(defaults.method)},
+                    {"refine", refine_name(defaults.refine)},
+                    {"density", "1.0"},
+                    {"d", "-1"},
+                    {"t0", "1"},
+                    {"trace_degree", std::to_string(defaults.trace.legendre_degree)},
+                    {"trace_step", proto::canonical_number(defaults.trace.step_fraction)},
+                    {"trace_cos_bound", proto::canonical_number(defaults.trace.cos_bound)},
+                    {"trace_extreme_tolerance", proto::canonical_number(defaults.trace.extreme_tolerance)}}),
+            implicit)
+      << "every default spelled out is the job with nothing given";
+
+  const std::string lattice_full = id_for({{"method", "lattice"}, {"refine", "full"}});
+  const std::string lattice_none = id_for({{"method", "lattice"}, {"refine", "none"}});
+  const std::string trace_full = id_for({{"method", "trace"}, {"refine", "full"}});
+  const std::string trace_none = id_for({{"method", "trace"}, {"refine", "none"}});
+  EXPECT_EQ(std::set<std::string>({lattice_full, lattice_none, trace_full, trace_none}).size(), 4u)
+      << "method and refine each make a different job";
+  EXPECT_EQ(id_for({{"method", "trace"}}), defaults.refine == refine_mode::full ? trace_full : trace_none);
+
+  // For the trace method every trace parameter is part of the job; spelled-out defaults are not.
+  EXPECT_NE(id_for({{"method", "trace"}, {"trace_degree", "12"}}), trace_full);
+  EXPECT_NE(id_for({{"method", "trace"}, {"trace_step", "0.25"}}), trace_full);
+  EXPECT_NE(id_for({{"method", "trace"}, {"trace_cos_bound", "0.95"}}), trace_full);
+  EXPECT_NE(id_for({{"method", "trace"}, {"trace_extreme_tolerance", "0.01"}}), trace_full);
+  EXPECT_EQ(id_for({{"method", "trace"}, {"refine", "full"}, {"trace_degree", "10.0"}}), trace_full);
+  // For the lattice method they change nothing, so they do not make another job.
+  EXPECT_EQ(id_for({{"method", "lattice"}, {"trace_degree", "12"}, {"trace_step", "0.25"}}), lattice_full);
+  EXPECT_TRUE(jobs_settled());
+}
+
+TEST_F(ServiceTest, ReportsEchoMethodRefineAndTheTraceSection) {
+  start();
+  const http_reply trace = post("/jobs", gly_, {{"method", "trace"}, {"refine", "none"}, {"trace_step", "0.25"},
+                                                 {"density", "4"}});
+  const auto trace_done = wait_job(job_id_of(trace));
+  ASSERT_EQ(trace_done.at("status"), "done") << trace_done;
+  const nlohmann::json& report = trace_done.at("report");
+  EXPECT_EQ(report.at("method"), "trace");
+  EXPECT_EQ(report.at("refine"), "none");
+  const nlohmann::json& section = report.at("trace");
+  ASSERT_TRUE(section.is_object()) << report;
+  const mesh_params defaults;
+  EXPECT_EQ(section.at("parameters"),
+            (nlohmann::json{{"legendre_degree", defaults.trace.legendre_degree},
+                            {"step_fraction", 0.25},
+                            {"step", 0.125},
+                            {"line_spacing", 0.5},
+                            {"cos_bound", defaults.trace.cos_bound},
+                            {"extreme_tolerance", defaults.trace.extreme_tolerance}}));
+  EXPECT_EQ(section.at("lines"), 11);
+  EXPECT_EQ(section.at("polygons"), 4);
+  EXPECT_EQ(section.at("fallback_loops"), 0);
+  EXPECT_EQ(section.at("field_evaluations_per_vertex"), 10.0);
+
+  const http_reply lattice = post("/jobs", gly_, {{"method", "lattice"}, {"refine", "none"}});
+  const auto lattice_done = wait_job(job_id_of(lattice));
+  ASSERT_EQ(lattice_done.at("status"), "done") << lattice_done;
+  EXPECT_EQ(lattice_done.at("report").at("method"), "lattice");
+  EXPECT_EQ(lattice_done.at("report").at("refine"), "none");
+  EXPECT_TRUE(lattice_done.at("report").at("trace").is_null());
+}
+
+TEST_F(ServiceTest, ATraceJobReportsTheTracingStageAndItsProgress) {
+  start([](server_config& c) { c.workers = 2; });
+  mesher_.set_open(false);
+  const std::string trace = job_id_of(post("/jobs", gly_, {{"method", "trace"}}));
+  const std::string lattice = job_id_of(post("/jobs", gly_, {{"method", "lattice"}}));
+  ASSERT_TRUE(eventually([&] { return mesher_.runs() == 2; }));
+  nlohmann::json trace_doc, lattice_doc;
+  ASSERT_TRUE(eventually([&] {
+    trace_doc = nlohmann::json::parse(get("/jobs/" + trace).body);
+    lattice_doc = nlohmann::json::parse(get("/jobs/" + lattice).body);
+    return trace_doc.at("stage") == "tracing" && lattice_doc.at("stage") == "sampling";
+  })) << trace_doc << lattice_doc;
+  EXPECT_EQ(trace_doc.at("status"), "running");
+  EXPECT_GT(trace_doc.at("progress").get<double>(), lattice_doc.at("progress").get<double>())
+      << "tracing comes after sampling";
+  EXPECT_LT(trace_doc.at("progress").get<double>(), 1.0);
+  mesher_.set_open(true);
+  EXPECT_EQ(wait_job(trace).at("progress"), 1.0);
+  EXPECT_EQ(wait_job(lattice).at("progress"), 1.0);
 }
 
 TEST_F(ServiceTest, EveryCoreErrorCodeIsDocumented) {
