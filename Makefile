@@ -6,7 +6,7 @@ LISTEN           ?= 127.0.0.1:8080
 CACHE_DIR        ?= $(CURDIR)/cache
 CMAKE_FLAGS      ?=
 
-.PHONY: deps build test test-sanitize run bench fuzz clean
+.PHONY: deps build test test-sanitize run bench bench-paper fuzz clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -31,8 +31,14 @@ run: build
 	  $(BUILD_DIR)/bin/tracemesh tests/data/example.pqr -o example.off --report -; \
 	fi
 
+# The molecule ladder, lattice vs trace (bench/run_ladder.sh: RUNS, MAX_ATOMS, MOLECULES, THREADS...).
 bench: build
-	bash bench/run_ladder.sh
+	BUILD_DIR=$(BUILD_DIR) bash bench/run_ladder.sh
+
+# The paper reproduction: bench/paper/report.md and its figures (PAPER_MAX_ATOMS=20000 for a quick run).
+bench-paper: build
+	@bash scripts/install-deps.sh --bench-paper
+	BUILD_DIR=$(BUILD_DIR) bash bench/run_paper.sh
 
 # Real fuzzing with clang-14 libFuzzer (not part of the suite; the seed corpora replay in `make test`).
 fuzz: deps
