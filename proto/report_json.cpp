@@ -33,7 +33,6 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
       {"arcs", stats.arcs},
       {"bracketed_roots", stats.bracketed_roots},
       {"polygons", stats.polygons},
-      {"annular_cells", stats.annular_cells},
       {"extreme_points", stats.extreme_points},
       {"retraced_arcs", stats.retraced_arcs},
       {"fallback_loops", stats.fallback_loops},

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 #include "core/analysis/triangle_intersection.hpp"
 #include "core/trace/loop_triangulation.hpp"
@@ -137,15 +136,12 @@ enum class loop_strategy {
   /// test still guards against its other loops, and the certificate against a neighbour doing the same.
   unrestricted,
   none,                ///< nothing worked: the mesh cannot close here
-  annulus,             ///< with its partner loop, the band of a tube running along x inside the cell (§7.6)
-  annulus_partner,     ///< the other loop of an annulus: its triangles are its partner's
 };
 constexpr loop_strategy next(loop_strategy s) { return static_cast<loop_strategy>(static_cast<int>(s) + 1); }
 
 /// One loop's triangles; vertex numbers ≥ steiner_vertex are this loop's own Steiner points.
 struct loop_mesh {
   loop_strategy strategy = loop_strategy::none;
-  std::size_t partner = 0;  ///< the other loop of an annulus
   std::vector<std::array<std::uint32_t, 3>> triangles;
   std::vector<surface_sample> steiner;
 };
@@ -371,87 +367,6 @@ std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<number
   return hit;
 }
 
-/// How many times the loop's projection onto the yz plane winds around the cell's centre line (signed).
-int winding_around_axis(const std::vector<numbered_vertex>& loop, const cell_id& cell, double h) {
-  const double cy = (static_cast<double>(cell.j) + 0.5) * h, cz = (static_cast<double>(cell.k) + 0.5) * h;
-  double turned = 0;
-  for (std::size_t n = 0; n < loop.size(); ++n) {
-    const vec3& a = loop[n].vertex.position;
-    const vec3& b = loop[(n + 1) % loop.size()].vertex.position;
-    const double angle_a = std::atan2(a.z - cz, a.y - cy), angle_b = std::atan2(b.z - cz, b.y - cy);
-    double delta = angle_b - angle_a;
-    if (delta > std::numbers::pi) delta -= 2 * std::numbers::pi;
-    if (delta < -std::numbers::pi) delta += 2 * std::numbers::pi;
-    turned += delta;
-  }
-  return static_cast<int>(std::lround(turned / (2 * std::numbers::pi)));
-}
-
-/// x of the sign changes of φ − t0 on the cell's centre line over [x0, x1], sampled every h/8.
-std::vector<double> centre_line_crossings(const gaussian_field& field, const cell_id& cell, double h, double x0,
-                                          double x1, std::size_t& evaluations) {
-  const vec3 axis{0, (static_cast<double>(cell.j) + 0.5) * h, (static_cast<double>(cell.k) + 0.5) * h};
-  const auto residual = [&](double x) {
-    ++evaluations;
-    return field.value({x, axis.y, axis.z}) - field.t0();
-  };
-  std::vector<double> crossings;
-  const double step = h / 8;
-  double previous = residual(x0);
-  for (double x = x0 + step; x <= x1 + step; x += step) {
-    const double f = residual(x);
-    if (previous * f < 0) crossings.push_back(x - step / 2);
-    previous = f;
-  }
-  return crossings;
-}
-
-/// Method.md §7.6: a tube running along x inside the cell cuts its walls in two loops that both wind around the
-/// centre line. Capped as two disks, each disk would cross the centre line; where the centre line has no root near
-/// two consecutive such loops, they bound one piece of surface, a band, and are triangulated together.
-void join_annuli(const gaussian_field& field, const std::vector<std::vector<numbered_vertex>>& loops,
-                 const cell_id& cell, double h, std::vector<loop_mesh>& meshes, cell_mesh& out) {
-  std::vector<std::size_t> around;
-  for (std::size_t l = 0; l < loops.size(); ++l) {
-    if (std::abs(winding_around_axis(loops[l], cell, h)) == 1) around.push_back(l);
-  }
-  if (around.size() < 2) return;
-  const auto x_range = [&](std::size_t l) {
-    double lo = loops[l].front().vertex.position.x, hi = lo;
-    for (const numbered_vertex& v : loops[l]) {
-      lo = std::min(lo, v.vertex.position.x);
-      hi = std::max(hi, v.vertex.position.x);
-    }
-    return std::pair{lo, hi};
-  };
-  std::sort(around.begin(), around.end(), [&](std::size_t a, std::size_t b) { return x_range(a).first < x_range(b).first; });
-  const double x0 = x_range(around.front()).first - h, x1 = x_range(around.back()).second + h;
-  const std::vector<double> crossings = centre_line_crossings(field, cell, h, x0, x1, out.evaluations);
-  const auto has_root_near = [&](std::size_t l) {
-    const auto [lo, hi] = x_range(l);
-    return std::any_of(crossings.begin(), crossings.end(), [&](double x) { return x >= lo - h / 2 && x <= hi + h / 2; });
-  };
-  for (std::size_t n = 0; n + 1 < around.size(); ++n) {
-    const std::size_t a = around[n], b = around[n + 1];
-    if (meshes[a].strategy == loop_strategy::annulus_partner || has_root_near(a) || has_root_near(b)) continue;
-    std::vector<loop_vertex> outer, inner;
-    for (const numbered_vertex& v : loops[a]) outer.push_back(v.vertex);
-    for (const numbered_vertex& v : loops[b]) inner.push_back(v.vertex);
-    std::vector<std::array<std::uint32_t, 3>> band;
-    loop_triangulation_stats stats;
-    const auto id_of = [&](std::uint32_t k) { return k < outer.size() ? loops[a][k].id : loops[b][k - outer.size()].id; };
-    meshes[a] = loop_mesh{};
-    meshes[a].strategy = loop_strategy::annulus;
-    meshes[a].partner = b;
-    for (const auto& t : band) meshes[a].triangles.push_back({id_of(t[0]), id_of(t[1]), id_of(t[2])});
-    meshes[b] = loop_mesh{};
-    meshes[b].strategy = loop_strategy::annulus_partner;
-    meshes[b].partner = a;
-    ++out.annuli;
-    ++n;  // b is taken
-  }
-}
-
 /// Makes the cell's triangles intersection-free: a loop whose triangles meet others' takes its next strategy.
 /// Each round first looks for one loop whose change alone removes its intersections (so that a loop that was fine
 /// is not spoilt for its neighbour's sake), else moves every loop involved on.
@@ -461,16 +376,6 @@ void resolve_intersections(const gaussian_field& field, const std::vector<std::v
   for (int round = 0; round < max_rounds; ++round) {
     const std::vector<std::size_t> hit = intersecting_loops(loops, meshes);
     if (hit.empty()) break;
-    bool reverted = false;  // an annulus whose band intersects something goes back to two disks
-    for (const std::size_t l : hit) {
-      if (meshes[l].strategy != loop_strategy::annulus && meshes[l].strategy != loop_strategy::annulus_partner) continue;
-      const std::size_t partner = meshes[l].partner;
-      triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, meshes[l], out.evaluations);
-      triangulate_from(field, loops[partner], cell, h, loop_strategy::admissible, meshes[partner], out.evaluations);
-      --out.annuli;
-      reverted = true;
-    }
-    if (reverted) continue;
     bool fixed = false;
     for (const std::size_t l : hit) {
       const loop_mesh kept = meshes[l];
@@ -519,7 +424,6 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
   for (std::size_t l = 0; l < loops.size(); ++l) {
     triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, meshes[l], out.evaluations);
   }
-  join_annuli(field, loops, cell, h, meshes, out);
   resolve_intersections(field, loops, cell, h, meshes, out);
   for (std::size_t l = 0; l < loops.size(); ++l) {
     const loop_mesh& m = meshes[l];
@@ -527,10 +431,7 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
       out.closed = false;
       continue;
     }
-    if (m.strategy != loop_strategy::admissible && m.strategy != loop_strategy::annulus &&
-        m.strategy != loop_strategy::annulus_partner) {
-      ++out.fallback_loops;
-    }
+    if (m.strategy != loop_strategy::admissible) ++out.fallback_loops;
     const auto first_steiner = static_cast<std::uint32_t>(out.steiner.size());
     out.steiner.insert(out.steiner.end(), m.steiner.begin(), m.steiner.end());
     for (auto t : m.triangles) {

@@ -48,7 +48,6 @@ struct cell_mesh {
   std::vector<surface_sample> steiner;                  ///< fallback centre points on the surface
   std::size_t loops = 0;
   std::size_t fallback_loops = 0;  ///< loops triangulated by a fallback strategy (cell_polygons.cpp)
-  std::size_t annuli = 0;          ///< pairs of loops triangulated together as the band of a tube (§7.6)
   std::size_t evaluations = 0;
   bool closed = true;  ///< false when an arc end had no partner (a root with no arc or two): the mesh would leak
   bool intersecting = false;  ///< false unless two of the cell's triangles intersect after every fallback

@@ -36,14 +36,15 @@ std::span<const line_point> trace_lines::roots_of(const line_id& line) const {
 std::int64_t trace_lines::match(std::span<const line_point> roots, double x) const {
   const auto it = std::lower_bound(roots.begin(), roots.end(), x,
                                    [](const line_point& p, double value) { return p.x < value; });
+  const std::int64_t after = it - roots.begin();  // the candidates are the roots at after − 1 and after
   std::int64_t best = -1;
   double best_distance = merge_tolerance;
-  for (auto candidate : {it - 1, it}) {
-    if (candidate < roots.begin() || candidate >= roots.end()) continue;
-    const double d = std::abs(candidate->x - x);
+  for (const std::int64_t candidate : {after - 1, after}) {
+    if (candidate < 0 || candidate >= static_cast<std::int64_t>(roots.size())) continue;
+    const double d = std::abs(roots[static_cast<std::size_t>(candidate)].x - x);
     if (d < best_distance) {
       best_distance = d;
-      best = candidate - roots.begin();
+      best = candidate;
     }
   }
   return best;

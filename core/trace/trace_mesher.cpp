@@ -20,10 +20,13 @@ namespace {
 constexpr double line_spacing_at_unit_density = 1.0;
 /// Kept interior points of an arc are about this × h̃ apart (method.md §7.7 asks for ≤ 1.5 h̃).
 constexpr double resample_spacing_factor = 1.0;
-/// A root where |φ_x| is below this × |∇φ| is a tangency of its line, not a crossing (see without_tangencies)…
+/// A root where |φ_x| is below this × |∇φ| is a tangency of its line (a double root), not a crossing…
 constexpr double tangent_tolerance = 1e-6;
-/// …and so are two such roots closer than this (Å).
-constexpr double tangent_pair_gap = 1e-4;
+/// …and so are two neighbouring roots of opposite φ_x closer than tangent_pair_gap × h̃ where |φ_x| is below
+/// tangent_pair_slope × |∇φ|: the line grazes the surface, which bulges across it by ~gap²·curvature/8 (1e-7 Å at
+/// 2 mÅ). Meshing that sliver would take triangles of mÅ edges, degenerate to the certificate (2buk_capsid).
+constexpr double tangent_pair_gap = 1e-2;
+constexpr double tangent_pair_slope = 0.05;
 /// Rounds of re-tracing strips whose lines gained late roots, before giving up.
 constexpr int max_late_root_rounds = 8;
 
@@ -32,17 +35,19 @@ status cancelled_status() { return {errc::cancelled, "meshing was cancelled"}; }
 /// A line tangent to the surface only touches it: its double root (or a pair of roots closer than the root solver
 /// can tell apart, with φ_x ≈ 0 and opposite signs) is not a crossing, no arc starts or ends there, and the contour
 /// passes by on one side of the line. Such roots are left out, in pairs so that the line keeps its parity.
-std::vector<line_point> without_tangencies(const std::vector<line_point>& roots) {
-  const auto flat = [](const line_point& p) { return std::abs(p.gradient.x) <= tangent_tolerance * norm(p.gradient); };
+std::vector<line_point> without_tangencies(const std::vector<line_point>& roots, double h) {
+  const auto slope = [](const line_point& p) { return std::abs(p.gradient.x) / norm(p.gradient); };
   std::vector<line_point> kept;
   for (std::size_t q = 0; q < roots.size(); ++q) {
-    if (!flat(roots[q])) {
-      kept.push_back(roots[q]);
+    if (slope(roots[q]) <= tangent_tolerance) continue;
+    const bool pair = q + 1 < roots.size() && roots[q + 1].x - roots[q].x < tangent_pair_gap * h &&
+                      slope(roots[q]) < tangent_pair_slope && slope(roots[q + 1]) < tangent_pair_slope &&
+                      roots[q].gradient.x * roots[q + 1].gradient.x < 0;
+    if (pair) {
+      ++q;  // both go
       continue;
     }
-    const bool pair = q + 1 < roots.size() && flat(roots[q + 1]) && roots[q + 1].x - roots[q].x < tangent_pair_gap &&
-                      roots[q].gradient.x * roots[q + 1].gradient.x <= 0;
-    if (pair) ++q;  // both go
+    kept.push_back(roots[q]);
   }
   return kept;
 }
@@ -78,7 +83,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
             ++block_stats[n].field_evaluations;
             points.push_back(point);
           }
-          for (const line_point& point : without_tangencies(points)) per_block[n].push_back({id, point});
+          for (const line_point& point : without_tangencies(points, h)) per_block[n].push_back({id, point});
         }
       }
     }
@@ -277,7 +282,6 @@ result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussi
   for (const cell_mesh& c : cells) {
     stats.polygons += c.loops;
     stats.fallback_loops += c.fallback_loops;
-    stats.annular_cells += c.annuli;
     stats.field_evaluations += c.evaluations;
     open_cells += !c.closed;
     intersecting_cells += c.intersecting;

@@ -30,7 +30,6 @@ struct trace_stats {
   std::size_t late_roots = 0;           ///< roots the polynomial missed, found where a trace crossed a line
   std::size_t arcs = 0;                 ///< traced arcs (pieces of contour between two line points)
   std::size_t polygons = 0;             ///< closed polygons of Algorithm 2 (one per surface piece in a cell)
-  std::size_t annular_cells = 0;        ///< pairs of polygons joined as the band of a tube along x (method.md §7.6)
   std::size_t extreme_points = 0;       ///< points with φ_x = 0 (step 4) kept as vertices
   std::size_t retraced_arcs = 0;        ///< arcs traced again with a smaller step after a conflict
   std::size_t fallback_loops = 0;       ///< polygons triangulated with a Steiner point on the surface

@@ -83,7 +83,6 @@ trace_stats sample_trace_stats() {
   t.late_roots = 3;
   t.arcs = 104;
   t.bracketed_roots = 5;
-  t.annular_cells = 11;
   t.polygons = 106;
   t.extreme_points = 7;
   t.retraced_arcs = 8;
@@ -137,7 +136,6 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"arcs", 104},
                                    {"bracketed_roots", 5},
                                    {"polygons", 106},
-                                   {"annular_cells", 11},
                                    {"extreme_points", 7},
                                    {"retraced_arcs", 8},
                                    {"fallback_loops", 9},
