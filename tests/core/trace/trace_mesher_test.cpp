@@ -17,6 +17,7 @@
 
 #include "core/io/pqr_reader.hpp"
 #include "core/mesher.hpp"
+#include "support/mesh_expectations.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {
@@ -39,21 +40,8 @@ molecule atoms(std::vector<atom> list) { return molecule{std::move(list), 0}; }
 /// Every clause of the certificate, one by one (so a failure says which).
 void expect_certified(const result<mesh_output>& out) {
   ASSERT_TRUE(out.ok()) << out.error().message();
-  const mesh_report& r = out->report;
-  EXPECT_TRUE(out->certified);
-  EXPECT_TRUE(r.topologically_certified());
-  EXPECT_EQ(r.boundary_edges, 0u);
-  EXPECT_EQ(r.non_manifold_edges, 0u);
-  EXPECT_EQ(r.non_manifold_vertices, 0u);
-  EXPECT_EQ(r.inconsistently_oriented_edges, 0u);
-  EXPECT_EQ(r.degenerate_triangles, 0u);
-  EXPECT_EQ(r.self_intersections, 0u);
-  EXPECT_EQ(r.inward_oriented_components, 0u);
-  EXPECT_EQ(r.unreferenced_vertices, 0u);
-  EXPECT_LE(out->max_surface_distance, 1e-3);
+  testing::expect_certified_output(*out);
   EXPECT_EQ(out->method, mesh_method::trace);
-  EXPECT_EQ(out->mesh.normals.size(), out->mesh.positions.size());
-  EXPECT_EQ(out->mesh.atom_index.size(), out->mesh.positions.size());
 }
 
 /// The trace statistics agree with each other and with the mesh.
