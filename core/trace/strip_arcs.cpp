@@ -230,6 +230,21 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
 
 }  // namespace
 
+std::vector<strip_id> strips_beside(const trace_lines& lines) {
+  std::vector<strip_id> strips;
+  strips.reserve(4 * lines.line_count());
+  for (std::size_t n = 0; n < lines.line_count(); ++n) {
+    const line_id& l = lines.id(n);
+    strips.push_back({0, l.j - 1, l.k});
+    strips.push_back({0, l.j, l.k});
+    strips.push_back({1, l.j, l.k - 1});
+    strips.push_back({1, l.j, l.k});
+  }
+  std::sort(strips.begin(), strips.end());
+  strips.erase(std::unique(strips.begin(), strips.end()), strips.end());
+  return strips;
+}
+
 strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
                         const strip_settings& settings) {
   strip_settings attempt_settings = settings;

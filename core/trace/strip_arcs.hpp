@@ -59,6 +59,9 @@ struct strip_settings {
   const gaussian_field* walk_field = nullptr;  ///< see trace_step_settings::walk_field
 };
 
+/// The strips beside the lines of `lines` (four per line, each once), sorted: those that can hold an arc.
+std::vector<strip_id> strips_beside(const trace_lines& lines);
+
 /// Traces every arc of `strip` from the roots of its two lines in `lines`.
 strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
                         const strip_settings& settings);

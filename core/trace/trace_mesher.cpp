@@ -101,27 +101,12 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
   return trace_lines(std::move(entries));
 }
 
-/// The four strips beside each line that holds a root, sorted.
-std::vector<strip_id> strips_of(const trace_lines& lines) {
-  std::vector<strip_id> strips;
-  strips.reserve(4 * lines.line_count());
-  for (std::size_t n = 0; n < lines.line_count(); ++n) {
-    const line_id& l = lines.id(n);
-    strips.push_back({0, l.j - 1, l.k});
-    strips.push_back({0, l.j, l.k});
-    strips.push_back({1, l.j, l.k - 1});
-    strips.push_back({1, l.j, l.k});
-  }
-  std::sort(strips.begin(), strips.end());
-  strips.erase(std::unique(strips.begin(), strips.end()), strips.end());
-  return strips;
-}
 
 /// Algorithm 1 on every strip, then again on the strips whose lines gained late roots (method.md §7.2), until no
 /// trace finds a new root.
 status trace_all_strips(const gaussian_field& field, const strip_settings& settings, traced_surface& surface,
                         progress_token& progress, trace_stats& stats) {
-  std::vector<strip_id> strips = strips_of(surface.lines);
+  std::vector<strip_id> strips = strips_beside(surface.lines);
   std::vector<strip_trace> traces(strips.size());
   std::vector<char> stale(strips.size(), 1);
   for (int round = 0; round < max_late_root_rounds; ++round) {
@@ -147,7 +132,7 @@ status trace_all_strips(const gaussian_field& field, const strip_settings& setti
     grown.erase(std::unique(grown.begin(), grown.end()), grown.end());
     stats.late_roots += surface.lines.add(std::move(late));
     // Re-trace every strip beside a grown line; keep the others' traces.
-    std::vector<strip_id> next = strips_of(surface.lines);
+    std::vector<strip_id> next = strips_beside(surface.lines);
     std::vector<strip_trace> next_traces(next.size());
     std::vector<char> next_stale(next.size(), 0);
     for (std::size_t s = 0; s < next.size(); ++s) {

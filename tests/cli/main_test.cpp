@@ -340,7 +340,7 @@ TEST_F(TracemeshCli, LatticeMethodWithAndWithoutRefinementGivesCertifiedMeshes) 
   }
 }
 
-// The trace method end to end (these need the trace engine in core/trace: they fail while it is a stub).
+// The trace method end to end on real molecules: certified meshes and the trace section of the report.
 TEST_F(TracemeshCli, TraceMethodGivesCertifiedMeshesWithTraceReports) {
   for (const char* molecule : {"gly.pqr", "fas2.pqr"}) {
     for (const char* refine : {"none", "full"}) {

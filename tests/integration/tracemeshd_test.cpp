@@ -366,7 +366,7 @@ TEST_F(TracemeshdTest, BadMethodRefineAndTraceParametersGet400NamingThem) {
   EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 0);
 }
 
-// The trace method end to end (these need the trace engine in core/trace: they fail while it is a stub).
+// The trace method end to end on real molecules: certified meshes and the trace section of the report.
 TEST_F(TracemeshdTest, TraceMethodGivesCertifiedMeshesWithTraceReports) {
   server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "2"});
   for (const char* name : {"gly.pqr", "fas2.pqr"}) {

@@ -80,19 +80,6 @@ trace_lines make_lines(const gaussian_field& field, double h, std::int64_t lo, s
   return trace_lines(std::move(entries));
 }
 
-std::vector<strip_id> strips_beside(const trace_lines& lines) {
-  std::vector<strip_id> strips;
-  for (std::size_t n = 0; n < lines.line_count(); ++n) {
-    const line_id& l = lines.id(n);
-    strips.push_back({0, l.j - 1, l.k});
-    strips.push_back({0, l.j, l.k});
-    strips.push_back({1, l.j, l.k - 1});
-    strips.push_back({1, l.j, l.k});
-  }
-  std::sort(strips.begin(), strips.end());
-  strips.erase(std::unique(strips.begin(), strips.end()), strips.end());
-  return strips;
-}
 
 /// Traces every strip, adds late roots and re-traces until none appear; numbers the interior points.
 traced_surface trace_surface(const gaussian_field& field, double h, trace_lines lines, std::size_t& late_roots) {

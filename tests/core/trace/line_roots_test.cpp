@@ -360,67 +360,6 @@ TEST(line_roots, deterministic) {
   }
 }
 
-// Timing and completeness on larger molecules, run by hand:
-//   core_tests --gtest_also_run_disabled_tests --gtest_filter='line_roots.DISABLED_timing'
-// Per molecule and density: time per block and line (finding only, and with atoms_near_box), evaluations per line,
-// and sign changes of a dense scan (200 samples per cell) missed by the series alone and with the sign walk.
-TEST(line_roots, DISABLED_timing) {
-  for (const char* name : {"mache.pqr", "2buk_12asu.pqr"}) {
-    const result<molecule> mol = read_molecule(name);
-    ASSERT_TRUE(mol.ok());
-    const gaussian_field field(*mol, -1, 1);
-    for (const double density : {1.0, 2.0}) {
-      const double h = 1 / std::sqrt(density);
-      const result<lattice> lat = make_lattice(field, h, mesh_limits{});
-      ASSERT_TRUE(lat.ok());
-      progress_token progress;
-      const result<std::vector<lattice_index>> blocks = cull_blocks(field, *lat, progress);
-      ASSERT_TRUE(blocks.ok());
-      std::vector<std::vector<std::uint32_t>> atoms(blocks->size());
-      for (std::size_t n = 0; n < blocks->size(); ++n) field.atoms_near_box(lat->block_box((*blocks)[n]), atoms[n]);
-      std::size_t atom_total = 0;
-      for (const auto& a : atoms) atom_total += a.size();
-      for (const bool walk : {true, false}) {
-        line_root_settings settings;
-        settings.sign_walk = walk;
-        line_root_finder finder(settings);
-        line_root_stats stats;
-        block_line_roots found;
-        double best = 1e300;
-        for (int repeat = 0; repeat < 3; ++repeat) {
-          stats = {};
-          const auto start = std::chrono::steady_clock::now();
-          for (std::size_t n = 0; n < blocks->size(); ++n)
-            finder.find(field, *lat, (*blocks)[n], atoms[n], found, stats);
-          best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-        }
-        // Completeness on every 8th block against a dense scan.
-        line_check check;
-        line_root_stats unused;
-        const int samples = 200 * lattice::block_cells;
-        for (std::size_t n = 0; n < blocks->size(); n += 8) {
-          finder.find(field, *lat, (*blocks)[n], atoms[n], found, unused);
-          check_block(field, *lat, (*blocks)[n], found, samples, check);
-        }
-        std::printf(
-            "[ %s density %.0f walk %d ] %zu blocks (%.0f atoms/block), %.3f s: %.1f us/block, %.3f us/line; "
-            "evaluations/line %.2f, roots/line %.3f (series %zu, walk %zu, rejected %zu, probes %zu), quiet fits "
-            "%.1f%%; "
-            "scan: %zu sign changes on %zu lines, missed %zu (%.2e per line), worst residual %.1e\n",
-            name, density, walk ? 1 : 0, blocks->size(),
-            static_cast<double>(atom_total) / static_cast<double>(blocks->size()), best,
-            1e6 * best / static_cast<double>(blocks->size()), 1e6 * best / static_cast<double>(blocks->size() * 64),
-            static_cast<double>(stats.field_evaluations) / static_cast<double>(stats.lines),
-            static_cast<double>(stats.polynomial_roots + stats.sign_walk_roots) / static_cast<double>(stats.lines),
-            stats.polynomial_roots, stats.sign_walk_roots, stats.rejected_roots, stats.probes,
-            100.0 * static_cast<double>(stats.quiet_fits) / static_cast<double>(stats.fits), check.scanned,
-            (blocks->size() + 7) / 8 * 64, check.missed,
-            static_cast<double>(check.missed) / static_cast<double>((blocks->size() + 7) / 8 * 64),
-            check.worst_residual);
-      }
-    }
-  }
-}
 
 }  // namespace
 }  // namespace tracemesh
