@@ -30,6 +30,10 @@ double target_edge_length(double density) { return std::sqrt(2.0 / (std::sqrt(3.
 /// traced again on the exact field.
 constexpr double trace_walk_tolerance = 1e-3;
 
+/// Outer iterations of the quality pass on the trace path's polygons, which already have about the output's
+/// density (remesh_options::iterations, 3, is for marching-tetrahedra input): README "Method", quality pass.
+constexpr int trace_refine_iterations = 2;
+
 /// Lattice spacing relative to the target edge length (see README "Method": sampling step).
 constexpr double lattice_spacing_factor = 1.0;
 
@@ -107,6 +111,7 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
     remesh_options refine;
     refine.target_edge = edge;
     refine.trust_input_normals = true;  // the root solver's (lattice) or the trace's
+    if (params.method == mesh_method::trace) refine.iterations = trace_refine_iterations;
     refine.max_triangles = limits.max_triangles;
     auto refined = remesh_surface(out.mesh, field, refine, progress);
     if (!refined) return refined.error();

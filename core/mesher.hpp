@@ -70,6 +70,6 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
                                   progress_token& progress);
 
 /// Version of the engine's output; part of every cache key. Bump when the mesh for a given input changes.
-inline constexpr const char* engine_version = "tracemesh-engine-2";
+inline constexpr const char* engine_version = "tracemesh-engine-3";
 
 }  // namespace tracemesh

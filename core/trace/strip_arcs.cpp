@@ -154,13 +154,9 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
   const std::span<const line_point> roots[2] = {lines.roots_of(strip.low_line()), lines.roots_of(strip.high_line())};
   const line_id line_ids[2] = {strip.low_line(), strip.high_line()};
   std::vector<char> covered[2] = {std::vector<char>(roots[0].size(), 0), std::vector<char>(roots[1].size(), 0)};
-  std::vector<double> root_x[2];
-  for (int side = 0; side < 2; ++side) {
-    for (const line_point& p : roots[side]) root_x[side].push_back(p.x);
-  }
   trace_step_settings step;
-  step.low_roots = root_x[0];
-  step.high_roots = root_x[1];
+  step.low_roots = roots[0];
+  step.high_roots = roots[1];
   step.v_low = low_v(strip, h);
   step.v_high = step.v_low + h;
   step.extreme_tolerance = settings.extreme_tolerance;

@@ -10,6 +10,9 @@ namespace {
 constexpr double converged_residual = 1e-12;
 constexpr double converged_distance = 1e-11;  // Å
 constexpr int max_newton_iterations = 30;
+/// A crossing interpolated from a step of length h takes a known root of its line within this × h of it as its
+/// end (when no other root is within twice that).
+constexpr double known_root_reach = 0.2;
 
 bool converged(double residual, double gradient_norm, double t0, double distance = converged_distance) {
   return std::abs(residual) <= converged_residual * t0 || std::abs(residual) <= distance * gradient_norm;
@@ -46,13 +49,27 @@ bool skips_a_root(const trace_step_settings& settings, const vec3& a, const vec3
   for (int side = 0; side < 2; ++side) {
     const double line_v = side == 0 ? settings.v_low : settings.v_high;
     if (std::min(std::abs(a[v] - line_v), std::abs(b[v] - line_v)) >= h) continue;
-    const std::span<const double> roots = side == 0 ? settings.low_roots : settings.high_roots;
+    const std::span<const line_point> roots = side == 0 ? settings.low_roots : settings.high_roots;
     const bool start_line = (side == 0) == starts_low;
-    for (auto it = std::upper_bound(roots.begin(), roots.end(), lo); it != roots.end() && *it < hi; ++it) {
-      if (!(start_line && std::abs(*it - start.position.x) < 1e-9)) return true;
+    const auto first = std::upper_bound(roots.begin(), roots.end(), lo,
+                                        [](double value, const line_point& p) { return value < p.x; });
+    for (auto it = first; it != roots.end() && it->x < hi; ++it) {
+      if (!(start_line && std::abs(it->x - start.position.x) < 1e-9)) return true;
     }
   }
   return false;
+}
+
+/// The known root of `roots` that an interpolated crossing at `x` arrives at: the only root within
+/// 2 × known_root_reach; none when there is none, or more than one (a near-tangency, or a root the polynomial
+/// missed next to a known one: Newton on the line decides those).
+const line_point* known_crossing(std::span<const line_point> roots, double x, double reach) {
+  const auto first = std::lower_bound(roots.begin(), roots.end(), x - 2 * reach,
+                                      [](const line_point& p, double value) { return p.x < value; });
+  if (first == roots.end() || first->x > x + 2 * reach) return nullptr;
+  const auto next = first + 1;
+  if (next != roots.end() && next->x <= x + 2 * reach) return nullptr;
+  return std::abs(first->x - x) <= reach ? &*first : nullptr;
 }
 
 /// The next step's first try: the normal turned by acos(turn) over h, so a step of h·θ_max/θ would turn it by the
@@ -172,7 +189,16 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
         guess.x += f * (p1.position.x - p0.position.x);
         guess[v] = line_v;
         surface_sample crossing;
-        const bool polished = polish_on_line(field, guess, h, crossing, evaluations);
+        // The chord's crossing is within ~curvature × h²/8 of the contour's: a lone known root that close is it.
+        const line_point* known = known_crossing(line_v == settings.v_low ? settings.low_roots : settings.high_roots,
+                                                 guess.x, known_root_reach * h);
+        if (known != nullptr) {
+          crossing.position = guess;
+          crossing.position.x = known->x;
+          crossing.gradient = known->gradient;
+          crossing.extreme = false;
+        }
+        const bool polished = known != nullptr || polish_on_line(field, guess, h, crossing, evaluations);
         const bool at_start = polished && std::abs(crossing.position.x - start.position.x) < 1e-7 &&
                               (line_v == settings.v_low) == starts_low;
         // The walk leaves the strip there, so s·φ_x points out through that line; a crossing polished onto the

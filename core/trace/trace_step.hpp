@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/field/gaussian_field.hpp"
+#include "core/trace/trace_lines.hpp"
 #include "core/trace/trace_parameters.hpp"
 #include "core/vec3.hpp"
 
@@ -65,8 +66,9 @@ struct trace_step_settings {
   const gaussian_field* walk_field = nullptr;
   double exact_near_line = 0.05;  ///< Å
   std::size_t max_steps = 100000;   ///< bounds the walk (a closed contour that never meets a line)
-  /// x of the known roots on each line, ascending: a step that passes over one close to its line is shortened.
-  std::span<const double> low_roots, high_roots;
+  /// The known roots of each line, ascending in x: a step that passes over one close to its line is shortened, and
+  /// a crossing that has exactly one of them nearby is that root (no polishing; see trace_contour).
+  std::span<const line_point> low_roots, high_roots;
 };
 
 /// Traces from `start` (on the surface, on line v_low or v_high) into the strip along s·(−φ_v, φ_x), s = ±1
@@ -74,7 +76,9 @@ struct trace_step_settings {
 /// gradient back onto the contour (step 3), records extreme points (step 4), halves on ★1 (normal turned by more
 /// than acos δ) or ★2 (φ_x changed sign between two points where |φ_x| > ε|g|, so an extreme point was jumped
 /// over), and stops at the first segment that reaches a line (step 6); the crossing is interpolated and then
-/// polished onto the line by Newton in x. A step that would cross back over the start line at the start point
+/// polished onto the line by Newton in x, unless a known root of that line is the only one near the interpolated
+/// crossing: the walk then arrives at that root (already polished on the exact field), and the Newton iterations are
+/// saved. A step that would cross back over the start line at the start point
 /// itself is halved. Steps grow back towards h₁ by doubling after each accepted step.
 /// `evaluations` is increased by the number of field evaluations made.
 traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,

@@ -60,6 +60,42 @@ TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
   EXPECT_GT(evaluations, arc.points.size());
 }
 
+// A crossing with exactly one known root of its line nearby arrives at that root without Newton on the line (its x
+// and gradient are the root's, bit for bit); with a second root close by, Newton decides.
+TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const double rho = contour_radius();
+  trace_step_settings settings;
+  settings.v_low = 0.2;
+  settings.v_high = 1.2;
+  settings.max_step = 0.25;
+  const surface_sample start = sample_at(field, {std::sqrt(rho * rho - 0.04), 0.2, plane_z});
+  std::size_t polished_evaluations = 0;
+  const traced_arc polished = trace_contour(field, {2, plane_z}, start, -1, settings, polished_evaluations);
+  ASSERT_EQ(polished.end, trace_end::high_line);
+
+  // The exact root, with a gradient that is recognisably the caller's (scaled by 2): it must be used as given.
+  const double root_x = std::sqrt(rho * rho - 1.44);
+  const surface_sample root = sample_at(field, {root_x, 1.2, plane_z});
+  const std::vector<line_point> lone{{-root_x, root.gradient, false}, {root_x, 2.0 * root.gradient, false}};
+  settings.high_roots = lone;
+  std::size_t known_evaluations = 0;
+  const traced_arc known = trace_contour(field, {2, plane_z}, start, -1, settings, known_evaluations);
+  ASSERT_EQ(known.end, trace_end::high_line);
+  EXPECT_EQ(known.points.back().position.x, root_x);
+  EXPECT_EQ(known.points.back().gradient.x, 2.0 * root.gradient.x);
+  EXPECT_LT(known_evaluations, polished_evaluations);
+
+  // A second root 0.02 Å away (a near-tangency): the walk polishes and finds the exact crossing itself.
+  const std::vector<line_point> pair{{root_x - 0.02, root.gradient, false}, {root_x + 1e-3, 2.0 * root.gradient, false}};
+  settings.high_roots = pair;
+  std::size_t pair_evaluations = 0;
+  const traced_arc decided = trace_contour(field, {2, plane_z}, start, -1, settings, pair_evaluations);
+  ASSERT_EQ(decided.end, trace_end::high_line);
+  EXPECT_NEAR(decided.points.back().position.x, root_x, 1e-9);
+  EXPECT_NE(decided.points.back().gradient.x, 2.0 * root.gradient.x);
+}
+
 TEST(trace_step, returns_to_the_same_line_through_an_extreme_point) {
   const gaussian_field field(one_atom(), -1, 1);
   const double rho = contour_radius();
