@@ -72,6 +72,11 @@ const line_point* known_crossing(std::span<const line_point> roots, double x, do
   return std::abs(first->x - x) <= reach ? &*first : nullptr;
 }
 
+/// True when a walk point at v lies within exact_near_line of one of the strip's lines, or beyond it.
+bool near_a_line(double v, const trace_step_settings& settings) {
+  return v - settings.v_low < settings.exact_near_line || settings.v_high - v < settings.exact_near_line;
+}
+
 /// The next step's first try: the normal turned by acos(turn) over h, so a step of h·θ_max/θ would turn it by the
 /// limit θ_max = acos δ; aim at 80% of that (a rejected step costs a corrector), grow by at most 2× and stay ≤ h₁.
 double next_step(double h, double turn, const trace_step_settings& settings) {
@@ -151,6 +156,7 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
   arc.points.push_back(start);
   surface_sample p0 = start;
   double h = std::min(settings.first_step, settings.max_step);
+  const gaussian_field& walk = settings.walk_field != nullptr ? *settings.walk_field : field;
   for (std::size_t steps = 0; steps < settings.max_steps; ++steps) {
     const planar t = unit_tangent(p0.gradient, v, sign);
     const planar g0 = in_plane(p0.gradient, v);
@@ -162,11 +168,15 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
       predicted.x += h * t.x;
       predicted[v] += h * t.v;
       surface_sample p1;
-      const double to_line = std::min(std::abs(predicted[v] - settings.v_low), std::abs(predicted[v] - settings.v_high));
-      const gaussian_field& walk =
-          settings.walk_field != nullptr && to_line > settings.exact_near_line + h ? *settings.walk_field : field;
-      if (!correct_in_plane(walk, plane, predicted, h, p1, evaluations, settings.corrector_tolerance,
-                            settings.blind_step)) {
+      // Step 3 on the walk field; a point that lands near (or past) a line is corrected again on the exact field,
+      // which decides crossings and near-tangencies.
+      const bool corrected =
+          correct_in_plane(walk, plane, predicted, h, p1, evaluations, settings.corrector_tolerance,
+                           settings.blind_step) &&
+          (&walk == &field || !near_a_line(p1.position[v], settings) ||
+           correct_in_plane(field, plane, p1.position, h, p1, evaluations, settings.corrector_tolerance,
+                            settings.blind_step));
+      if (!corrected) {
         h *= 0.5;
         continue;
       }

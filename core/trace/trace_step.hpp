@@ -60,9 +60,9 @@ struct trace_step_settings {
   /// Å: a corrector update shorter than this ends the correction without a further evaluation (one evaluation per
   /// step where the prediction was good; the point is then within ~curvature × blind_step² of the contour).
   double blind_step = 2e-3;
-  /// A cheaper approximation of the field (a looser cutoff, gaussian_field's `tolerance`) to walk on away from the
-  /// lines; null walks on the exact field. Crossings and kept points are always solved on the exact field, and so
-  /// is every step that comes within exact_near_line of a line, where near-tangencies are decided.
+  /// A cheaper approximation of the field (a looser cutoff, gaussian_field's `tolerance`) to walk on; null walks on
+  /// the exact field. Crossings and kept points are always solved on the exact field, and so is every walk point
+  /// that lands within exact_near_line of a line (or past it), where crossings and near-tangencies are decided.
   const gaussian_field* walk_field = nullptr;
   double exact_near_line = 0.05;  ///< Å
   std::size_t max_steps = 100000;   ///< bounds the walk (a closed contour that never meets a line)

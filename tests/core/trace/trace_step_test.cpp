@@ -96,6 +96,41 @@ TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing)
   EXPECT_NE(decided.points.back().gradient.x, 2.0 * root.gradient.x);
 }
 
+// The walk may run on an approximate field (here: another isovalue, so its contour is a visibly different circle);
+// points that land within exact_near_line of a line, and the crossing, are on the exact contour.
+TEST(trace_step, walks_on_the_walk_field_and_decides_near_lines_on_the_exact_one) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const gaussian_field walk(one_atom(), -1, 1.01);
+  const double rho = contour_radius();
+  const double walk_rho = std::sqrt(radius * radius * (1 - std::log(1.01)) - plane_z * plane_z);
+  ASSERT_GT(rho - walk_rho, 5e-3);
+  trace_step_settings settings;
+  settings.v_low = 0.2;
+  settings.v_high = 1.2;
+  settings.max_step = 0.1;
+  settings.walk_field = &walk;
+  settings.exact_near_line = 0.15;  // wider than a step: some walk points surely land in it
+  const surface_sample start = sample_at(field, {std::sqrt(rho * rho - 0.04), 0.2, plane_z});
+  std::size_t evaluations = 0;
+  const traced_arc arc = trace_contour(field, {2, plane_z}, start, -1, settings, evaluations);
+  ASSERT_EQ(arc.end, trace_end::high_line);
+  EXPECT_NEAR(arc.points.back().position.x, std::sqrt(rho * rho - 1.44), 1e-9);
+  int on_walk = 0, near_line = 0;
+  for (std::size_t n = 1; n + 1 < arc.points.size(); ++n) {
+    const vec3& p = arc.points[n].position;
+    const double r = std::hypot(p.x, p.y);
+    if (p.y - settings.v_low < settings.exact_near_line || settings.v_high - p.y < settings.exact_near_line) {
+      ++near_line;
+      EXPECT_NEAR(r, rho, 2 * settings.corrector_tolerance) << "at y = " << p.y;
+    } else {
+      ++on_walk;
+      EXPECT_NEAR(r, walk_rho, 2 * settings.corrector_tolerance) << "at y = " << p.y;
+    }
+  }
+  EXPECT_GT(on_walk, 5);
+  EXPECT_GE(near_line, 1);
+}
+
 TEST(trace_step, returns_to_the_same_line_through_an_extreme_point) {
   const gaussian_field field(one_atom(), -1, 1);
   const double rho = contour_radius();
