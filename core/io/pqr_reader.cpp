@@ -24,6 +24,11 @@ constexpr std::string_view utf8_bom = "\xEF\xBB\xBF";
 constexpr std::array<const char*, detail::record_number_count> record_number_names = {
     "x coordinate", "y coordinate", "z coordinate", "charge", "radius"};
 enum record_number_index : std::size_t { x_index, y_index, z_index, charge_index, radius_index };
+/// Whitespace-separated fields of an atom record, record name included, in the two PQR layouts.
+constexpr std::size_t pqr_fields_without_chain = 10;
+constexpr std::size_t pqr_fields_with_chain = 11;
+constexpr const char* pqr_layouts = "10 fields (ATOM serial name resName resSeq x y z charge radius) or 11 (a chain id "
+                                    "before resSeq)";
 /// Bytes of PQR text per atom line, at least; only sizes the first allocation of the atom array.
 constexpr std::size_t min_bytes_per_atom_line = 64;
 
@@ -39,6 +44,16 @@ std::size_t atom_record_name_length(std::string_view line) {
     if (next == ' ' || next == '\t' || is_digit(next)) return name.size();
   }
   return 0;
+}
+
+/// A residue number: an optional '-', digits and an optional insertion code letter ("52", "-3", "52A"); with
+/// `fused_chain_id`, also a one-character chain id in front ("A1000", as fixed PDB columns print it).
+bool is_residue_number(std::string_view field, bool fused_chain_id) {
+  const auto is_letter = [](char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); };
+  if (fused_chain_id && field.size() > 1 && !is_digit(field[0]) && field[0] != '-') field.remove_prefix(1);
+  if (!field.empty() && is_letter(field.back())) field.remove_suffix(1);
+  if (!field.empty() && field.front() == '-') field.remove_prefix(1);
+  return !field.empty() && std::all_of(field.begin(), field.end(), is_digit);
 }
 
 status line_error(std::size_t line_number, const std::string& what) {
@@ -128,21 +143,36 @@ class pqr_parser {
   }
 
   status parse_atom_record(std::string_view record_name, std::string_view fields) {
-    detail::record_numbers_text texts;
-    if (detail::take_record_numbers(fields, texts) < detail::record_number_count) {
-      return line_error(line_number_, too_few_fields_message(record_name));
-    }
+    const detail::atom_record_fields split = detail::split_atom_record(fields);
+    // Syntax of the numbers first (the most precise message for a fused or mistyped field), then the layout,
+    // and the ranges only once the numbers are known to be in their columns.
     std::array<double, detail::record_number_count> values{};
-    for (std::size_t k = 0; k < texts.size(); ++k) {
-      if (status read = read_number(k, texts[k], values[k]); !read) return read;
+    if (split.number_count == detail::record_number_count) {
+      for (std::size_t k = 0; k < split.numbers.size(); ++k) {
+        if (status read = read_number(k, split.numbers[k], values[k]); !read) return read;
+      }
     }
-    if (status checked = check_ranges(texts, values); !checked) return checked;
+    if (status counted = check_field_layout(record_name, split); !counted) return counted;
+    if (status checked = check_ranges(split.numbers, values); !checked) return checked;
     add_atom(values);
     return status::success();
   }
 
-  static std::string too_few_fields_message(std::string_view record_name) {
-    return std::string(record_name) + " record has fewer than 5 numeric fields; it must end with x y z charge radius";
+  /// The two PQR layouts (APBS, pdb2pqr): 10 fields without a chain id, 11 with one. A missing or extra column
+  /// changes the count, or, when a chain id hides it, puts something other than a residue number before x.
+  status check_field_layout(std::string_view record_name, const detail::atom_record_fields& split) const {
+    const std::size_t count = 1 + split.leading_count + split.number_count;  // 1: the record name
+    if (count != pqr_fields_without_chain && count != pqr_fields_with_chain) {
+      return line_error(line_number_, std::string(record_name) + " record has " + std::to_string(count) +
+                                          " fields; a PQR atom record has " + pqr_layouts);
+    }
+    const bool chain_may_touch = count == pqr_fields_without_chain;  // fixed columns: "A1000"
+    if (!is_residue_number(split.residue_field, chain_may_touch)) {
+      return line_error(line_number_, "residue number '" + quote_bytes(split.residue_field) +
+                                          "' is not an integer: a column is missing or extra; a PQR atom record has " +
+                                          pqr_layouts);
+    }
+    return status::success();
   }
 
   status read_number(std::size_t index, std::string_view text, double& value) const {

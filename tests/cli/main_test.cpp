@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/mesher.hpp"
+#include "support/pqr_edits.hpp"
 #include "support/test_paths.hpp"
 
 namespace {
@@ -223,6 +224,15 @@ TEST_F(TracemeshCli, GarbagePqr) {
   expect_one_line_failure(run({write("bad.pqr", garbage_pqr).string(), "-o", path("bad.off").string()}), 1,
                           "line 1");
   EXPECT_FALSE(fs::exists(path("bad.off")));
+}
+
+// Issue 12, finding 8: a PQR line with a missing column was read with its columns shifted (a wrong mesh).
+TEST_F(TracemeshCli, APqrLineWithAMissingColumnIsRejectedNamingTheLine) {
+  const std::string fas2 = read_file(tracemesh::testing::molecule_path("fas2.pqr"));
+  const std::string damaged = tracemesh::testing::without_field(tracemesh::testing::with_chain_id(fas2, "A"), 100, 8);
+  expect_one_line_failure(run({write("damaged.pqr", damaged).string(), "-o", path("damaged.off").string()}), 1,
+                          "line 100: residue number 'A' is not an integer");
+  EXPECT_FALSE(fs::exists(path("damaged.off")));
 }
 
 TEST_F(TracemeshCli, BinaryInput) {

@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support/pqr_edits.hpp"
 #include "support/test_paths.hpp"
 
 namespace {
@@ -501,6 +502,30 @@ TEST_F(TracemeshdTest, QueueOverflowGives429WithRetryAfter) {
   curl_reply cancelled = curl("-X DELETE", server.url("/jobs/" + std::string(nlohmann::json::parse(
                                                                            queued.body).at("id"))));
   EXPECT_EQ(cancelled.status, 200) << cancelled.body;
+}
+
+// Issue 12, finding 8: a PQR line with a missing column was read with its columns shifted (200, a wrong mesh).
+TEST_F(TracemeshdTest, APqrLineWithAMissingColumnIsRejectedNamingTheLine) {
+  server_process server(work_.path(), {});
+  const std::string fas2 = read_file(molecule_path("fas2.pqr"));
+  const std::string fas2_chain = tracemesh::testing::with_chain_id(fas2, "A");
+  ASSERT_EQ(upload(server, write("fas2_chain.pqr", fas2_chain)).status, 200) << "the 11-field layout is accepted";
+  struct damaged {
+    const char* what;
+    std::string content;
+  };
+  const std::vector<damaged> cases = {
+      {"no chain id, z missing", tracemesh::testing::without_field(fas2, 100, 7)},
+      {"chain id, z missing", tracemesh::testing::without_field(fas2_chain, 100, 8)},
+      {"chain id, charge missing", tracemesh::testing::without_field(fas2_chain, 100, 9)},
+  };
+  for (const damaged& c : cases) {
+    for (const char* route : {"/mesh", "/jobs"}) {
+      const curl_reply reply = upload(server, write("damaged.pqr", c.content), "", route);
+      expect_error(reply, 400, "invalid_input", c.what);
+      EXPECT_NE(reply.body.find("line 100: "), std::string::npos) << c.what << ": " << reply.body;
+    }
+  }
 }
 
 TEST_F(TracemeshdTest, BadInputsGetTheRight4xxAndTheServerKeepsServing) {
