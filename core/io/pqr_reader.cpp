@@ -12,15 +12,16 @@
 
 #include "core/io/pqr_gzip.hpp"
 #include "core/io/pqr_text.hpp"
+#include "core/io/text_lines.hpp"
 
 namespace tracemesh {
 
 namespace {
 
 using detail::format_number;
+using detail::line_error;
 using detail::quote_bytes;
 
-constexpr std::string_view utf8_bom = "\xEF\xBB\xBF";
 constexpr std::array<const char*, detail::record_number_count> record_number_names = {
     "x coordinate", "y coordinate", "z coordinate", "charge", "radius"};
 enum record_number_index : std::size_t { x_index, y_index, z_index, charge_index, radius_index };
@@ -32,7 +33,6 @@ constexpr const char* pqr_layouts = "10 fields (ATOM serial name resName resSeq 
 /// Bytes of PQR text per atom line, at least; only sizes the first allocation of the atom array.
 constexpr std::size_t min_bytes_per_atom_line = 64;
 
-bool is_line_terminator(char c) { return c == '\n' || c == '\r'; }
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
 /// Length of the record name ("ATOM" or "HETATM") when `line` is an atom record, else 0.
@@ -56,15 +56,6 @@ bool is_residue_number(std::string_view field, bool fused_chain_id) {
   return !field.empty() && std::all_of(field.begin(), field.end(), is_digit);
 }
 
-status line_error(std::size_t line_number, const std::string& what) {
-  return {errc::invalid_input, "line " + std::to_string(line_number) + ": " + what};
-}
-
-/// Two lower-case hex digits of `c`.
-std::string hex_byte(unsigned char c) {
-  static constexpr char digits[] = "0123456789abcdef";
-  return {digits[c >> 4], digits[c & 0xF]};
-}
 
 /// Streams over PQR text line by line, appending atoms to a molecule; stops at the first error.
 class pqr_parser {
@@ -72,66 +63,20 @@ class pqr_parser {
   explicit pqr_parser(const mesh_limits& limits) : limits_(limits) {}
 
   result<molecule> parse(std::string_view text) {
-    if (text.substr(0, 2) == "\xFF\xFE" || text.substr(0, 2) == "\xFE\xFF") {
-      return line_error(1, "UTF-16 byte order mark: PQR must be ASCII or UTF-8 text");
-    }
-    if (text.substr(0, utf8_bom.size()) == utf8_bom) text.remove_prefix(utf8_bom.size());
-    molecule_.atoms.reserve(std::min(limits_.max_atoms, text.size() / min_bytes_per_atom_line + 1));
-
-    std::size_t begin = 0;
-    while (begin < text.size()) {
-      ++line_number_;
-      std::size_t end = 0;
-      if (status scanned = find_line_end(text, begin, end); !scanned) return scanned;
-      if (status parsed = parse_line(text.substr(begin, end - begin)); !parsed) return parsed;
-      begin = skip_line_terminator(text, end);
+    detail::text_lines lines(text, limits_.max_line_bytes, "PQR");
+    molecule_.atoms.reserve(std::min(limits_.max_atoms, lines.size() / min_bytes_per_atom_line + 1));
+    std::string_view line;
+    for (;;) {
+      result<bool> more = lines.next(line);
+      if (!more) return more.error();
+      if (!*more) break;
+      line_number_ = lines.line_number();
+      if (status parsed = parse_line(line); !parsed) return parsed;
     }
     return finish();
   }
 
  private:
-  /// Sets `end` to the offset of the terminator of the line starting at `begin` (or text.size()). Rejects
-  /// control bytes and lines over max_line_bytes, never scanning further than max_line_bytes + 1 bytes.
-  status find_line_end(std::string_view text, std::size_t begin, std::size_t& end) {
-    const std::size_t scan_end = begin + std::min(limits_.max_line_bytes, text.size() - begin);
-    bool non_ascii = false;
-    std::size_t i = begin;
-    for (; i < scan_end; ++i) {
-      const auto c = static_cast<unsigned char>(text[i]);
-      if (c >= 0x20 && c < 0x7F) continue;  // printable ASCII: almost every byte
-      if (is_line_terminator(static_cast<char>(c))) break;
-      if (c == '\t') continue;
-      if (c >= 0x80) {
-        non_ascii = true;
-        continue;
-      }
-      return line_error(line_number_, "control byte 0x" + hex_byte(c) + " at column " +
-                                          std::to_string(i - begin + 1) + " (binary data, not PQR text)");
-    }
-    if (i == scan_end && i < text.size() && !is_line_terminator(text[i])) {
-      return line_error(line_number_, "longer than " + std::to_string(limits_.max_line_bytes) +
-                                          " bytes (limits.max_line_bytes)");
-    }
-    end = i;
-    if (non_ascii) return check_utf8(text.substr(begin, end - begin));
-    return status::success();
-  }
-
-  status check_utf8(std::string_view line) const {
-    const std::size_t bad = detail::find_invalid_utf8(line);
-    if (bad == std::string_view::npos) return status::success();
-    return line_error(line_number_, "byte 0x" + hex_byte(static_cast<unsigned char>(line[bad])) +
-                                        " at column " + std::to_string(bad + 1) +
-                                        " is not UTF-8 (binary data, not PQR text)");
-  }
-
-  /// Offset just past the terminator at `end`: "\r\n" is one terminator, a bare "\r" or "\n" another.
-  static std::size_t skip_line_terminator(std::string_view text, std::size_t end) {
-    if (end >= text.size()) return end;
-    if (text[end] == '\r' && end + 1 < text.size() && text[end + 1] == '\n') return end + 2;
-    return end + 1;
-  }
-
   status parse_line(std::string_view line) {
     const std::size_t name_length = atom_record_name_length(line);
     if (name_length == 0) return status::success();  // REMARK, TER, END, MODEL, blank...
@@ -238,11 +183,18 @@ class pqr_parser {
   molecule molecule_;
 };
 
+}  // namespace
+
+namespace detail {
+
+namespace {
 std::string describe_errno(int error) { return std::error_code(error, std::generic_category()).message(); }
+
+}  // namespace
 
 /// The whole file, or an error: io_error when it cannot be opened or read, limit_exceeded past max_bytes.
 result<std::string> read_file_bounded(const std::filesystem::path& path, std::size_t max_bytes) {
-  const std::string shown_path = quote_bytes(path.string(), std::numeric_limits<std::size_t>::max());
+  const std::string shown_path = detail::quote_bytes(path.string(), std::numeric_limits<std::size_t>::max());
   errno = 0;
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!file) return status{errc::io_error, "cannot open " + shown_path + ": " + describe_errno(errno)};
@@ -269,7 +221,7 @@ result<std::string> read_file_bounded(const std::filesystem::path& path, std::si
   return bytes;
 }
 
-}  // namespace
+}  // namespace detail
 
 std::size_t max_pqr_text_bytes(const mesh_limits& limits) noexcept {
   constexpr std::size_t largest = std::numeric_limits<std::size_t>::max();
@@ -288,7 +240,7 @@ result<std::string> maybe_gunzip(std::string_view bytes, std::size_t max_bytes) 
 
 result<molecule> read_pqr_file(const std::filesystem::path& path, const mesh_limits& limits) {
   const std::size_t max_bytes = max_pqr_text_bytes(limits);
-  result<std::string> bytes = read_file_bounded(path, max_bytes);
+  result<std::string> bytes = detail::read_file_bounded(path, max_bytes);
   if (!bytes) return bytes.error();
   if (!detail::has_gzip_magic(*bytes)) return parse_pqr(*bytes, limits);  // plain text: no copy
   result<std::string> text = detail::gunzip(*bytes, max_bytes);
