@@ -65,7 +65,9 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
   using r = parameter_ranges;
   const mesh_params defaults;
   const trace_parameters& trace = defaults.trace;
-  app.add_option("input", options.input, "PQR file, plain or gzip-compressed")->required();
+  app.add_option("input", options.input,
+                 "Molecule file: PQR, PDB, mmCIF or xyzr (told from the content), plain or gzip-compressed")
+      ->required();
   app.add_option("-o,--output", options.output,
                  "Mesh file to write; its extension (.off, .drc, .vert/.face) picks the format")
       ->required();
@@ -101,6 +103,10 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
                  "Trace: ε, |φ_x| < ε·|∇φ| marks an extreme point in x, " +
                      range_and_default(r::min_extreme_tolerance, r::max_extreme_tolerance, trace.extreme_tolerance))
       ->type_name("F");
+  app.add_option("--radii", texts["radii"], "PDB/mmCIF: van der Waals radii, bondi (default) | mantina");
+  app.add_option("--hydrogens", texts["hydrogens"], "PDB/mmCIF: keep (default) | drop hydrogen atoms");
+  app.add_option("--waters", texts["waters"], "PDB/mmCIF: keep | drop (default) water molecules");
+  app.add_option("--ligands", texts["ligands"], "PDB/mmCIF: keep (default) | drop ligands, ions, cofactors");
   app.add_option("--threads", options.params.threads, "Worker threads, 0 = all cores (never changes the output)")
       ->check(CLI::Range(0U, max_threads));
   app.add_option("--format", format_text, "off | draco | msms (default: from the output's extension)");
@@ -118,6 +124,9 @@ status finish_options(const CLI::App& app, cli_options& options, parameter_texts
   if (!params) return {params.error().code(), in_option_terms(params.error().message())};
   options.params = *params;
   options.params.threads = threads;
+  const result<structure_options> input_options = parse_structure_options(lookup_in(texts));
+  if (!input_options) return {input_options.error().code(), "--" + input_options.error().message()};
+  options.input_options = *input_options;
 
   const result<output_format> format =
       app.count("--format") == 0 ? infer_output_format(options.output) : parse_output_format(format_text);
@@ -155,7 +164,7 @@ std::vector<std::filesystem::path> output_paths(const std::filesystem::path& out
 }
 
 parsed_command_line parse_command_line(int argc, const char* const* argv) {
-  CLI::App app("Meshes the Gaussian molecular surface of a PQR file.", "tracemesh");
+  CLI::App app("Meshes the Gaussian molecular surface of a PQR, PDB, mmCIF or xyzr file.", "tracemesh");
   cli_options options;
   parameter_texts texts;
   std::string format_text, report_text;

@@ -1,7 +1,8 @@
 #pragma once
 /// @file options.hpp
 /// The `tracemesh` command line:
-///   tracemesh INPUT.pqr[.gz] -o OUT.{off,drc,vert} [--density 1] [--d -1] [--t0 1] [--method trace|lattice]
+///   tracemesh INPUT[.gz] -o OUT.{off,drc,vert} [--radii bondi|mantina] [--hydrogens keep|drop]
+///             [--waters keep|drop] [--ligands keep|drop] [--density 1] [--d -1] [--t0 1] [--method trace|lattice]
 ///             [--refine none|full] [--trace-degree N] [--trace-step F] [--trace-cos-bound F]
 ///             [--trace-extreme-tolerance F] [--threads N] [--format off|draco|msms] [--report FILE|-] [--verbose]
 /// Parameters are parsed exactly as the HTTP service parses them (proto::parse_mesh_params; option --x-y is the
@@ -14,6 +15,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/io/input_format.hpp"
 #include "core/mesher.hpp"
 #include "core/status.hpp"
 
@@ -40,6 +42,7 @@ struct cli_options {
   std::filesystem::path output;
   output_format format = output_format::off;
   mesh_params params;
+  structure_options input_options;    ///< how PDB/mmCIF inputs are read (core/io/input_format.hpp)
   std::optional<std::string> report;  ///< report destination: a path, or "-" for stdout
   bool verbose = false;               ///< timings and a summary on stderr
 };

@@ -7,7 +7,7 @@
 
 #include "cli/atomic_file.hpp"
 #include "core/mesher.hpp"
-#include "core/io/pqr_reader.hpp"
+#include "core/io/structure/molecule_reader.hpp"
 #include "proto/mesh_encoders.hpp"
 #include "proto/report_json.hpp"
 
@@ -76,8 +76,9 @@ status run(const cli_options& options, progress_token& progress) {
   const mesh_limits limits;
   auto start = clock_type::now();
   progress.report(mesh_stage::reading, 0);
-  result<molecule> mol = read_pqr_file(options.input, limits);
-  if (!mol) return mol.error();
+  result<read_molecule_result> read = read_molecule_file(options.input, options.input_options, limits);
+  if (!read) return read.error();
+  const molecule* mol = &read->mol;
   const double reading_seconds = seconds_since(start);
   if (!progress.report(mesh_stage::reading, 1)) return {errc::cancelled, "cancelled"};
 

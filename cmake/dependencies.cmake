@@ -8,6 +8,15 @@ find_package(draco CONFIG REQUIRED)
 find_package(spdlog CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(OpenSSL REQUIRED)
+# gemmi (Debian gemmi-dev 0.5.7) is header-only and ships neither a CMake package nor a .pc file: find its
+# header and wrap it in an imported target. Its CIF parser includes PEGTL, which Debian ships separately
+# (tao-pegtl-dev, CMake package `pegtl`, target taocpp::pegtl); its gzip helpers use zlib.
+find_package(pegtl CONFIG REQUIRED)
+find_path(GEMMI_INCLUDE_DIR gemmi/mmread.hpp REQUIRED)
+add_library(gemmi::headers INTERFACE IMPORTED)
+set_target_properties(gemmi::headers PROPERTIES INTERFACE_SYSTEM_INCLUDE_DIRECTORIES "${GEMMI_INCLUDE_DIR}"
+                      INTERFACE_INCLUDE_DIRECTORIES "${GEMMI_INCLUDE_DIR}"
+                      INTERFACE_LINK_LIBRARIES "taocpp::pegtl;ZLIB::ZLIB")
 if(TRACEMESH_BUILD_TESTS)
   find_package(GTest CONFIG REQUIRED)
   find_package(CGAL CONFIG QUIET)

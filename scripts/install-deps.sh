@@ -6,7 +6,7 @@ packages=(
   cmake g++ make pkg-config git curl ca-certificates
   libboost-dev nlohmann-json3-dev libdraco-dev draco libspdlog-dev libfmt-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev libssl-dev libcli11-dev zlib1g-dev
-  libcgal-dev libgmp-dev libmpfr-dev
+  libcgal-dev libgmp-dev libmpfr-dev gemmi-dev tao-pegtl-dev
   clang-14 libclang-rt-14-dev wrk nginx-light procps
 )
 # `make bench-paper` only: the plots of bench/bench_report.py.

@@ -1,5 +1,7 @@
 #include "server/api_handlers.hpp"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <map>
 #include <optional>
@@ -11,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/io/pqr_reader.hpp"
+#include "core/io/structure/molecule_reader.hpp"
 #include "proto/api_types.hpp"
 #include "proto/openapi.hpp"
 #include "server/content_hash.hpp"
@@ -286,6 +289,24 @@ const std::string* find_param(const parameter_map& params, std::string_view name
 }
 
 
+
+/// The multipart fields that carry the molecule file: "structure" (any format) and "pqr" (its older name).
+bool is_file_field(std::string_view name) { return name == "structure" || name == "pqr"; }
+
+
+/// Every parameter an upload route knows: the mesh request's and the input options.
+std::span<const std::string_view> upload_fields() {
+  static const auto fields = [] {
+    std::array<std::string_view, proto::mesh_request_fields.size() + structure_option_names.size()> all{};
+    std::copy(proto::mesh_request_fields.begin(), proto::mesh_request_fields.end(), all.begin());
+    std::copy(structure_option_names.begin(), structure_option_names.end(),
+              all.begin() + proto::mesh_request_fields.size());
+    return all;
+  }();
+  return fields;
+}
+
+
 }  // namespace
 
 // ---- the upload pipeline ------------------------------------------------------------------------------------
@@ -293,7 +314,8 @@ const std::string* find_param(const parameter_map& params, std::string_view name
 struct api_handlers::upload_request {
   route_id route;
   proto::mesh_request request;
-  std::string pqr;
+  structure_options options;
+  std::string pqr;  // the uploaded file (field 'pqr' or 'structure'), any input format
   std::shared_ptr<upload_ticket> ticket;  // released as soon as the upload has been parsed
   reply_sink done;
   clock::time_point received;
@@ -354,7 +376,9 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
   const std::string_view content_type = to_std(head[http::field::content_type]);
   if (!is_multipart_form_data(content_type)) {
     return error_reply(415, "unsupported_media_type",
-                       "the upload must be multipart/form-data with the PQR file in the field 'pqr'", route.name);
+                       "the upload must be multipart/form-data with the molecule file in the field 'structure' "
+                       "(or 'pqr')",
+                       route.name);
   }
   result<std::string> boundary = multipart_boundary(content_type);
   if (!boundary.ok()) return error_reply(400, "invalid_input", boundary.error().message(), route.name);
@@ -425,30 +449,33 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   const std::string route = plan.route;
   result<parameter_map> query = parse_query(target->query);
   if (!query.ok()) return done(error_reply(400, "invalid_argument", query.error().message(), route));
-  if (const status known = only_known(*query, proto::mesh_request_fields, "query parameter"); !known.ok()) {
+  if (const status known = only_known(*query, upload_fields(), "query parameter"); !known.ok()) {
     return done(error_reply(400, "invalid_argument", known.message(), route));
   }
 
-  // Form fields win over query parameters (openapi.json); the file travels in "pqr".
+  // Form fields win over query parameters (openapi.json); the file travels in "structure" or "pqr" (the same:
+  // the format is read from the content).
   parameter_map form;
-  multipart_part* pqr = nullptr;
+  multipart_part* file = nullptr;
   for (multipart_part& part : parts) {
-    if (part.name == "pqr") {
-      if (pqr) return done(error_reply(400, "invalid_input", "the field 'pqr' is given twice", route));
-      pqr = &part;
+    if (is_file_field(part.name)) {
+      if (file) {
+        return done(error_reply(400, "invalid_input", "give one file, in the field 'structure' or 'pqr'", route));
+      }
+      file = &part;
       continue;
     }
     if (part.filename) {
-      return done(error_reply(400, "invalid_input", "only the field 'pqr' may carry a file", route));
+      return done(error_reply(400, "invalid_input", "only the field 'structure' (or 'pqr') may carry a file", route));
     }
     if (!form.emplace(part.name, part.body).second) {
       return done(error_reply(400, "invalid_argument", "a form field is given twice", route));
     }
   }
-  if (const status known = only_known(form, proto::mesh_request_fields, "form field"); !known.ok()) {
+  if (const status known = only_known(form, upload_fields(), "form field"); !known.ok()) {
     return done(error_reply(400, "invalid_argument", known.message(), route));
   }
-  if (!pqr) return done(error_reply(400, "invalid_input", "missing the file field 'pqr'", route));
+  if (!file) return done(error_reply(400, "invalid_input", "missing the file field 'structure' (or 'pqr')", route));
 
   const proto::field_lookup lookup = [&](std::string_view name) -> std::optional<std::string> {
     if (const std::string* value = find_param(form, name)) return *value;
@@ -457,11 +484,14 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   };
   result<proto::mesh_request> request = proto::parse_mesh_request(lookup);
   if (!request.ok()) return done(status_error_reply(request.error(), route));
+  result<structure_options> options = parse_structure_options(lookup);
+  if (!options.ok()) return done(status_error_reply(options.error(), route));
 
   auto upload = std::make_shared<upload_request>();
   upload->route = match.id;
   upload->request = *request;
-  upload->pqr = std::move(pqr->body);
+  upload->options = *options;
+  upload->pqr = std::move(file->body);
   upload->ticket = std::move(plan.ticket);
   upload->done = std::move(done);
   upload->received = clock::now();
@@ -472,10 +502,11 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   const char* route = info(upload->route).name;
   const std::size_t upload_bytes = upload->pqr.size();
   result<molecule> mol = [&]() -> result<molecule> {
-    result<std::string> text = maybe_gunzip(upload->pqr, deps_.config.limits.max_pqr_bytes);
+    result<read_molecule_result> read =
+        read_molecule(upload->pqr, upload->options, deps_.config.limits.mesh, deps_.config.limits.max_pqr_bytes);
     std::string().swap(upload->pqr);
-    if (!text.ok()) return text.error();
-    return parse_pqr(*text, deps_.config.limits.mesh);
+    if (!read.ok()) return read.error();
+    return std::move(read->mol);
   }();
   // The upload is over once parsed (its bytes are freed above): release its admission before anything can answer
   // the client, or a client that sends its next upload as soon as this one is answered could find the slot taken

@@ -42,7 +42,7 @@ class canonical_writer {
 std::string compute_job_id(const molecule& mol, const mesh_params& params) {
   sha256 hash;
   canonical_writer out(hash);
-  out.text(std::string_view("tracemesh-job-v2\0", 17));
+  out.text(std::string_view("tracemesh-job-v3\0", 17));
   out.text(engine_version);
   out.text(std::string_view("\0", 1));
   out.u64(mol.atoms.size());
@@ -51,7 +51,6 @@ std::string compute_job_id(const molecule& mol, const mesh_params& params) {
     out.f64(a.center.y);
     out.f64(a.center.z);
     out.f64(a.radius);
-    out.f64(a.charge);
   }
   out.text(proto::canonical_parameters(params));
   out.flush();

@@ -1,11 +1,12 @@
 #pragma once
 /// @file job_id.hpp
 /// Job identity: the SHA-256 of a canonical serialization of what determines the mesh, so that the same atoms
-/// and parameters give the same id however the upload was formatted (spacing, remarks, gzip, CRLF).
+/// and parameters give the same id however the upload was formatted (spacing, remarks, gzip, CRLF) and whatever
+/// its format (PQR, PDB, mmCIF, xyzr): only what the mesher reads — centres and radii — is hashed.
 ///
 /// Serialization (all numbers little-endian):
-///   "tracemesh-job-v2\0" engine_version "\0"
-///   u64 atom count, then per atom in file order: f64 x, y, z, radius, charge
+///   "tracemesh-job-v3\0" engine_version "\0"
+///   u64 atom count, then per atom in file order: f64 x, y, z, radius
 ///   proto::canonical_parameters(params): "density=…;d=…;t0=…;method=…;refine=…" and, for the trace method only,
 ///   ";trace_degree=…;trace_step=…;trace_cos_bound=…;trace_extreme_tolerance=…" (shortest round-trip numbers, so
 ///   distinct values never share a spelling)
@@ -13,7 +14,8 @@
 /// the id of a lattice job (they do not change its mesh or report). params.threads is excluded (it never changes
 /// the output); so is the output format: one job produces the mesh, and its encodings are cached as "<id>.off",
 /// "<id>.drc" and the report as "<id>.report". (v1 hashed f64 density, d, t0 and knew no method: v1 ids are
-/// simply never asked for again.)
+/// simply never asked for again; v2 also hashed the charge, which no output depends on, so a PQR and the
+/// PDB of the same atoms were two jobs.)
 
 #include <string>
 

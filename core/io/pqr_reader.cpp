@@ -12,22 +12,27 @@
 
 #include "core/io/pqr_gzip.hpp"
 #include "core/io/pqr_text.hpp"
+#include "core/io/text_lines.hpp"
 
 namespace tracemesh {
 
 namespace {
 
 using detail::format_number;
+using detail::line_error;
 using detail::quote_bytes;
 
-constexpr std::string_view utf8_bom = "\xEF\xBB\xBF";
 constexpr std::array<const char*, detail::record_number_count> record_number_names = {
     "x coordinate", "y coordinate", "z coordinate", "charge", "radius"};
 enum record_number_index : std::size_t { x_index, y_index, z_index, charge_index, radius_index };
+/// Whitespace-separated fields of an atom record, record name included, in the two PQR layouts.
+constexpr std::size_t pqr_fields_without_chain = 10;
+constexpr std::size_t pqr_fields_with_chain = 11;
+constexpr const char* pqr_layouts = "10 fields (ATOM serial name resName resSeq x y z charge radius) or 11 (a chain id "
+                                    "before resSeq)";
 /// Bytes of PQR text per atom line, at least; only sizes the first allocation of the atom array.
 constexpr std::size_t min_bytes_per_atom_line = 64;
 
-bool is_line_terminator(char c) { return c == '\n' || c == '\r'; }
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
 /// Length of the record name ("ATOM" or "HETATM") when `line` is an atom record, else 0.
@@ -41,15 +46,16 @@ std::size_t atom_record_name_length(std::string_view line) {
   return 0;
 }
 
-status line_error(std::size_t line_number, const std::string& what) {
-  return {errc::invalid_input, "line " + std::to_string(line_number) + ": " + what};
+/// A residue number: an optional '-', digits and an optional insertion code letter ("52", "-3", "52A"); with
+/// `fused_chain_id`, also a one-character chain id in front ("A1000", as fixed PDB columns print it).
+bool is_residue_number(std::string_view field, bool fused_chain_id) {
+  const auto is_letter = [](char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); };
+  if (fused_chain_id && field.size() > 1 && !is_digit(field[0]) && field[0] != '-') field.remove_prefix(1);
+  if (!field.empty() && is_letter(field.back())) field.remove_suffix(1);
+  if (!field.empty() && field.front() == '-') field.remove_prefix(1);
+  return !field.empty() && std::all_of(field.begin(), field.end(), is_digit);
 }
 
-/// Two lower-case hex digits of `c`.
-std::string hex_byte(unsigned char c) {
-  static constexpr char digits[] = "0123456789abcdef";
-  return {digits[c >> 4], digits[c & 0xF]};
-}
 
 /// Streams over PQR text line by line, appending atoms to a molecule; stops at the first error.
 class pqr_parser {
@@ -57,66 +63,20 @@ class pqr_parser {
   explicit pqr_parser(const mesh_limits& limits) : limits_(limits) {}
 
   result<molecule> parse(std::string_view text) {
-    if (text.substr(0, 2) == "\xFF\xFE" || text.substr(0, 2) == "\xFE\xFF") {
-      return line_error(1, "UTF-16 byte order mark: PQR must be ASCII or UTF-8 text");
-    }
-    if (text.substr(0, utf8_bom.size()) == utf8_bom) text.remove_prefix(utf8_bom.size());
-    molecule_.atoms.reserve(std::min(limits_.max_atoms, text.size() / min_bytes_per_atom_line + 1));
-
-    std::size_t begin = 0;
-    while (begin < text.size()) {
-      ++line_number_;
-      std::size_t end = 0;
-      if (status scanned = find_line_end(text, begin, end); !scanned) return scanned;
-      if (status parsed = parse_line(text.substr(begin, end - begin)); !parsed) return parsed;
-      begin = skip_line_terminator(text, end);
+    detail::text_lines lines(text, limits_.max_line_bytes, "PQR");
+    molecule_.atoms.reserve(std::min(limits_.max_atoms, lines.size() / min_bytes_per_atom_line + 1));
+    std::string_view line;
+    for (;;) {
+      result<bool> more = lines.next(line);
+      if (!more) return more.error();
+      if (!*more) break;
+      line_number_ = lines.line_number();
+      if (status parsed = parse_line(line); !parsed) return parsed;
     }
     return finish();
   }
 
  private:
-  /// Sets `end` to the offset of the terminator of the line starting at `begin` (or text.size()). Rejects
-  /// control bytes and lines over max_line_bytes, never scanning further than max_line_bytes + 1 bytes.
-  status find_line_end(std::string_view text, std::size_t begin, std::size_t& end) {
-    const std::size_t scan_end = begin + std::min(limits_.max_line_bytes, text.size() - begin);
-    bool non_ascii = false;
-    std::size_t i = begin;
-    for (; i < scan_end; ++i) {
-      const auto c = static_cast<unsigned char>(text[i]);
-      if (c >= 0x20 && c < 0x7F) continue;  // printable ASCII: almost every byte
-      if (is_line_terminator(static_cast<char>(c))) break;
-      if (c == '\t') continue;
-      if (c >= 0x80) {
-        non_ascii = true;
-        continue;
-      }
-      return line_error(line_number_, "control byte 0x" + hex_byte(c) + " at column " +
-                                          std::to_string(i - begin + 1) + " (binary data, not PQR text)");
-    }
-    if (i == scan_end && i < text.size() && !is_line_terminator(text[i])) {
-      return line_error(line_number_, "longer than " + std::to_string(limits_.max_line_bytes) +
-                                          " bytes (limits.max_line_bytes)");
-    }
-    end = i;
-    if (non_ascii) return check_utf8(text.substr(begin, end - begin));
-    return status::success();
-  }
-
-  status check_utf8(std::string_view line) const {
-    const std::size_t bad = detail::find_invalid_utf8(line);
-    if (bad == std::string_view::npos) return status::success();
-    return line_error(line_number_, "byte 0x" + hex_byte(static_cast<unsigned char>(line[bad])) +
-                                        " at column " + std::to_string(bad + 1) +
-                                        " is not UTF-8 (binary data, not PQR text)");
-  }
-
-  /// Offset just past the terminator at `end`: "\r\n" is one terminator, a bare "\r" or "\n" another.
-  static std::size_t skip_line_terminator(std::string_view text, std::size_t end) {
-    if (end >= text.size()) return end;
-    if (text[end] == '\r' && end + 1 < text.size() && text[end + 1] == '\n') return end + 2;
-    return end + 1;
-  }
-
   status parse_line(std::string_view line) {
     const std::size_t name_length = atom_record_name_length(line);
     if (name_length == 0) return status::success();  // REMARK, TER, END, MODEL, blank...
@@ -128,21 +88,36 @@ class pqr_parser {
   }
 
   status parse_atom_record(std::string_view record_name, std::string_view fields) {
-    detail::record_numbers_text texts;
-    if (detail::take_record_numbers(fields, texts) < detail::record_number_count) {
-      return line_error(line_number_, too_few_fields_message(record_name));
-    }
+    const detail::atom_record_fields split = detail::split_atom_record(fields);
+    // Syntax of the numbers first (the most precise message for a fused or mistyped field), then the layout,
+    // and the ranges only once the numbers are known to be in their columns.
     std::array<double, detail::record_number_count> values{};
-    for (std::size_t k = 0; k < texts.size(); ++k) {
-      if (status read = read_number(k, texts[k], values[k]); !read) return read;
+    if (split.number_count == detail::record_number_count) {
+      for (std::size_t k = 0; k < split.numbers.size(); ++k) {
+        if (status read = read_number(k, split.numbers[k], values[k]); !read) return read;
+      }
     }
-    if (status checked = check_ranges(texts, values); !checked) return checked;
+    if (status counted = check_field_layout(record_name, split); !counted) return counted;
+    if (status checked = check_ranges(split.numbers, values); !checked) return checked;
     add_atom(values);
     return status::success();
   }
 
-  static std::string too_few_fields_message(std::string_view record_name) {
-    return std::string(record_name) + " record has fewer than 5 numeric fields; it must end with x y z charge radius";
+  /// The two PQR layouts (APBS, pdb2pqr): 10 fields without a chain id, 11 with one. A missing or extra column
+  /// changes the count, or, when a chain id hides it, puts something other than a residue number before x.
+  status check_field_layout(std::string_view record_name, const detail::atom_record_fields& split) const {
+    const std::size_t count = 1 + split.leading_count + split.number_count;  // 1: the record name
+    if (count != pqr_fields_without_chain && count != pqr_fields_with_chain) {
+      return line_error(line_number_, std::string(record_name) + " record has " + std::to_string(count) +
+                                          " fields; a PQR atom record has " + pqr_layouts);
+    }
+    const bool chain_may_touch = count == pqr_fields_without_chain;  // fixed columns: "A1000"
+    if (!is_residue_number(split.residue_field, chain_may_touch)) {
+      return line_error(line_number_, "residue number '" + quote_bytes(split.residue_field) +
+                                          "' is not an integer: a column is missing or extra; a PQR atom record has " +
+                                          pqr_layouts);
+    }
+    return status::success();
   }
 
   status read_number(std::size_t index, std::string_view text, double& value) const {
@@ -208,11 +183,18 @@ class pqr_parser {
   molecule molecule_;
 };
 
+}  // namespace
+
+namespace detail {
+
+namespace {
 std::string describe_errno(int error) { return std::error_code(error, std::generic_category()).message(); }
+
+}  // namespace
 
 /// The whole file, or an error: io_error when it cannot be opened or read, limit_exceeded past max_bytes.
 result<std::string> read_file_bounded(const std::filesystem::path& path, std::size_t max_bytes) {
-  const std::string shown_path = quote_bytes(path.string(), std::numeric_limits<std::size_t>::max());
+  const std::string shown_path = detail::quote_bytes(path.string(), std::numeric_limits<std::size_t>::max());
   errno = 0;
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!file) return status{errc::io_error, "cannot open " + shown_path + ": " + describe_errno(errno)};
@@ -239,7 +221,7 @@ result<std::string> read_file_bounded(const std::filesystem::path& path, std::si
   return bytes;
 }
 
-}  // namespace
+}  // namespace detail
 
 std::size_t max_pqr_text_bytes(const mesh_limits& limits) noexcept {
   constexpr std::size_t largest = std::numeric_limits<std::size_t>::max();
@@ -258,7 +240,7 @@ result<std::string> maybe_gunzip(std::string_view bytes, std::size_t max_bytes) 
 
 result<molecule> read_pqr_file(const std::filesystem::path& path, const mesh_limits& limits) {
   const std::size_t max_bytes = max_pqr_text_bytes(limits);
-  result<std::string> bytes = read_file_bounded(path, max_bytes);
+  result<std::string> bytes = detail::read_file_bounded(path, max_bytes);
   if (!bytes) return bytes.error();
   if (!detail::has_gzip_magic(*bytes)) return parse_pqr(*bytes, limits);  // plain text: no copy
   result<std::string> text = detail::gunzip(*bytes, max_bytes);

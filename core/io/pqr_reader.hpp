@@ -9,9 +9,16 @@
 /// - A line is an atom record when it starts (column 1, case-sensitive) with "ATOM" or "HETATM" followed by a
 ///   space, a tab, a digit (PDB style "HETATM1234", "ATOM100000") or the end of the line. Every other line
 ///   (REMARK, TER, END, MODEL, ENDMDL, CRYST1, blank, " ATOM" with a leading space, "ATOMS"...) is skipped.
-/// - The last five numbers of an atom record are x, y, z (Å), charge (e) and radius (Å); fields before them
-///   (serial, names, chain id, residue number) are not interpreted, so records with or without a chain id read
-///   the same. Fields are separated by spaces or tabs.
+/// - Fields are separated by spaces or tabs. An atom record has exactly 10 fields (APBS/pdb2pqr without chain
+///   id: `ATOM serial name resName resSeq x y z charge radius`) or 11 (a chain id before resSeq), counted after
+///   fused fields are split (below); any other count is an error naming the line, never a shifted read.
+/// - The last five numbers are x, y, z (Å), charge (e) and radius (Å). Of the fields before them only the one
+///   just before x is checked: it must be a residue number (optional '-', digits, an optional insertion-code
+///   letter; in the 10-field layout also a one-character chain id fused in front, "A1000"). This catches a
+///   missing or extra column that a chain id would otherwise hide ("ATOM 1 N GLY A 1 1.0 2.0 0.5 1.5", z
+///   missing: 10 fields, but 'A' stands where the residue number should be). The serial and the names are not
+///   interpreted. Residual ambiguity: a record with a *numeric* chain id and one number missing reads as the
+///   10-field layout; no count can tell them apart.
 /// - Fused fields (PDB fixed-column output where coordinates touch, "-12.345-67.890"): within a field, a '-'
 ///   that directly follows a digit starts a new number, so that field reads as -12.345 and -67.890. No other
 ///   split is made: "1.234-5.678" splits, "1.0e-5" does not, and fused fields that the rule cannot separate
@@ -43,7 +50,7 @@ std::size_t max_pqr_text_bytes(const mesh_limits& limits) noexcept;
 /// Parses PQR text (format above) into atoms in file order.
 /// Errors, each a one-line message starting "line N: " (N 1-based) that quotes at most 40 bytes of the input,
 /// with non-printable bytes escaped as \xNN:
-/// - errc::invalid_input: too few fields, an unparsable or non-finite number, |coordinate| >
+/// - errc::invalid_input: a field count other than 10 or 11, no residue number before x, an unparsable or non-finite number, |coordinate| >
 ///   limits.max_abs_coordinate, a negative or > limits.max_radius radius, NUL/control/non-UTF-8 bytes, a
 ///   UTF-16 byte order mark, a line longer than limits.max_line_bytes (line terminator excluded).
 /// - errc::limit_exceeded: an atom record beyond limits.max_atoms; parsing stops at that line.

@@ -113,18 +113,26 @@ parsed_number parse_number(std::string_view field) {
   return parsed;
 }
 
-std::size_t take_record_numbers(std::string_view fields, record_numbers_text& out) {
-  std::size_t found = 0;
+atom_record_fields split_atom_record(std::string_view fields) {
+  atom_record_fields out;
   std::string_view field;
-  while (found < record_number_count) {
+  while (out.number_count < record_number_count) {
     if (field.empty()) {
       field = pop_last_field(fields);
       if (field.empty()) break;
     }
-    out[record_number_count - 1 - found] = pop_last_piece(field);
-    ++found;
+    out.numbers[record_number_count - 1 - out.number_count] = pop_last_piece(field);
+    ++out.number_count;
   }
-  return found;
+  if (!field.empty()) {  // the front of a fused field, e.g. a residue number touching x: a field of its own
+    out.residue_field = field;
+    ++out.leading_count;
+  }
+  for (std::string_view leading = pop_last_field(fields); !leading.empty(); leading = pop_last_field(fields)) {
+    if (out.residue_field.empty()) out.residue_field = leading;
+    ++out.leading_count;
+  }
+  return out;
 }
 
 std::size_t find_invalid_utf8(std::string_view bytes) {

@@ -39,11 +39,23 @@ parsed_number parse_number(std::string_view field);
 inline constexpr std::size_t record_number_count = 5;
 using record_numbers_text = std::array<std::string_view, record_number_count>;
 
-/// Takes the last record_number_count numeric fields of `fields` (the record after its name), splitting fused
-/// fields at each '-' that directly follows a digit. Fills `out` from the back (out[4] = radius text first) and
-/// returns how many it found (< record_number_count when the record has too few fields; then only the last
-/// entries of `out` are set). Does not check that the fields are numbers.
-std::size_t take_record_numbers(std::string_view fields, record_numbers_text& out);
+/// An atom record cut into the fields before its five numbers and the numbers themselves.
+struct atom_record_fields {
+  /// x y z charge radius, filled from the back (numbers[4] = radius text first); only the last
+  /// `number_count` entries are set when the record has fewer than five numeric fields.
+  record_numbers_text numbers;
+  std::size_t number_count = 0;
+  /// Whitespace-separated fields before the numbers (serial, names, chain id, residue number), the piece of a
+  /// fused field left in front of x included ("561" of "561-10.573").
+  std::size_t leading_count = 0;
+  /// The last of those fields, the one just before x: the residue number in both PQR variants; empty when none.
+  std::string_view residue_field;
+};
+
+/// Splits the fields of an atom record (the text after its record name): the last record_number_count numeric
+/// fields, splitting fused fields at each '-' that directly follows a digit, and the count of the fields before
+/// them. Does not check that the fields are numbers. Linear in fields.size().
+atom_record_fields split_atom_record(std::string_view fields);
 
 /// Offset of the first byte of `bytes` that does not belong to a well-formed UTF-8 sequence (overlong forms,
 /// surrogates and code points above U+10FFFF are ill-formed), or std::string_view::npos when it is all UTF-8.

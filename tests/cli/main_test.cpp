@@ -14,6 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "core/mesher.hpp"
+#include "support/pqr_edits.hpp"
+#include "support/structure_writers.hpp"
 #include "support/test_paths.hpp"
 
 namespace {
@@ -223,6 +225,32 @@ TEST_F(TracemeshCli, GarbagePqr) {
   expect_one_line_failure(run({write("bad.pqr", garbage_pqr).string(), "-o", path("bad.off").string()}), 1,
                           "line 1");
   EXPECT_FALSE(fs::exists(path("bad.off")));
+}
+
+// Issue 12, finding 8: a PQR line with a missing column was read with its columns shifted (a wrong mesh).
+TEST_F(TracemeshCli, APqrLineWithAMissingColumnIsRejectedNamingTheLine) {
+  const std::string fas2 = read_file(tracemesh::testing::molecule_path("fas2.pqr"));
+  const std::string damaged = tracemesh::testing::without_field(tracemesh::testing::with_chain_id(fas2, "A"), 100, 8);
+  expect_one_line_failure(run({write("damaged.pqr", damaged).string(), "-o", path("damaged.off").string()}), 1,
+                          "line 100: residue number 'A' is not an integer");
+  EXPECT_FALSE(fs::exists(path("damaged.off")));
+}
+
+// Issue 11, item 5: the command reads PDB, mmCIF and xyzr (told from the content) with the service's options.
+TEST_F(TracemeshCli, ReadsPdbWithTheInputOptions) {
+  const auto atoms = tracemesh::testing::atoms_of_pqr(read_file(tracemesh::testing::molecule_path("gly.pqr")));
+  const fs::path pdb = write("gly.txt", tracemesh::testing::to_pdb(atoms));  // the name says nothing
+  const run_result meshed = run({pdb.string(), "-o", path("gly.off").string(), "--radii", "mantina",
+                                 "--hydrogens", "drop", "--report", "-"});
+  ASSERT_EQ(meshed.exit_code, 0) << meshed.err;
+  const std::size_t key = meshed.out.find("\"atoms_meshed\"");
+  ASSERT_NE(key, std::string::npos) << meshed.out.substr(0, 300);
+  const std::size_t value = meshed.out.find_first_of("0123456789", key);
+  EXPECT_EQ(std::stoul(meshed.out.substr(value)), 4U) << "N, CA, C and O: the three hydrogens dropped";
+  expect_one_line_failure(run({pdb.string(), "-o", path("x.off").string(), "--radii", "vdw"}), 2,
+                          "--radii must be bondi or mantina");
+  expect_one_line_failure(run({pdb.string(), "-o", path("x.off").string(), "--waters", "yes"}), 2,
+                          "--waters must be keep or drop");
 }
 
 TEST_F(TracemeshCli, BinaryInput) {

@@ -21,6 +21,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support/pqr_edits.hpp"
+#include "support/structure_writers.hpp"
 #include "support/test_paths.hpp"
 
 namespace {
@@ -501,6 +503,78 @@ TEST_F(TracemeshdTest, QueueOverflowGives429WithRetryAfter) {
   curl_reply cancelled = curl("-X DELETE", server.url("/jobs/" + std::string(nlohmann::json::parse(
                                                                            queued.body).at("id"))));
   EXPECT_EQ(cancelled.status, 200) << cancelled.body;
+}
+
+// Issue 11, item 5: PDB, mmCIF and xyzr uploads (field 'structure'); the same atoms are one job whatever the format.
+TEST_F(TracemeshdTest, PdbMmcifAndXyzrOfOneMoleculeAreOneJob) {
+  server_process server(work_.path(), {});
+  const auto atoms = tracemesh::testing::atoms_of_pqr(read_file(molecule_path("fas2.pqr")));
+  const fs::path pqr = write("fas2_bondi.pqr", tracemesh::testing::to_pqr(atoms, tracemesh::radii_set::bondi));
+  const curl_reply first = upload(server, pqr);
+  ASSERT_EQ(first.status, 200) << first.body;
+  EXPECT_EQ(first.headers.at("x-cache"), "miss");
+  const std::string id = first.headers.at("x-job-id");
+  const struct {
+    const char* what;
+    fs::path file;
+  } others[] = {
+      {"PDB", write("fas2.pdb", tracemesh::testing::to_pdb(atoms))},
+      {"mmCIF", write("fas2.cif", tracemesh::testing::to_mmcif(atoms))},
+      {"xyzr", write("fas2.xyzr", tracemesh::testing::to_xyzr(atoms, tracemesh::radii_set::bondi))},
+  };
+  for (const auto& other : others) {
+    const curl_reply reply = curl("-F structure=@" + other.file.string(), server.url("/mesh"));
+    ASSERT_EQ(reply.status, 200) << other.what << ": " << reply.body;
+    EXPECT_EQ(reply.headers.at("x-job-id"), id) << other.what;
+    EXPECT_EQ(reply.headers.at("x-cache"), "hit") << other.what;
+    EXPECT_EQ(reply.body, first.body) << other.what;
+  }
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1);
+
+  // Another radii set is another molecule, hence another job; options are form fields or query parameters.
+  const curl_reply mantina =
+      curl("-F structure=@" + others[0].file.string() + " -F radii=mantina", server.url("/jobs?hydrogens=keep"));
+  EXPECT_EQ(mantina.status, 202) << mantina.body;
+  EXPECT_EQ(mantina.body.find(id), std::string::npos) << mantina.body;
+
+  expect_error(curl("-F structure=@" + pqr.string() + " -F pqr=@" + pqr.string(), server.url("/mesh")), 400,
+               "invalid_input", "two files");
+  expect_error(curl("-F structure=@" + pqr.string() + " -F radii=vdw", server.url("/mesh")), 400,
+               "invalid_argument", "unknown radii set");
+  expect_error(curl("-F structure=@" + pqr.string(), server.url("/mesh?waters=maybe")), 400, "invalid_argument",
+               "bad waters option");
+  const fs::path iron = write("iron.pdb", "HETATM    1 FE   HEM A   1       0.000   0.000   0.000  1.00 10.00          FE\n");
+  const curl_reply no_radius = curl("-F structure=@" + iron.string(), server.url("/mesh"));
+  expect_error(no_radius, 400, "invalid_input", "element without a Bondi radius");
+  EXPECT_NE(no_radius.body.find("element Fe has no radius in the bondi set"), std::string::npos) << no_radius.body;
+  const fs::path bad_pdb = write("bad.pdb", "HEADER\nATOM      1  CA  GLY A   1       1.000   abc     3.000  1.00 10.00           C\n");
+  const curl_reply bad_line = curl("-F structure=@" + bad_pdb.string(), server.url("/mesh"));
+  expect_error(bad_line, 400, "invalid_input", "bad PDB coordinate");
+  EXPECT_NE(bad_line.body.find("line 2: y coordinate 'abc'"), std::string::npos) << bad_line.body;
+}
+
+// Issue 12, finding 8: a PQR line with a missing column was read with its columns shifted (200, a wrong mesh).
+TEST_F(TracemeshdTest, APqrLineWithAMissingColumnIsRejectedNamingTheLine) {
+  server_process server(work_.path(), {});
+  const std::string fas2 = read_file(molecule_path("fas2.pqr"));
+  const std::string fas2_chain = tracemesh::testing::with_chain_id(fas2, "A");
+  ASSERT_EQ(upload(server, write("fas2_chain.pqr", fas2_chain)).status, 200) << "the 11-field layout is accepted";
+  struct damaged {
+    const char* what;
+    std::string content;
+  };
+  const std::vector<damaged> cases = {
+      {"no chain id, z missing", tracemesh::testing::without_field(fas2, 100, 7)},
+      {"chain id, z missing", tracemesh::testing::without_field(fas2_chain, 100, 8)},
+      {"chain id, charge missing", tracemesh::testing::without_field(fas2_chain, 100, 9)},
+  };
+  for (const damaged& c : cases) {
+    for (const char* route : {"/mesh", "/jobs"}) {
+      const curl_reply reply = upload(server, write("damaged.pqr", c.content), "", route);
+      expect_error(reply, 400, "invalid_input", c.what);
+      EXPECT_NE(reply.body.find("line 100: "), std::string::npos) << c.what << ": " << reply.body;
+    }
+  }
 }
 
 TEST_F(TracemeshdTest, BadInputsGetTheRight4xxAndTheServerKeepsServing) {

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/io/input_format.hpp"
+
 #include <set>
 #include <string>
 
@@ -128,7 +130,8 @@ TEST(OpenApi, UploadRoutesDocumentEveryRequestField) {
   // Each field the service reads is a query parameter and a form field of POST /mesh and POST /jobs, and nothing
   // else is: the document and the parser list the same names.
   const nlohmann::json doc = document();
-  const std::set<std::string> fields(mesh_request_fields.begin(), mesh_request_fields.end());
+  std::set<std::string> fields(mesh_request_fields.begin(), mesh_request_fields.end());
+  fields.insert(structure_option_names.begin(), structure_option_names.end());  // PDB/mmCIF input options
   for (const char* path : {"/mesh", "/jobs"}) {
     std::set<std::string> query;
     for (const nlohmann::json& parameter : doc.at("paths").at(path).at("post").at("parameters")) {
@@ -142,6 +145,7 @@ TEST(OpenApi, UploadRoutesDocumentEveryRequestField) {
   std::set<std::string> form = keys_of(doc.at("components").at("requestBodies").at("MeshUpload").at("content").at(
       "multipart/form-data").at("schema").at("properties"));
   EXPECT_EQ(form.erase("pqr"), 1U);
+  EXPECT_EQ(form.erase("structure"), 1U);
   EXPECT_EQ(form, fields);
 }
 

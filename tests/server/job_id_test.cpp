@@ -58,7 +58,7 @@ TEST(JobId, ChangesWithEveryInputThatChangesTheMesh) {
   EXPECT_NE(base, compute_job_id(moved, mesh_params{}));
   molecule recharged = mol;
   recharged.atoms[0].charge = 0.0;
-  EXPECT_NE(base, compute_job_id(recharged, mesh_params{}));
+  EXPECT_EQ(base, compute_job_id(recharged, mesh_params{})) << "no output depends on charges: PDB = PQR";
   molecule reordered = mol;
   std::swap(reordered.atoms[0], reordered.atoms[1]);
   EXPECT_NE(base, compute_job_id(reordered, mesh_params{}));

@@ -120,17 +120,54 @@ TEST(PqrReader, RejectsRecordsWithFewerThanFiveNumbers) {
   const status four_fields = parse_error(glycine_line + "\nATOM 1.0 2.0 3.0 1.5\n");
   EXPECT_EQ(four_fields.code(), errc::invalid_input);
   EXPECT_EQ(four_fields.message(),
-            "line 2: ATOM record has fewer than 5 numeric fields; it must end with x y z charge radius");
+            "line 2: ATOM record has 5 fields; a PQR atom record has 10 fields (ATOM serial name resName resSeq x y "
+            "z charge radius) or 11 (a chain id before resSeq)");
 
   const status bare_name = parse_error("HETATM\n");
   EXPECT_EQ(bare_name.code(), errc::invalid_input);
-  EXPECT_TRUE(starts_with(bare_name.message(), "line 1: HETATM record has fewer than 5")) << bare_name.message();
+  EXPECT_TRUE(starts_with(bare_name.message(), "line 1: HETATM record has 1 fields")) << bare_name.message();
+}
 
-  // A missing charge shifts the residue name into the x position: it is reported, not read as a number.
-  const status missing_charge = parse_error("ATOM 1 N GLY 1.0 2.0 3.0 1.5\n");
-  EXPECT_EQ(missing_charge.code(), errc::invalid_input);
-  EXPECT_TRUE(starts_with(missing_charge.message(), "line 1: x coordinate 'GLY' is not a decimal number"))
-      << missing_charge.message();
+// Issue 12, finding 8: a record with a column missing was read with its columns shifted (a wrong mesh, 200).
+TEST(PqrReader, RejectsAMissingColumnInsteadOfShiftingTheOthers) {
+  struct shifted_case {
+    const char* what;
+    std::string line;
+    std::string message_start;
+  };
+  const std::vector<shifted_case> cases = {
+      {"no chain id, z missing (9 fields)", "ATOM 1 N GLY 1 1.0 2.0 0.5 1.5", "line 2: ATOM record has 9 fields"},
+      {"no chain id, charge missing", "ATOM 1 N GLY 1 1.0 2.0 3.0 1.5", "line 2: ATOM record has 9 fields"},
+      {"no chain id, residue name missing", "ATOM 1 N 1 1.0 2.0 3.0 0.5 1.5", "line 2: ATOM record has 9 fields"},
+      {"chain id, z missing (10 fields, 'A' before x)", "ATOM 1 N GLY A 1 1.0 2.0 0.5 1.5",
+       "line 2: residue number 'A' is not an integer: a column is missing or extra"},
+      {"chain id, radius missing", "HETATM 1 N GLY B 7 1.0 2.0 3.0 0.5", "line 2: residue number 'B' is not"},
+      {"chain id, residue number missing", "ATOM 1 N GLY A 1.0 2.0 3.0 0.5 1.5",
+       "line 2: residue number 'A' is not"},
+      {"no chain id, one number extra (11 fields, x before x)", "ATOM 1 N GLY 1 1.0 2.0 3.0 4.0 0.5 1.5",
+       "line 2: residue number '1.0' is not"},
+      {"chain id, one column extra (12 fields)", "ATOM 1 N GLY A 1 1.0 2.0 3.0 4.0 0.5 1.5",
+       "line 2: ATOM record has 12 fields"},
+      {"tabs, z missing", "ATOM\t1\tN\tGLY\t1\t1.0\t2.0\t0.5\t1.5", "line 2: ATOM record has 9 fields"},
+  };
+  for (const shifted_case& c : cases) {
+    const status error = parse_error(glycine_line + "\n" + c.line + "\n" + glycine_line + "\n");
+    EXPECT_EQ(error.code(), errc::invalid_input) << c.what;
+    EXPECT_TRUE(starts_with(error.message(), c.message_start)) << c.what << ": " << error.message();
+  }
+}
+
+TEST(PqrReader, AcceptsResidueNumbersWithSignsInsertionCodesAndFusedChainIds) {
+  const molecule mol = parse_ok(
+      "ATOM      1  N   GLY A  -3      1.0 2.0 3.0 0.5 1.5\n"
+      "ATOM      2  N   GLY A  52A     1.0 2.0 3.0 0.5 1.5\n"
+      "ATOM      3  N   GLY   52B     1.0 2.0 3.0 0.5 1.5\n"
+      "ATOM      4  N   GLY A1000     1.0 2.0 3.0 0.5 1.5\n"
+      "ATOM      5  N   GLY 1 7     1.0 2.0 3.0 0.5 1.5\n");
+  EXPECT_EQ(mol.atoms.size(), 5u);
+  // A chain id fused to the residue number only makes sense without a separate chain id.
+  const status fused_and_chain = parse_error("ATOM      4  N   GLY A B1000     1.0 2.0 3.0 0.5 1.5\n");
+  EXPECT_TRUE(starts_with(fused_and_chain.message(), "line 1: residue number 'B1000' is not")) << fused_and_chain.message();
 }
 
 // ---- fused fields (PDB fixed-column style) ----------------------------------------------------------------
@@ -139,7 +176,7 @@ TEST(PqrReader, SplitsFusedFieldsAtAMinusThatFollowsADigit) {
   const molecule mol = parse_ok(
       "ATOM      1  N   GLY A   1     -12.345-67.890  35.427 -0.416 1.824\n"
       "ATOM      2  N   GLY A1000     -12.345-67.890-35.427 -0.416 1.824\n"
-      "ATOM      3  N   GLY A   1 561-10.573  -2.505  35.427 -0.416 1.824\n"
+      "ATOM      3  N   GLY A 561-10.573  -2.505  35.427 -0.416 1.824\n"
       "ATOM      4  N   GLY A   1      1.0e-5 -2.0E-3 3.5e+1 -1e-1 1.5\n");
   ASSERT_EQ(mol.atoms.size(), 4u);
   expect_atom(mol.atoms[0], -12.345, -67.890, 35.427, -0.416, 1.824);
@@ -410,7 +447,9 @@ TEST(PqrReader, LongFieldsAreLinearAndQuotedShortly) {
   // A 10 MB line of fused fields and a 10 MB single field: linear work, and a bounded, escaped quote.
   std::string fused = "ATOM";
   for (int i = 0; i < 1'000'000; ++i) fused += " 9-9-9";
-  const molecule mol = parse_ok(fused + " 0.5 1.5", limits);
+  const status too_many = parse_error(fused + " 0.5 1.5", limits);
+  EXPECT_TRUE(starts_with(too_many.message(), "line 1: ATOM record has 1000005 fields")) << too_many.message();
+  const molecule mol = parse_ok("ATOM 1 N " + std::string(10'000'000, 'G') + " 1 9-9-9 0.5 1.5", limits);
   ASSERT_EQ(mol.atoms.size(), 1u);
   expect_atom(mol.atoms[0], 9, -9, -9, 0.5, 1.5);
 

@@ -1,0 +1,52 @@
+#include "core/io/structure/molecule_reader.hpp"
+
+#include <string>
+
+#include "core/io/pqr_gzip.hpp"
+#include "core/io/pqr_reader.hpp"
+#include "core/io/structure/pdb_mmcif_reader.hpp"
+#include "core/io/xyzr_reader.hpp"
+
+namespace tracemesh {
+
+namespace {
+
+result<read_molecule_result> parse_text(std::string_view text, const structure_options& options,
+                                        const mesh_limits& limits) {
+  const input_format format = detect_input_format(text, limits.max_line_bytes);
+  result<molecule> mol = [&]() -> result<molecule> {
+    switch (format) {
+      case input_format::pqr: return parse_pqr(text, limits);
+      case input_format::xyzr: return parse_xyzr(text, limits);
+      case input_format::pdb: return parse_pdb(text, options, limits);
+      case input_format::mmcif: return parse_mmcif(text, options, limits);
+    }
+    return parse_pqr(text, limits);
+  }();
+  if (!mol) return mol.error();
+  return read_molecule_result{std::move(*mol), format};
+}
+
+}  // namespace
+
+result<read_molecule_result> read_molecule(std::string_view bytes, const structure_options& options,
+                                           const mesh_limits& limits, std::size_t max_text_bytes) {
+  if (!detail::has_gzip_magic(bytes)) return parse_text(bytes, options, limits);  // plain text: no copy
+  result<std::string> text = detail::gunzip(bytes, max_text_bytes);
+  if (!text) return text.error();
+  return parse_text(*text, options, limits);
+}
+
+result<read_molecule_result> read_molecule_file(const std::filesystem::path& path, const structure_options& options,
+                                                const mesh_limits& limits) {
+  const std::size_t max_bytes = max_pqr_text_bytes(limits);
+  result<std::string> bytes = detail::read_file_bounded(path, max_bytes);
+  if (!bytes) return bytes.error();
+  if (!detail::has_gzip_magic(*bytes)) return parse_text(*bytes, options, limits);
+  result<std::string> text = detail::gunzip(*bytes, max_bytes);
+  if (!text) return text.error();
+  bytes = std::string();  // release the compressed bytes before parsing
+  return parse_text(*text, options, limits);
+}
+
+}  // namespace tracemesh

@@ -1,0 +1,290 @@
+#include "core/io/structure/pdb_mmcif_reader.hpp"
+
+#include <gemmi/cif.hpp>
+#include <gemmi/mmcif.hpp>
+#include <gemmi/pdb.hpp>
+#include <gemmi/polyheur.hpp>
+
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "core/io/atom_checks.hpp"
+#include "core/io/pqr_text.hpp"
+#include "core/io/text_lines.hpp"
+
+namespace tracemesh {
+
+namespace {
+
+/// gemmi's messages can quote whole lines: at most this many bytes of one go into ours.
+constexpr std::size_t max_gemmi_message_bytes = 160;
+/// PDB columns (1-based, inclusive) of x, y, z and occupancy.
+struct pdb_column {
+  const char* name;
+  std::size_t first, last;
+};
+constexpr pdb_column pdb_coordinates[] = {
+    {"x coordinate", 31, 38}, {"y coordinate", 39, 46}, {"z coordinate", 47, 54}};
+constexpr pdb_column pdb_occupancy = {"occupancy", 55, 60};
+
+char upper(char c) { return c >= 'a' && c <= 'z' ? static_cast<char>(c - 'a' + 'A') : c; }
+
+/// gemmi's record test: the first four characters, in any case.
+bool has_record_prefix(std::string_view line, std::string_view prefix) {
+  if (line.size() < prefix.size()) return false;
+  for (std::size_t i = 0; i < prefix.size(); ++i) {
+    if (upper(line[i]) != prefix[i]) return false;
+  }
+  return true;
+}
+bool is_pdb_atom_record(std::string_view line) {
+  return has_record_prefix(line, "ATOM") || has_record_prefix(line, "HETA");
+}
+/// gemmi stops at "END" followed by a blank or the end of the line (not ENDMDL).
+bool is_pdb_end_record(std::string_view line) {
+  return has_record_prefix(line, "END") && (line.size() == 3 || line[3] == ' ' || line[3] == '\t');
+}
+
+std::string_view trimmed(std::string_view field) {
+  const std::size_t begin = field.find_first_not_of(" \t");
+  if (begin == std::string_view::npos) return {};
+  return field.substr(begin, field.find_last_not_of(" \t") - begin + 1);
+}
+
+/// The checks gemmi's PDB reader leaves out, line by line, with the line named.
+status check_pdb_text(std::string_view text, const mesh_limits& limits) {
+  detail::text_lines lines(text, limits.max_line_bytes, "PDB");
+  std::size_t atom_records = 0;
+  std::string_view line;
+  for (;;) {
+    result<bool> more = lines.next(line);
+    if (!more) return more.error();
+    if (!*more || is_pdb_end_record(line)) return status::success();
+    if (!is_pdb_atom_record(line)) continue;
+    const std::size_t number = lines.line_number();
+    if (++atom_records > limits.max_atoms) {
+      return {errc::limit_exceeded, "line " + std::to_string(number) + ": more than " +
+                                        std::to_string(limits.max_atoms) + " atoms (limits.max_atoms)"};
+    }
+    if (line.size() < pdb_coordinates[2].last) {
+      return detail::line_error(number, "atom record of " + std::to_string(line.size()) +
+                                            " columns; a PDB atom record has x y z in columns 31-54");
+    }
+    for (const pdb_column& column : pdb_coordinates) {
+      const std::string_view field = trimmed(line.substr(column.first - 1, column.last - column.first + 1));
+      const detail::parsed_number parsed = detail::parse_number(field);
+      if (parsed.error != detail::number_error::none) {
+        return detail::line_error(number, std::string(column.name) + " '" + detail::quote_bytes(field) +
+                                              "' (columns " + std::to_string(column.first) + "-" +
+                                              std::to_string(column.last) + ") is not a decimal number");
+      }
+      if (std::fabs(parsed.value) > limits.max_abs_coordinate) {
+        return detail::line_error(number, std::string(column.name) + " " + detail::quote_bytes(field) +
+                                              " is beyond +-" + detail::format_number(limits.max_abs_coordinate) +
+                                              " Angstrom (limits.max_abs_coordinate)");
+      }
+    }
+    const std::string_view occupancy =
+        line.size() < pdb_occupancy.first ? std::string_view() : trimmed(line.substr(pdb_occupancy.first - 1, 6));
+    if (!occupancy.empty() && detail::parse_number(occupancy).error != detail::number_error::none) {
+      return detail::line_error(number, "occupancy '" + detail::quote_bytes(occupancy) +
+                                            "' (columns 55-60) is not a decimal number");
+    }
+  }
+}
+
+/// gemmi splits lines at LF only; the text readers also accept CR and CRLF.
+std::string with_lf_line_ends(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '\r') {
+      out += text[i];
+    } else if (i + 1 >= text.size() || text[i + 1] != '\n') {
+      out += '\n';
+    }
+  }
+  return out;
+}
+
+std::string atom_label(const gemmi::Chain& chain, const gemmi::Residue& residue, const gemmi::Atom& a) {
+  return "atom " + std::to_string(a.serial) + " (" + detail::quote_bytes(a.name) + " " +
+         detail::quote_bytes(residue.name) + " " + detail::quote_bytes(chain.name) + " " +
+         std::to_string(residue.seqid.num.value) + ")";
+}
+
+bool is_water(const gemmi::Residue& residue) {
+  return residue.is_water() || residue.entity_type == gemmi::EntityType::Water;
+}
+bool is_ligand(const gemmi::Residue& residue) {
+  if (is_water(residue)) return false;
+  switch (residue.entity_type) {
+    case gemmi::EntityType::NonPolymer:
+    case gemmi::EntityType::Branched: return true;
+    case gemmi::EntityType::Polymer: return false;
+    default: return residue.het_flag == 'H';
+  }
+}
+
+/// Indices of the atoms of `residue` that survive the altloc choice: every atom without an altloc, and per
+/// atom name the altloc with the highest occupancy (the first on a tie).
+std::vector<bool> chosen_conformers(const gemmi::Residue& residue) {
+  std::vector<bool> keep(residue.atoms.size(), true);
+  std::unordered_map<std::string, std::size_t> best;  // atom name → index of its best altloc so far
+  for (std::size_t i = 0; i < residue.atoms.size(); ++i) {
+    const gemmi::Atom& a = residue.atoms[i];
+    if (a.altloc == '\0') continue;
+    const auto [it, first] = best.emplace(a.name, i);
+    if (first) continue;
+    if (a.occ > residue.atoms[it->second].occ) {
+      keep[it->second] = false;
+      it->second = i;
+    } else {
+      keep[i] = false;
+    }
+  }
+  return keep;
+}
+
+bool structure_has_atoms(const gemmi::Structure& structure) {
+  for (const gemmi::Chain& chain : structure.models.front().chains) {
+    for (const gemmi::Residue& residue : chain.residues) {
+      if (!residue.atoms.empty()) return true;
+    }
+  }
+  return false;
+}
+
+/// The atoms of the first model that the options keep, with radii from the table.
+result<molecule> atoms_of(gemmi::Structure& structure, const structure_options& options, const mesh_limits& limits,
+                          std::string_view records) {
+  molecule mol;
+  if (structure.models.empty()) return detail::check_something_to_mesh(mol, records);
+  gemmi::add_entity_types(structure, /*overwrite=*/false);
+  for (const gemmi::Chain& chain : structure.models.front().chains) {
+    for (const gemmi::Residue& residue : chain.residues) {
+      if (is_water(residue) ? !options.keep_waters : is_ligand(residue) && !options.keep_ligands) continue;
+      const std::vector<bool> keep = chosen_conformers(residue);
+      for (std::size_t i = 0; i < residue.atoms.size(); ++i) {
+        const gemmi::Atom& a = residue.atoms[i];
+        if (!keep[i] || (a.is_hydrogen() && !options.keep_hydrogens)) continue;
+        if (a.element == gemmi::El::X) {
+          return status{errc::invalid_input, atom_label(chain, residue, a) + ": no element (no element symbol, "
+                                                                              "and none follows from the atom name)"};
+        }
+        const std::optional<double> radius = vdw_radius(options.radii, a.element.name());
+        if (!radius) {
+          return status{errc::invalid_input,
+                        atom_label(chain, residue, a) + ": element " + a.element.name() + " has no radius in the " +
+                            std::string(radii_set_name(options.radii)) +
+                            " set (choose another radii set, drop ligands, or give radii in a PQR file)"};
+        }
+        atom parsed;
+        parsed.center = {a.pos.x, a.pos.y, a.pos.z};
+        parsed.radius = *radius;
+        if (std::isnan(a.occ)) {
+          return status{errc::invalid_input, atom_label(chain, residue, a) + ": occupancy is not a number"};
+        }
+        if (std::string problem = detail::atom_range_problem(parsed, limits); !problem.empty()) {
+          return status{errc::invalid_input, atom_label(chain, residue, a) + ": " + problem};
+        }
+        detail::add_atom(mol, parsed);
+      }
+    }
+  }
+  if (status usable = detail::check_something_to_mesh(mol, records); !usable) {
+    if (mol.atoms.empty() && structure_has_atoms(structure)) {
+      return status{errc::nothing_to_mesh, "no atoms with radius > 0: the options dropped every atom (waters " +
+                                               std::string(options.keep_waters ? "kept" : "dropped") +
+                                               ", ligands " + (options.keep_ligands ? "kept" : "dropped") +
+                                               ", hydrogens " + (options.keep_hydrogens ? "kept" : "dropped") +
+                                               ")"};
+    }
+    return usable;
+  }
+  return mol;
+}
+
+status gemmi_error(std::string_view format, const std::exception& error) {
+  return {errc::invalid_input, std::string(format) + ": " + detail::quote_bytes(error.what(), max_gemmi_message_bytes)};
+}
+
+/// "input:4:14: unterminated 'string'" (gemmi's CIF syntax error) → "line 4: column 14: unterminated 'string'".
+status cif_syntax_error(const std::exception& error) {
+  std::string_view message = error.what();
+  constexpr std::string_view source = "input:";
+  if (message.substr(0, source.size()) == source) {
+    message.remove_prefix(source.size());
+    const std::size_t line_end = message.find(':');
+    const std::size_t column_end = line_end == std::string_view::npos ? line_end : message.find(':', line_end + 1);
+    if (column_end != std::string_view::npos) {
+      return {errc::invalid_input,
+              "line " + detail::quote_bytes(message.substr(0, line_end)) + ": column " +
+                  detail::quote_bytes(message.substr(line_end + 1, column_end - line_end - 1)) + ": mmCIF syntax:" +
+                  detail::quote_bytes(message.substr(column_end + 1), max_gemmi_message_bytes)};
+    }
+  }
+  return gemmi_error("mmCIF syntax", error);
+}
+
+constexpr const char* required_atom_site_tags[] = {
+    "_atom_site.id",      "_atom_site.type_symbol", "_atom_site.label_alt_id", "_atom_site.label_asym_id",
+    "_atom_site.Cartn_x", "_atom_site.Cartn_y",     "_atom_site.Cartn_z",      "_atom_site.occupancy",
+    "_atom_site.B_iso_or_equiv", "_atom_site.auth_seq_id"};
+
+/// The _atom_site loop gemmi can read (it silently reads no atom when a column it needs is missing).
+status check_atom_site(gemmi::cif::Block& block, const mesh_limits& limits) {
+  const gemmi::cif::Column ids = block.find_values("_atom_site.id");
+  if (!ids.item()) return status::success();  // no atoms: reported as nothing to mesh
+  for (const char* tag : required_atom_site_tags) {
+    if (!block.find_values(tag).item()) {
+      return {errc::invalid_input, std::string("mmCIF _atom_site has no ") + tag + " column"};
+    }
+  }
+  if (static_cast<std::size_t>(ids.length()) > limits.max_atoms) {
+    return {errc::limit_exceeded, "mmCIF _atom_site has " + std::to_string(ids.length()) + " atoms, more than " +
+                                      std::to_string(limits.max_atoms) + " (limits.max_atoms)"};
+  }
+  return status::success();
+}
+
+}  // namespace
+
+result<molecule> parse_pdb(std::string_view text, const structure_options& options, const mesh_limits& limits) {
+  if (status checked = check_pdb_text(text, limits); !checked) return checked;
+  const std::string lf_text = text.find('\r') == std::string_view::npos ? std::string() : with_lf_line_ends(text);
+  const std::string_view input = lf_text.empty() ? text : std::string_view(lf_text);
+  try {
+    gemmi::Structure structure = gemmi::read_pdb_from_memory(input.data(), input.size(), "input");
+    return atoms_of(structure, options, limits, "ATOM or HETATM record");
+  } catch (const std::runtime_error& error) {
+    return gemmi_error("PDB", error);
+  }
+}
+
+result<molecule> parse_mmcif(std::string_view text, const structure_options& options, const mesh_limits& limits) {
+  if (text.find('\0') != std::string_view::npos) {
+    return status{errc::invalid_input, "NUL byte (binary data, not mmCIF text)"};
+  }
+  gemmi::cif::Document document;
+  try {
+    document = gemmi::cif::read_memory(text.data(), text.size(), "input");
+  } catch (const std::runtime_error& error) {
+    return cif_syntax_error(error);
+  }
+  try {
+    if (document.blocks.empty()) return status{errc::nothing_to_mesh, "no atoms with radius > 0: no mmCIF data block"};
+    if (status checked = check_atom_site(document.blocks.front(), limits); !checked) return checked;
+    gemmi::Structure structure = gemmi::make_structure(document);
+    document = gemmi::cif::Document();  // free the text's copy before the atoms are made
+    return atoms_of(structure, options, limits, "_atom_site row");
+  } catch (const std::runtime_error& error) {
+    return gemmi_error("mmCIF", error);
+  }
+}
+
+}  // namespace tracemesh

@@ -1,0 +1,175 @@
+#include "core/io/structure/pdb_mmcif_reader.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "core/io/structure/molecule_reader.hpp"
+
+namespace tracemesh {
+namespace {
+
+/// One PDB atom record in fixed columns.
+std::string pdb_atom(const char* record, int serial, const char* name, char altloc, const char* residue, int number,
+                     double x, double y, double z, double occupancy, const char* element) {
+  char line[100];
+  std::snprintf(line, sizeof line, "%-6s%5d %-4s%c%3s A%4d    %8.3f%8.3f%8.3f%6.2f%6.2f          %2s\n", record,
+                serial, name, altloc, residue, number, x, y, z, occupancy, 10.0, element);
+  return line;
+}
+
+molecule parse_ok(const std::string& pdb, const structure_options& options = {}) {
+  result<molecule> mol = parse_pdb(pdb, options);
+  EXPECT_TRUE(mol.ok()) << mol.error().message();
+  return mol.ok() ? *mol : molecule{};
+}
+
+const std::string peptide = pdb_atom("ATOM", 1, " N", ' ', "GLY", 1, 1, 2, 3, 1, "N") +
+                            pdb_atom("ATOM", 2, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C") +
+                            pdb_atom("ATOM", 3, " HA2", ' ', "GLY", 1, 2.5, 3, 3, 1, "H") +
+                            pdb_atom("ATOM", 4, " C", ' ', "GLY", 1, 3.5, 2, 3, 1, "C") +
+                            pdb_atom("ATOM", 5, " O", ' ', "GLY", 1, 4.5, 2, 3, 1, "O") +
+                            pdb_atom("ATOM", 6, " N", ' ', "ALA", 2, 3.5, 1, 3, 1, "N") +
+                            pdb_atom("ATOM", 7, " CA", ' ', "ALA", 2, 3.5, 0, 3, 1, "C") +
+                            pdb_atom("ATOM", 8, " C", ' ', "ALA", 2, 3.5, -1, 3, 1, "C") +
+                            pdb_atom("ATOM", 9, " O", ' ', "ALA", 2, 4.5, -1, 3, 1, "O");
+const std::string ligand_and_water = "TER\n" + pdb_atom("HETATM", 10, "ZN", ' ', " ZN", 101, 9, 9, 9, 1, "ZN") +
+                                     pdb_atom("HETATM", 11, " O", ' ', "HOH", 201, -9, -9, -9, 1, "O");
+
+TEST(PdbReader, ReadsAtomsWithBondiRadiiInFileOrder) {
+  const molecule mol = parse_ok(peptide);
+  ASSERT_EQ(mol.atoms.size(), 9u);
+  EXPECT_EQ(mol.atoms[0].center.x, 1.0);
+  EXPECT_EQ(mol.atoms[0].radius, 1.55);  // N
+  EXPECT_EQ(mol.atoms[1].radius, 1.70);  // C
+  EXPECT_EQ(mol.atoms[2].radius, 1.20);  // H
+  EXPECT_EQ(mol.atoms[4].radius, 1.52);  // O
+  EXPECT_EQ(mol.atoms[8].center.x, 4.5);
+  EXPECT_EQ(mol.atoms[8].center.y, -1.0);
+  structure_options mantina;
+  mantina.radii = radii_set::mantina;
+  EXPECT_EQ(parse_ok(peptide, mantina).atoms[2].radius, 1.10);
+}
+
+TEST(PdbReader, HydrogensWatersAndLigandsFollowTheOptions) {
+  const std::string pdb = peptide + ligand_and_water;
+  EXPECT_EQ(parse_ok(pdb).atoms.size(), 10u) << "default: hydrogens and ligands kept, waters dropped";
+  structure_options options;
+  options.keep_waters = true;
+  EXPECT_EQ(parse_ok(pdb, options).atoms.size(), 11u);
+  options.keep_ligands = false;
+  EXPECT_EQ(parse_ok(pdb, options).atoms.size(), 10u);
+  options.keep_hydrogens = false;
+  const molecule heavy = parse_ok(pdb, options);
+  ASSERT_EQ(heavy.atoms.size(), 9u);
+  EXPECT_EQ(heavy.atoms.back().center.x, -9.0) << "the water is kept";
+
+  structure_options waters_only;
+  waters_only.keep_ligands = false;
+  const result<molecule> none = parse_pdb(ligand_and_water, waters_only);
+  EXPECT_EQ(none.error().code(), errc::nothing_to_mesh);
+  EXPECT_EQ(none.error().message(),
+            "no atoms with radius > 0: the options dropped every atom (waters dropped, ligands dropped, hydrogens "
+            "kept)");
+}
+
+TEST(PdbReader, KeepsTheHighestOccupancyAlternateLocation) {
+  const std::string pdb = pdb_atom("ATOM", 1, " N", ' ', "SER", 1, 0, 0, 0, 1, "N") +
+                          pdb_atom("ATOM", 2, " OG", 'A', "SER", 1, 1, 0, 0, 0.3, "O") +
+                          pdb_atom("ATOM", 3, " OG", 'B', "SER", 1, 2, 0, 0, 0.7, "O") +
+                          pdb_atom("ATOM", 4, " CB", 'A', "SER", 1, 3, 0, 0, 0.5, "C") +
+                          pdb_atom("ATOM", 5, " CB", 'B', "SER", 1, 4, 0, 0, 0.5, "C");
+  const molecule mol = parse_ok(pdb);
+  ASSERT_EQ(mol.atoms.size(), 3u);
+  EXPECT_EQ(mol.atoms[1].center.x, 2.0) << "OG: B has the higher occupancy";
+  EXPECT_EQ(mol.atoms[2].center.x, 3.0) << "CB: a tie keeps the first";
+}
+
+TEST(PdbReader, ReadsOnlyTheFirstModel) {
+  const std::string pdb = "MODEL        1\n" + pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 0, 0, 0, 1, "C") +
+                          "ENDMDL\nMODEL        2\n" + pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 5, 0, 0, 1, "C") +
+                          "ENDMDL\n";
+  const molecule mol = parse_ok(pdb);
+  ASSERT_EQ(mol.atoms.size(), 1u);
+  EXPECT_EQ(mol.atoms[0].center.x, 0.0);
+}
+
+TEST(PdbReader, RejectsBadRecordsNamingTheLineOrAtom) {
+  std::string bad_y = pdb_atom("ATOM", 2, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C");
+  bad_y.replace(38, 8, "   abc  ");
+  std::string bad_occupancy = pdb_atom("ATOM", 2, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C");
+  bad_occupancy.replace(54, 6, "  x.yz");
+  const struct {
+    std::string text, message;
+    errc code;
+  } cases[] = {
+      {"HEADER\n" + bad_y, "line 2: y coordinate 'abc' (columns 39-46) is not a decimal number", errc::invalid_input},
+      {bad_occupancy, "line 1: occupancy 'x.yz' (columns 55-60) is not a decimal number", errc::invalid_input},
+      {"ATOM      1  CA  GLY A   1       1.000   2.000\n",
+       "line 1: atom record of 46 columns; a PDB atom record has x y z in columns 31-54", errc::invalid_input},
+      {pdb_atom("ATOM", 7, " FE", ' ', "HEM", 1, 0, 0, 0, 1, "FE"),
+       "atom 7 (FE HEM A 1): element Fe has no radius in the bondi set (choose another radii set, drop ligands, or "
+       "give radii in a PQR file)",
+       errc::invalid_input},
+      {pdb_atom("ATOM", 8, " CA", ' ', "GLY", 1, 2e6, 0, 0, 1, "C").replace(30, 8, " 2000000"),
+       "line 1: x coordinate 2000000 is beyond +-1e+06 Angstrom (limits.max_abs_coordinate)", errc::invalid_input},
+      {"HEADER\nEND\n", "no atoms with radius > 0: the input has no ATOM or HETATM record", errc::nothing_to_mesh},
+  };
+  for (const auto& c : cases) {
+    const result<molecule> mol = parse_pdb(c.text);
+    ASSERT_FALSE(mol.ok()) << c.text;
+    EXPECT_EQ(mol.error().message(), c.message);
+    EXPECT_EQ(mol.error().code(), c.code) << c.message;
+  }
+  mesh_limits two;
+  two.max_atoms = 2;
+  const result<molecule> over = parse_pdb(peptide, {}, two);
+  EXPECT_EQ(over.error().code(), errc::limit_exceeded);
+  EXPECT_EQ(over.error().message(), "line 3: more than 2 atoms (limits.max_atoms)");
+  EXPECT_EQ(parse_pdb("\x7f" "ELF\x01\x02").error().message(),
+            "line 1: control byte 0x7f at column 1 (binary data, not PDB text)");
+}
+
+const std::string cif_header =
+    "data_t\nloop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n_atom_site.label_atom_id\n"
+    "_atom_site.label_alt_id\n_atom_site.label_comp_id\n_atom_site.label_asym_id\n_atom_site.label_entity_id\n"
+    "_atom_site.label_seq_id\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.Cartn_z\n_atom_site.occupancy\n"
+    "_atom_site.B_iso_or_equiv\n_atom_site.auth_seq_id\n_atom_site.auth_asym_id\n";
+
+TEST(MmcifReader, ReadsAtomsAltlocsAndWaters) {
+  const std::string cif = cif_header +
+                          "ATOM 1 N N . GLY A 1 1 1.0 2.0 3.0 1.0 10 1 A\n"
+                          "ATOM 2 C CA A GLY A 1 1 2.5 2.0 3.0 0.4 10 1 A\n"
+                          "ATOM 3 C CA B GLY A 1 1 2.6 2.0 3.0 0.6 10 1 A\n"
+                          "HETATM 4 O O . HOH B 2 . 9.0 9.0 9.0 1.0 10 101 A\n";
+  const result<molecule> mol = parse_mmcif(cif);
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  ASSERT_EQ(mol->atoms.size(), 2u);
+  EXPECT_EQ(mol->atoms[0].radius, 1.55);
+  EXPECT_EQ(mol->atoms[1].center.x, 2.6);
+  structure_options waters;
+  waters.keep_waters = true;
+  EXPECT_EQ(parse_mmcif(cif, waters)->atoms.size(), 3u);
+}
+
+TEST(MmcifReader, RejectsBadInputNamingTheLineOrAtom) {
+  const struct {
+    std::string text, message;
+  } cases[] = {
+      {cif_header + "ATOM 1 N N . GLY A 1 1 abc 2.0 3.0 1.0 10 1 A\n",
+       "atom 1 (N GLY A 1): x coordinate is not a finite number"},
+      {"data_t\nloop_\n_atom_site.id\n_atom_site.Cartn_x\n1 2.0\n",
+       "mmCIF _atom_site has no _atom_site.type_symbol column"},
+      {"data_t\n_x.y 'unterminated\n", "line 2: column 19: mmCIF syntax: unterminated 'string'"},
+  };
+  for (const auto& c : cases) {
+    const result<molecule> mol = parse_mmcif(c.text);
+    ASSERT_FALSE(mol.ok()) << c.text;
+    EXPECT_EQ(mol.error().message(), c.message);
+    EXPECT_EQ(mol.error().code(), errc::invalid_input);
+  }
+  EXPECT_EQ(parse_mmcif("data_t\n_entry.id x\n").error().code(), errc::nothing_to_mesh);
+}
+
+}  // namespace
+}  // namespace tracemesh
