@@ -10,6 +10,8 @@
 
 #include <boost/asio/post.hpp>
 #include <boost/beast/core/string.hpp>
+#include <boost/beast/http/rfc7230.hpp>
+#include <boost/range/iterator_range.hpp>
 #include <nlohmann/json.hpp>
 
 #include "core/io/pqr_reader.hpp"
@@ -283,6 +285,33 @@ reply already_finished_reply(job_state state, std::string route) {
                      std::move(route));
 }
 
+enum class body_coding { identity, gzip };
+
+/// The request body's Content-Encoding: none or "identity" → identity; one "gzip" (or "x-gzip") → gzip; anything
+/// else (another coding, or several layers) → nullopt, answered 415 with Accept-Encoding (RFC 9110 §15.5.16).
+std::optional<body_coding> request_body_coding(const request_head& head) {
+  std::size_t gzip_layers = 0;
+  for (const auto& field : boost::make_iterator_range(head.equal_range(http::field::content_encoding))) {
+    for (const auto& coding : http::token_list{field.value()}) {
+      if (boost::beast::iequals(coding, "identity")) continue;
+      if (!boost::beast::iequals(coding, "gzip") && !boost::beast::iequals(coding, "x-gzip")) return std::nullopt;
+      ++gzip_layers;
+    }
+  }
+  if (gzip_layers > 1) return std::nullopt;
+  return gzip_layers == 1 ? body_coding::gzip : body_coding::identity;
+}
+
+/// Client text quoted in a message: at most 32 bytes.
+std::string shown(std::string_view text) {
+  return text.size() <= 32 ? std::string(text) : std::string(text.substr(0, 32)) + "...";
+}
+
+bool starts_with_gzip_magic(std::string_view bytes) {
+  return bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0x1f &&
+         static_cast<unsigned char>(bytes[1]) == 0x8b;
+}
+
 const std::string* find_param(const parameter_map& params, std::string_view name) {
   const auto it = params.find(name);
   return it == params.end() ? nullptr : &it->second;
@@ -373,6 +402,15 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
                            std::to_string(limits.max_upload_bytes) + " bytes",
                        route.name);
   }
+  const std::optional<body_coding> coding = request_body_coding(head);
+  if (!coding) {
+    reply r = error_reply(415, "unsupported_media_type",
+                          "the request body's Content-Encoding must be gzip or identity, not '" +
+                              shown(to_std(head[http::field::content_encoding])) + "'",
+                          route.name);
+    r.headers.emplace_back("Accept-Encoding", "gzip");
+    return r;
+  }
   const std::string_view content_type = to_std(head[http::field::content_type]);
   if (!is_multipart_form_data(content_type)) {
     return error_reply(415, "unsupported_media_type",
@@ -391,6 +429,7 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
   body_plan plan;
   plan.route = route.name;
   plan.upload = true;
+  plan.gzip_encoded = *coding == body_coding::gzip;
   plan.max_bytes = limits.max_upload_bytes;
   plan.boundary = std::move(*boundary);
   plan.part_limits.max_parts = limits.max_form_parts;
@@ -496,6 +535,51 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   upload->done = std::move(done);
   upload->received = clock::now();
   boost::asio::post(deps_.prep, [this, upload] { prepare_upload(upload); });
+}
+
+void api_handlers::handle_encoded_upload(const request_head& head, body_plan plan, std::string compressed_body,
+                                         reply_sink done) {
+  auto job = [this, head, plan = std::move(plan), compressed = std::move(compressed_body),
+              done = std::move(done)]() mutable {
+    const std::string route = plan.route;
+    // On an error the upload is over: release its admission before answering (as prepare_upload does).
+    const auto fail = [&](reply r) {
+      plan.ticket.reset();
+      done(std::move(r));
+    };
+    if (!starts_with_gzip_magic(compressed)) {
+      return fail(error_reply(400, "invalid_input", "the body is declared Content-Encoding: gzip but is not gzip data",
+                              route));
+    }
+    // The decoded body obeys the decompressed-size limit of a gzipped PQR file; so does its file part.
+    const std::size_t max_decoded = deps_.config.limits.max_pqr_bytes;
+    result<std::string> body = maybe_gunzip(compressed, max_decoded);
+    std::string().swap(compressed);
+    if (!body.ok()) {
+      const std::string message = "Content-Encoding: gzip body: " + body.error().message();
+      return fail(status_error_reply(status(body.error().code(), message), route));
+    }
+    multipart_limits part_limits = plan.part_limits;
+    part_limits.max_file_bytes = max_decoded;
+    multipart_parser parser(plan.boundary, part_limits);
+    parser.set_body_size_hint(body->size());
+    status parsed = parser.feed(*body);
+    std::string().swap(*body);
+    if (parsed.ok()) parsed = parser.finish();
+    if (!parsed.ok()) {
+      const bool too_large = parsed.code() == errc::limit_exceeded;
+      return fail(error_reply(too_large ? 413 : 400, errc_name(parsed.code()), parsed.message(), route));
+    }
+    handle_upload(head, std::move(plan), std::move(parser.parts()), std::move(done));
+  };
+  boost::asio::post(deps_.prep, std::move(job));
+}
+
+bool api_handlers::is_health_route(std::string_view target) const {
+  const auto parts = split_target(target);
+  if (!parts) return false;
+  const route_id id = match_route(parts->path).id;
+  return id == route_id::healthz || id == route_id::readyz;
 }
 
 void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
@@ -637,11 +721,18 @@ void api_handlers::job_mesh(const request_head& head, const std::string& id,
             : "the job " + std::string(proto::job_state_name(job->state)) + ": " + job->error.message();
     return done(error_reply(409, "conflict", message, route));
   }
-  boost::asio::post(deps_.prep, [this, id, key, format, if_none_match, immutable, route, done = std::move(done)] {
+  const bool known_done = job && job->state == job_state::done;
+  boost::asio::post(deps_.prep, [this, id, key, format, if_none_match, immutable, route, known_done,
+                                 done = std::move(done)] {
     if (auto bytes = deps_.cache.get(key)) {
       deps_.stats.count_cache_response();
       return done(if_none_match ? not_modified(id, format, route)
                                 : mesh_reply(id, format, std::move(bytes), true, route, immutable));
+    }
+    // The queue says done but the cache has no mesh (evicted, not stored, or corrupt): the result is lost.
+    if (known_done) {
+      log_event(deps_.log, spdlog::level::err, "job_result_lost",
+                {{"job", id}, {"key", key}, {"reason", "the job is done but its mesh is not in the cache"}});
     }
     done(error_reply(404, "not_found", "no mesh for this job", route));
   });

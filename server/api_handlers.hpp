@@ -49,6 +49,11 @@ class api_handlers final : public request_handler {
   void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) override;
   void handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
                      reply_sink done) override;
+  /// Decodes the gzip body on the prep pool (under limits.max_pqr_bytes, as a gzipped PQR file), parses it as
+  /// multipart/form-data, then continues as handle_upload.
+  void handle_encoded_upload(const request_head& head, body_plan plan, std::string compressed_body,
+                             reply_sink done) override;
+  bool is_health_route(std::string_view target) const override;
 
   /// Uploads being received or prepared now, and the body bytes they hold (bounded by max_concurrent_uploads
   /// and max_upload_bytes_in_flight).

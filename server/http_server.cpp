@@ -1,5 +1,9 @@
 #include "server/http_server.hpp"
 
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <random>
 #include <utility>
 
 #include <boost/asio/dispatch.hpp>
@@ -30,6 +34,64 @@ reply json_reply(unsigned status, std::string body, std::string route) {
   out.route = std::move(route);
   out.body = std::make_shared<const std::string>(std::move(body));
   return out;
+}
+
+std::uint64_t idle_connections::add(std::function<void()> close) {
+  std::lock_guard lock(mutex_);
+  const std::uint64_t key = next_key_++;
+  idle_.emplace(key, std::move(close));
+  return key;
+}
+
+void idle_connections::remove(std::uint64_t key) {
+  std::lock_guard lock(mutex_);
+  idle_.erase(key);
+}
+
+bool idle_connections::close_oldest() {
+  std::function<void()> close;
+  {
+    std::lock_guard lock(mutex_);
+    if (idle_.empty()) return false;
+    close = std::move(idle_.begin()->second);
+    idle_.erase(idle_.begin());
+  }
+  close();
+  return true;
+}
+
+std::size_t idle_connections::size() const {
+  std::lock_guard lock(mutex_);
+  return idle_.size();
+}
+
+namespace {
+
+/// splitmix64's finaliser: a bijection on 64-bit integers, so distinct counters give distinct ids.
+std::uint64_t mix(std::uint64_t x) {
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+}  // namespace
+
+request_id_source::request_id_source() : seed_(std::random_device{}()) {
+  seed_ = (seed_ << 32) ^ std::random_device{}();
+}
+
+std::string request_id_source::next() {
+  const std::uint64_t value = mix(seed_ + counter_.fetch_add(1, std::memory_order_relaxed));
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(value));
+  return text;
+}
+
+bool request_id_source::acceptable(std::string_view id) {
+  if (id.empty() || id.size() > 128) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == ':';
+  });
 }
 
 http_listener::http_listener(net::io_context& io, http_context& context)
@@ -71,11 +133,16 @@ void http_listener::on_accept(boost::system::error_code ec, tcp::socket socket) 
   if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
   if (!ec) {
     auto connection = std::make_shared<tcp_session>(beast::tcp_stream(std::move(socket)), context_);
-    // The new session already counts itself: more than the limit means this one is over it.
-    if (context_.state.open_connections.load(std::memory_order_relaxed) > context_.limits.max_connections) {
-      connection->refuse();
-    } else {
+    // The new session already counts itself: more than the limit means this one is over it. An idle keep-alive
+    // connection gives way first (it closes on its own strand, soon); without one, a few more connections may
+    // still ask the health routes, and past those the new connection is refused at once.
+    const std::size_t open = context_.state.open_connections.load(std::memory_order_relaxed);
+    if (open <= context_.limits.max_connections || context_.state.idle.close_oldest()) {
       connection->run();
+    } else if (open <= context_.limits.max_connections + context_.limits.health_connection_reserve) {
+      connection->run_health_only();
+    } else {
+      connection->refuse();
     }
   } else {
     log_event(context_.log, spdlog::level::warn, "accept_failed", {{"error", ec.message()}});

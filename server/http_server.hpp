@@ -7,23 +7,32 @@
 /// socket, so responses keep request order and at most one request per connection is in flight). Per request:
 /// 1. the header block is read under max_header_bytes (431) and header_timeout (keep-alive idle + slow headers);
 ///    malformed framing — conflicting Content-Length values, Transfer-Encoding other than a lone "chunked" or
-///    together with Content-Length — is refused with 400 and the connection closed (request smuggling);
+///    together with Content-Length — is refused with 400 and the connection closed (request smuggling); an
+///    HTTP/1.1 request without exactly one Host field is refused with 400 (RFC 9112 §3.2);
 /// 2. request_handler::plan() decides from the header alone: an immediate reply (errors, 413 from
 ///    Content-Length, 415...) or how to read the body; only then is "100 Continue" sent to an Expect: 100-continue;
-/// 3. an upload body is streamed chunk by chunk into the multipart parser (never buffered whole; chunked bodies
-///    are counted against the limit while streaming → 413, and grow their upload_ticket's memory reservation →
-///    429 when the uploads in flight hold too many bytes) under the whole-request deadline request_timeout;
+/// 3. an upload body is streamed chunk by chunk into the multipart parser (never buffered whole; bodies are
+///    counted against the limit while streaming → 413, and grow their upload_ticket's reservation by the bytes
+///    received → 429 when the uploads in flight hold too many bytes) under the whole-request deadline
+///    request_timeout; a body with Content-Encoding: gzip is gathered compressed and handed to the handler, which
+///    decodes it off the I/O thread;
 /// 4. the handler answers through a reply_sink, possibly much later from another thread: the reply is posted
 ///    back to the session's strand, so no I/O thread ever waits for a job;
 /// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection.
-/// Connections over max_connections get 503 and are closed. CORS headers are added to every response.
+/// Every request gets a request id (a sane incoming X-Request-Id, else a generated one), echoed in X-Request-Id,
+/// and one "access" log line when its response is written (error level for 5xx); its duration runs from the
+/// request's first byte. Connections over max_connections first make the oldest idle keep-alive connection close;
+/// with none idle, up to health_connection_reserve more connections may still ask a health route (handler's
+/// is_health_route), anything else on them gets 503. CORS headers are added to every response.
 /// The session itself lives in detail/http_session.hpp, a template over its stream (the request fuzzer runs it
 /// over a Beast test stream).
 
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
 #include <variant>
@@ -75,6 +84,9 @@ using reply_sink = std::function<void(reply)>;
 struct body_plan {
   std::string route;
   bool upload = false;            ///< multipart/form-data streamed into a multipart_parser
+  /// Upload only: the body has Content-Encoding: gzip; it is gathered whole (compressed, under max_bytes) and
+  /// given to handle_encoded_upload instead of being parsed while it streams.
+  bool gzip_encoded = false;
   std::uint64_t max_bytes = 0;    ///< body limit (Content-Length was already checked against it)
   std::string boundary;           ///< upload only
   multipart_limits part_limits;   ///< upload only
@@ -92,6 +104,41 @@ class request_handler {
   /// An upload whose multipart body has been parsed completely.
   virtual void handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
                              reply_sink done) = 0;
+  /// An upload with plan.gzip_encoded whose compressed body has been read completely.
+  virtual void handle_encoded_upload(const request_head& head, body_plan plan, std::string compressed_body,
+                                     reply_sink done) = 0;
+  /// Health routes (/healthz, /readyz) are answered even on connections over the connection limit.
+  virtual bool is_health_route(std::string_view target) const = 0;
+};
+
+/// Idle keep-alive connections (waiting for the first byte of their next request), oldest first, so that a new
+/// connection over the limit can make the oldest one close (as nginx reuses idle keep-alive connections).
+class idle_connections {
+ public:
+  /// `close` makes the connection close if it is still idle (it runs on the caller's thread: post to a strand).
+  std::uint64_t add(std::function<void()> close);
+  void remove(std::uint64_t key);
+  /// Takes the oldest idle connection out of the set and calls its close; false when none is idle.
+  bool close_oldest();
+  std::size_t size() const;
+
+ private:
+  mutable std::mutex mutex_;
+  std::uint64_t next_key_ = 0;
+  std::map<std::uint64_t, std::function<void()>> idle_;
+};
+
+/// Request ids: 16 hex digits, unique within the process (a bijective mix of a random seed and a counter).
+class request_id_source {
+ public:
+  request_id_source();
+  std::string next();
+  /// An incoming X-Request-Id worth keeping: 1–128 bytes of letters, digits and "-_.:".
+  static bool acceptable(std::string_view id);
+
+ private:
+  std::uint64_t seed_;
+  std::atomic<std::uint64_t> counter_{0};
 };
 
 /// Counters shared by the listener, the sessions and the service.
@@ -99,6 +146,8 @@ struct http_server_state {
   std::atomic<std::size_t> open_connections{0};
   std::atomic<std::size_t> busy_requests{0};  ///< header read, response not yet written
   std::atomic<bool> draining{false};          ///< SIGTERM received: answer with Connection: close
+  idle_connections idle;
+  request_id_source request_ids;
 };
 
 /// Everything a session needs, owned by the service and outliving every session.

@@ -58,7 +58,11 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
                  "Request body bytes of an upload (default: 128 bytes per allowed atom + 64 KiB)");
   app.add_option("--max-queue", limits.max_queue, "Jobs waiting for a worker before uploads get 429")
       ->capture_default_str();
-  app.add_option("--max-connections", limits.max_connections, "Open connections; more get 503")
+  app.add_option("--max-connections", limits.max_connections,
+                 "Open connections; one more closes the oldest idle keep-alive connection, else gets 503")
+      ->capture_default_str();
+  app.add_option("--health-connection-reserve", limits.health_connection_reserve,
+                 "Connections beyond --max-connections that may still ask /healthz or /readyz")
       ->capture_default_str();
   app.add_option("--max-concurrent-uploads", limits.max_concurrent_uploads,
                  "Uploads received or parsed at the same time; more get 429")

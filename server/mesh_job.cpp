@@ -30,7 +30,7 @@ void store(const mesh_job_context& context, const std::string& id, const std::st
            const std::string& bytes) {
   const status stored = context.cache.put(key, bytes);
   if (!stored.ok()) {
-    log_event(context.log, spdlog::level::warn, "cache_write_failed",
+    log_event(context.log, spdlog::level::err, "cache_write_failed",
               {{"job", id}, {"key", key}, {"bytes", bytes.size()}, {"error", stored.message()}});
   }
 }

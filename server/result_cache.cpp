@@ -320,8 +320,9 @@ std::shared_ptr<const std::string> result_cache::read_from_disk(const std::strin
   }
   struct stat info {};
   if (::fstat(fd.get(), &info) != 0) return nullptr;
-  const auto corrupt = [&] {
+  const auto corrupt = [&](const char* reason) {
     remove_corrupt_entry(key, info.st_dev, info.st_ino);
+    if (on_corrupt_) on_corrupt_(key, reason);
     return nullptr;
   };
 
@@ -329,19 +330,21 @@ std::shared_ptr<const std::string> result_cache::read_from_disk(const std::strin
   if (io_step_fails()) return nullptr;
   const read_outcome header_read = read_all(fd.get(), header.data(), header.size());
   if (header_read == read_outcome::error) return nullptr;
-  if (header_read == read_outcome::short_file) return corrupt();
+  if (header_read == read_outcome::short_file) return corrupt("truncated header");
   const std::optional<entry_header> parsed = decode_header(header, key);
   const auto file_bytes = static_cast<std::uint64_t>(info.st_size);
-  if (!parsed || file_bytes < header.size() || file_bytes - header.size() != parsed->payload_bytes) return corrupt();
+  if (!parsed || file_bytes < header.size() || file_bytes - header.size() != parsed->payload_bytes) {
+    return corrupt("bad header or size");
+  }
 
   auto payload = std::make_shared<std::string>(parsed->payload_bytes, '\0');
   if (io_step_fails()) return nullptr;
   const read_outcome payload_read = read_all(fd.get(), payload->data(), payload->size());
   if (payload_read == read_outcome::error) return nullptr;
-  if (payload_read == read_outcome::short_file) return corrupt();
+  if (payload_read == read_outcome::short_file) return corrupt("truncated payload");
   sha256 hasher;
   hasher.update(*payload);
-  if (hasher.finish() != parsed->checksum) return corrupt();
+  if (hasher.finish() != parsed->checksum) return corrupt("checksum mismatch");
 
   ::futimens(fd.get(), nullptr);  // last use survives restarts (LRU order); best effort
   // Index the entry unless it was evicted (unlinked) while we read it: the bytes are still good to serve.

@@ -25,6 +25,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <list>
 #include <memory>
 #include <mutex>
@@ -70,6 +71,12 @@ class result_cache {
   /// get(). Until open() succeeds the cache works in memory only.
   /// @return errc::io_error when the directory cannot be created or listed.
   status open();
+
+  /// Called (on the thread of get()) for every corrupt or truncated entry found, with its key and why; set before
+  /// the cache is shared between threads. The service logs these at error level.
+  void set_corruption_listener(std::function<void(const std::string& key, const char* reason)> listener) {
+    on_corrupt_ = std::move(listener);
+  }
 
   /// The entry's bytes, or nullptr on a miss (unknown or invalid key, corrupt entry — then removed —, read
   /// error). A disk hit is promoted to memory. The returned bytes stay valid even if the entry is evicted.
@@ -127,6 +134,7 @@ class result_cache {
 
   std::filesystem::path dir_;
   cache_limits limits_;
+  std::function<void(const std::string&, const char*)> on_corrupt_;
 
   mutable std::mutex memory_mutex_;
   memory_list memory_lru_;

@@ -43,6 +43,7 @@ nlohmann::json config_to_json(const server_config& config) {
       {"max_small_body_bytes", limits.max_small_body_bytes},
       {"max_header_bytes", limits.max_header_bytes},
       {"max_connections", limits.max_connections},
+      {"health_connection_reserve", limits.health_connection_reserve},
       {"max_concurrent_uploads", limits.max_concurrent_uploads},
       {"max_upload_bytes_in_flight", limits.max_upload_bytes_in_flight},
       {"max_form_parts", limits.max_form_parts},

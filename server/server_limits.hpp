@@ -40,8 +40,12 @@ struct server_limits {
   std::uint64_t max_small_body_bytes = 64 * 1024;
   /// Request line + header fields; over it → 431 and the connection is closed.
   std::uint32_t max_header_bytes = 8 * 1024;
-  /// Open connections; one over it is answered 503 and closed at once.
+  /// Open connections. A connection over it makes the oldest idle keep-alive connection close; when none is idle
+  /// it may only ask /healthz or /readyz (anything else → 503 + Retry-After, then closed).
   std::size_t max_connections = 256;
+  /// Connections beyond max_connections kept open to answer /healthz and /readyz when every connection is busy;
+  /// past max_connections + this, a new connection is answered 503 and closed without being read.
+  std::size_t health_connection_reserve = 16;
   /// Uploads being received or parsed at the same time (bounds upload memory); over it → 429 + Retry-After.
   /// A lab's burst of small uploads must pass: 20 concurrent clients are well within it.
   std::size_t max_concurrent_uploads = 64;

@@ -45,7 +45,11 @@ service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesh
             metrics_),
       prep_(std::max(1u, config_.prep_threads)),
       api_(api_dependencies{config_, jobs_, cache_, metrics_, *log_, state_, cors_, prep_}),
-      http_context_{config_.limits, api_, state_, metrics_, *log_, cors_} {}
+      http_context_{config_.limits, api_, state_, metrics_, *log_, cors_} {
+  cache_.set_corruption_listener([log = log_](const std::string& key, const char* reason) {
+    log_event(*log, spdlog::level::err, "cache_corrupt", {{"key", key}, {"reason", reason}, {"action", "removed"}});
+  });
+}
 
 service::~service() { shutdown(); }
 

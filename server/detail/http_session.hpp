@@ -43,10 +43,27 @@ struct stream_transport<beast::tcp_stream> {
     s.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
     s.close();
   }
+  /// Bytes received by the socket and not yet read (an "idle" connection whose request is arriving).
+  static bool has_unread_bytes(beast::tcp_stream& s) {
+    beast::error_code ec;
+    return s.socket().available(ec) > 0 && !ec;
+  }
+  /// The peer's address for the access log ("" when the socket is already gone).
+  static std::string client_address(beast::tcp_stream& s) {
+    beast::error_code ec;
+    const auto endpoint = s.socket().remote_endpoint(ec);
+    return ec ? std::string() : endpoint.address().to_string();
+  }
 };
 
 /// Bytes read from the stream per body read: the multipart parser sees the upload in pieces of at most this.
 inline constexpr std::size_t body_chunk_bytes = 64 * 1024;
+
+/// Bytes asked for by the read that waits for a request's first bytes (the rest of the header follows).
+inline constexpr std::size_t first_read_bytes = 4096;
+
+/// The request and response header carrying the request id.
+inline constexpr const char* request_id_field = "X-Request-Id";
 
 /// The route label used for requests rejected before routing.
 inline constexpr const char* unrouted_route = "(unrouted)";
@@ -72,6 +89,14 @@ inline bool transfer_encoding_acceptable(const request_head& head) {
   return !present || (codings == 1 && chunked && head.find(http::field::content_length) == head.end());
 }
 
+/// True when an HTTP/1.1 request carries exactly one Host field (RFC 9112 §3.2: otherwise 400). HTTP/1.0 has no
+/// such requirement.
+inline bool host_acceptable(const request_head& head) {
+  if (head.version() < 11) return true;
+  const auto hosts = head.equal_range(http::field::host);
+  return std::distance(hosts.first, hosts.second) == 1;
+}
+
 /// One connection. Lives as long as an operation or a pending reply holds a shared_ptr to it.
 template <class Stream>
 class http_session : public std::enable_shared_from_this<http_session<Stream>> {
@@ -79,10 +104,14 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   using clock = std::chrono::steady_clock;
 
  public:
-  http_session(Stream&& stream, http_context& context) : stream_(std::move(stream)), context_(context) {
+  http_session(Stream&& stream, http_context& context)
+      : stream_(std::move(stream)), context_(context), client_(transport::client_address(stream_)) {
     context_.state.open_connections.fetch_add(1, std::memory_order_relaxed);
   }
-  ~http_session() { context_.state.open_connections.fetch_sub(1, std::memory_order_relaxed); }
+  ~http_session() {
+    stop_being_idle();
+    context_.state.open_connections.fetch_sub(1, std::memory_order_relaxed);
+  }
   http_session(const http_session&) = delete;
   http_session& operator=(const http_session&) = delete;
 
@@ -90,14 +119,20 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     net::dispatch(stream_.get_executor(), [self = this->shared_from_this()] { self->read_header(); });
   }
 
-  /// Over the connection limit: answer 503 and close without reading.
+  /// Over the connection limit with every connection busy: one request is read; a health route is answered,
+  /// anything else gets 503; then the connection is closed.
+  void run_health_only() {
+    health_only_ = true;
+    run();
+  }
+
+  /// Past the connection limit and its health reserve: answer 503 and close without reading.
   void refuse() {
     net::dispatch(stream_.get_executor(), [self = this->shared_from_this()] {
-      reply busy = error_reply(503, "unavailable", "too many connections", unrouted_route);
-      busy.headers.emplace_back("Retry-After", std::to_string(self->context_.limits.retry_after_seconds));
-      busy.close = true;
+      self->request_started_ = clock::now();
       self->head_.version(11);
-      self->send(std::move(busy));
+      self->begin_request();
+      self->send(too_many_connections(self->context_.limits.retry_after_seconds));
     });
   }
 
@@ -115,7 +150,62 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     multipart_.reset();
     plan_ = body_plan{};
     upload_bytes_ = 0;
+    encoded_body_.clear();
+    // header_timeout runs from here: keep-alive idle time and a slow header together.
     transport::expire_after(stream_, context_.limits.header_timeout);
+    if (buffer_.size() > 0) {  // a pipelined request is already here
+      request_started_ = clock::now();
+      return read_header_block();
+    }
+    wait_for_request();
+  }
+
+  /// Idle: waits for the first bytes of the next request (their arrival starts the request's clock). Meanwhile a
+  /// new connection over the limit may make this one close (close_if_idle).
+  void wait_for_request() {
+    if (health_only_) {  // over the limit already: closing it would make no room
+      return stream_.async_read_some(buffer_.prepare(first_read_bytes), beast::bind_front_handler(
+                                         &http_session::on_first_bytes, this->shared_from_this()));
+    }
+    idle_key_ = context_.state.idle.add(
+        [weak = std::weak_ptr<http_session>(this->shared_from_this()), key = next_idle_generation()] {
+          if (auto self = weak.lock()) {
+            net::dispatch(self->stream_.get_executor(), [self, key] { self->close_if_idle(key); });
+          }
+        });
+    idle_ = true;
+    stream_.async_read_some(buffer_.prepare(first_read_bytes),
+                            beast::bind_front_handler(&http_session::on_first_bytes, this->shared_from_this()));
+  }
+
+  void on_first_bytes(beast::error_code ec, std::size_t bytes) {
+    stop_being_idle();
+    if (ec) return close();  // idle keep-alive expired, client gone, or closed to make room
+    buffer_.commit(bytes);
+    request_started_ = clock::now();
+    read_header_block();
+  }
+
+  std::uint64_t next_idle_generation() { return ++idle_generation_; }
+
+  void close_if_idle(std::uint64_t generation) {
+    // A request began meanwhile, or its bytes are arriving: the new connection over the limit is let in anyway
+    // (the limit is exceeded by at most the connections caught in this race).
+    if (!idle_ || generation != idle_generation_ || transport::has_unread_bytes(stream_)) return;
+    idle_key_.reset();  // already taken out of the idle set
+    idle_ = false;
+    log_event(context_.log, spdlog::level::info, "idle_connection_closed",
+              {{"client", client_}, {"reason", "connection limit reached"}});
+    transport::close(stream_);  // the pending read ends with an error and the session goes away
+  }
+
+  void stop_being_idle() {
+    idle_ = false;
+    if (idle_key_) context_.state.idle.remove(*idle_key_);
+    idle_key_.reset();
+  }
+
+  void read_header_block() {
     http::async_read_header(stream_, buffer_, *header_parser_,
                             beast::bind_front_handler(&http_session::on_header, this->shared_from_this()));
   }
@@ -125,14 +215,22 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     // checked here, on the bytes the header really took.
     if (!ec && header_bytes > context_.limits.max_header_bytes) ec = http::error::header_limit;
     if (ec) return on_header_error(ec);
-    begin_request();
     head_ = header_parser_->get().base();
     keep_alive_ = header_parser_->keep_alive();
+    begin_request();
     if (!transfer_encoding_acceptable(head_)) {
       return send(error_reply(400, "bad_request",
                               "Transfer-Encoding must be the single coding \"chunked\", without Content-Length",
                               unrouted_route),
                   /*force_close=*/true);
+    }
+    if (!host_acceptable(head_)) {
+      return send(error_reply(400, "bad_request", "an HTTP/1.1 request must carry exactly one Host header field",
+                              unrouted_route),
+                  /*force_close=*/!header_parser_->is_done());
+    }
+    if (health_only_ && !context_.handler.is_health_route(to_std(head_.target()))) {
+      return send(too_many_connections(context_.limits.retry_after_seconds), /*force_close=*/true);
     }
     std::variant<reply, body_plan> decision = context_.handler.plan(head_);
     if (auto* immediate = std::get_if<reply>(&decision)) {
@@ -151,9 +249,9 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
         ec == net::error::connection_reset || ec == net::error::operation_aborted) {
       return close();  // idle keep-alive expired, client gone, or a slow header cut at the deadline
     }
-    begin_request();
     head_ = request_head{};
     head_.version(11);
+    begin_request();
     if (ec == http::error::header_limit) {
       return send(error_reply(431, "header_too_large",
                               "the request header exceeds " + std::to_string(context_.limits.max_header_bytes) +
@@ -165,10 +263,20 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     send(error_reply(400, "bad_request", "malformed HTTP request: " + ec.message(), unrouted_route), true);
   }
 
+  /// The header is in (or the request is refused): count the request busy and give it its id.
   void begin_request() {
     if (!busy_) context_.state.busy_requests.fetch_add(1, std::memory_order_relaxed);
     busy_ = true;
-    request_started_ = clock::now();
+    const std::string_view incoming = to_std(head_[request_id_field]);
+    request_id_ = request_id_source::acceptable(incoming) ? std::string(incoming)
+                                                          : context_.state.request_ids.next();
+  }
+
+  static reply too_many_connections(unsigned retry_after_seconds) {
+    reply busy = error_reply(503, "unavailable", "too many connections", unrouted_route);
+    busy.headers.emplace_back("Retry-After", std::to_string(retry_after_seconds));
+    busy.close = true;
+    return busy;
   }
 
   void send_continue() {
@@ -187,9 +295,13 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     if (plan_.upload) {
       const boost::optional<std::uint64_t> length = header_parser_->content_length();
       body_parser_.emplace(std::move(*header_parser_));
-      multipart_.emplace(plan_.boundary, plan_.part_limits);
-      // plan() checked the length against the upload limit, so the file part may reserve it at once.
-      if (length) multipart_->set_body_size_hint(static_cast<std::size_t>(*length));
+      // plan() checked the length against the upload limit, so the body may reserve it at once.
+      if (plan_.gzip_encoded) {
+        if (length) encoded_body_.reserve(static_cast<std::size_t>(*length));
+      } else {
+        multipart_.emplace(plan_.boundary, plan_.part_limits);
+        if (length) multipart_->set_body_size_hint(static_cast<std::size_t>(*length));
+      }
       chunk_.resize(body_chunk_bytes);
       return read_upload_chunk();
     }
@@ -221,15 +333,21 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     upload_bytes_ += received;
     // A chunked body declared no size: its memory reservation grows with what has arrived.
     if (plan_.ticket && !plan_.ticket->reserve_total(upload_bytes_)) return refuse_upload_bytes();
-    const status fed = multipart_->feed(std::string_view(chunk_.data(), received));
-    if (!fed.ok()) return reject_upload(fed);
+    if (plan_.gzip_encoded) {
+      encoded_body_.append(chunk_.data(), received);
+    } else if (const status fed = multipart_->feed(std::string_view(chunk_.data(), received)); !fed.ok()) {
+      return reject_upload(fed);
+    }
     if (!body_parser_->is_done()) return read_upload_chunk();
+    transport::expire_never(stream_);
+    chunk_ = {};
+    if (plan_.gzip_encoded) {
+      return context_.handler.handle_encoded_upload(head_, std::move(plan_), std::move(encoded_body_), make_sink());
+    }
     const status finished = multipart_->finish();
     if (!finished.ok()) return reject_upload(finished);
-    transport::expire_never(stream_);
     std::vector<multipart_part> parts = std::move(multipart_->parts());
     multipart_.reset();
-    chunk_ = {};
     context_.handler.handle_upload(head_, std::move(plan_), std::move(parts), make_sink());
   }
 
@@ -261,7 +379,13 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     if (ec == beast::error::timeout || ec == http::error::partial_message || ec == net::error::eof ||
         ec == net::error::connection_reset || ec == http::error::end_of_stream) {
       log_event(context_.log, spdlog::level::info, "request_aborted",
-                {{"route", plan_.route}, {"reason", ec.message()}});
+                {{"request_id", request_id_},
+                 {"client", client_},
+                 {"method", std::string(head_.method_string())},
+                 {"route", plan_.route},
+                 {"reason", ec.message()},
+                 {"body_bytes", upload_bytes_},
+                 {"ms", std::chrono::duration<double, std::milli>(clock::now() - request_started_).count()}});
       return close();
     }
     send(error_reply(400, "bad_request", "malformed request body: " + ec.message(), plan_.route), true);
@@ -289,7 +413,8 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     multipart_.reset();
     const bool head_request = head_.method() == http::verb::head;
     const bool keep_alive =
-        !force_close && !r.close && keep_alive_ && !context_.state.draining.load(std::memory_order_relaxed);
+        !force_close && !r.close && keep_alive_ && !health_only_ &&
+        !context_.state.draining.load(std::memory_order_relaxed);
     response_body_ = r.body ? r.body : std::make_shared<const std::string>();
     response_.emplace(static_cast<http::status>(r.status), head_.version() == 10 ? 10 : 11);
     response_->set(http::field::server, "tracemeshd");
@@ -298,6 +423,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     const std::string origin(head_[http::field::origin]);
     context_.cors.add_response_headers(origin, r.headers);
     for (const auto& [name, value] : r.headers) response_->insert(name, value);
+    response_->set(request_id_field, request_id_);
     if (head_request || bodiless_status) {
       response_->body() = {};
     } else {
@@ -306,21 +432,28 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     response_->keep_alive(keep_alive);
     if (!bodiless_status) response_->content_length(response_body_->size());
     context_.stats.count_request(r.route, r.status);
-    if (r.status >= 400) log_failed_request(r);
     transport::expire_after(stream_, context_.limits.write_timeout);
     http::async_write(stream_, *response_,
-                      [self = this->shared_from_this(), keep_alive](beast::error_code ec, std::size_t) {
+                      [self = this->shared_from_this(), keep_alive, route = std::move(r.route),
+                       status = r.status](beast::error_code ec, std::size_t bytes) {
+                        self->log_access(route, status, bytes, ec);
                         self->on_write(ec, keep_alive);
                       });
   }
 
-  void log_failed_request(const reply& r) {
-    log_event(context_.log, spdlog::level::info, "request",
-              {{"method", std::string(head_.method_string())},
-               {"route", r.route},
-               {"status", r.status},
-               {"bytes", response_body_->size()},
-               {"ms", std::chrono::duration<double, std::milli>(clock::now() - request_started_).count()}});
+  /// The access line of the request just answered; error level for 5xx. `bytes`: what reached the socket
+  /// (status line, header and body); the duration runs from the request's first byte.
+  void log_access(const std::string& route, unsigned status, std::size_t bytes, beast::error_code ec) {
+    nlohmann::json fields = {
+        {"request_id", request_id_},
+        {"client", client_},
+        {"method", head_.method() == http::verb::unknown ? std::string("-") : std::string(head_.method_string())},
+        {"route", route},
+        {"status", status},
+        {"bytes", bytes},
+        {"ms", std::chrono::duration<double, std::milli>(clock::now() - request_started_).count()}};
+    if (ec) fields["write_error"] = ec.message();
+    log_event(context_.log, status >= 500 ? spdlog::level::err : spdlog::level::info, "access", fields);
   }
 
   void on_write(beast::error_code ec, bool keep_alive) {
@@ -337,6 +470,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   void close() {
+    stop_being_idle();
     end_request();
     plan_.ticket.reset();
     transport::close(stream_);
@@ -344,6 +478,13 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
 
   Stream stream_;
   http_context& context_;
+  const std::string client_;  // the peer's address, for the access log
+  std::string request_id_;
+  bool health_only_ = false;  // over the connection limit: one health request, then close
+  bool idle_ = false;         // waiting for the first bytes of a request
+  std::optional<std::uint64_t> idle_key_;  // this connection's entry in context_.state.idle
+  std::uint64_t idle_generation_ = 0;      // tells a stale close_if_idle from the current idle period
+  std::string encoded_body_;  // a Content-Encoding: gzip upload, compressed
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::empty_body>> header_parser_;
   std::optional<http::request_parser<http::buffer_body>> body_parser_;

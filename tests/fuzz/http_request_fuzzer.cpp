@@ -43,6 +43,8 @@ struct stream_transport<boost::beast::test::stream> {
   static void expire_at(boost::beast::test::stream&, std::chrono::steady_clock::time_point) {}
   static void expire_never(boost::beast::test::stream&) {}
   static void close(boost::beast::test::stream& s) { s.close(); }
+  static std::string client_address(boost::beast::test::stream&) { return "test-stream"; }
+  static bool has_unread_bytes(boost::beast::test::stream&) { return false; }
 };
 
 }  // namespace tracemesh::server::detail
@@ -108,6 +110,10 @@ class recording_handler final : public request_handler {
                      reply_sink done) override {
     inner_.handle_upload(head, std::move(plan), std::move(parts), std::move(done));
   }
+  void handle_encoded_upload(const request_head& head, body_plan plan, std::string body, reply_sink done) override {
+    inner_.handle_encoded_upload(head, std::move(plan), std::move(body), std::move(done));
+  }
+  bool is_health_route(std::string_view target) const override { return inner_.is_health_route(target); }
   std::vector<http::verb> methods() const {
     std::lock_guard lock(mutex_);
     return methods_;
@@ -165,7 +171,7 @@ std::string serve(fuzz_service& service, std::string_view input, std::size_t rea
   return std::string(client_side.str());
 }
 
-const std::set<unsigned> known_statuses{100, 200, 202, 204, 304, 400, 404, 405, 409,
+const std::set<unsigned> known_statuses{100, 200, 202, 204, 304, 400, 404, 405, 408, 409,
                                         413, 415, 422, 429, 431, 500, 503, 504};
 
 void check_error_body(const std::string& body, std::string_view context) {

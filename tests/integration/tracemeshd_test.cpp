@@ -23,6 +23,7 @@
 
 #include "support/pqr_edits.hpp"
 #include "support/structure_writers.hpp"
+#include "support/test_http_client.hpp"
 #include "support/test_paths.hpp"
 
 namespace {
@@ -700,6 +701,103 @@ TEST_F(TracemeshdTest, AJobPastItsDeadlineAnswers504AndIsNotCached) {
   EXPECT_TRUE(late.headers["retry-after"].empty());
   EXPECT_EQ(metric(server, "tracemesh_cache_entries"), 0) << "a failed job is not cached";
   EXPECT_EQ(curl("", server.url("/healthz")).status, 200);
+}
+
+/// The server's JSON log lines with the given event.
+std::vector<nlohmann::json> log_events(const std::string& log, const std::string& event) {
+  std::vector<nlohmann::json> out;
+  std::istringstream lines(log);
+  std::string line;
+  while (std::getline(lines, line)) {
+    const nlohmann::json doc = nlohmann::json::parse(line, nullptr, false);
+    if (!doc.is_discarded() && doc.value("event", "") == event) out.push_back(doc);
+  }
+  return out;
+}
+
+TEST_F(TracemeshdTest, LogsHaveOneAccessLinePerRequestAndErrorLinesFor5xxCorruptionAndLostResults) {
+  // Finding 12: a 503's logged duration was the server's uptime; no request id; cache corruption only in metrics;
+  // 5xx not at error level.
+  std::map<std::string, int> expected;  // request id → status
+  {
+    server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--max-connections", "1",
+                                         "--health-connection-reserve", "0"});
+    curl_reply health = curl("-H 'X-Request-Id: it-health'", server.url("/healthz"));
+    EXPECT_EQ(health.headers["x-request-id"], "it-health");
+    expected["it-health"] = 200;
+    const curl_reply mesh = upload(server, molecule_path("gly.pqr"), "-H 'X-Request-Id: it-mesh'");
+    EXPECT_EQ(mesh.status, 200);
+    expected["it-mesh"] = 200;
+    curl_reply missing = curl("", server.url("/nowhere"));
+    EXPECT_EQ(missing.headers["x-request-id"].size(), 16u) << "a generated id";
+    expected[missing.headers["x-request-id"]] = 404;
+    // Let the server be up a while, then fill its only connection and get a 503.
+    std::this_thread::sleep_for(1500ms);
+    tracemesh::testing::raw_connection busy(server.port());
+    ASSERT_TRUE(busy.send("GET /healthz HTTP/1.1\r\n"));
+    std::this_thread::sleep_for(200ms);
+    curl_reply refused = curl("-H 'X-Request-Id: it-refused'", server.url("/healthz"));
+    EXPECT_EQ(refused.status, 503);
+    EXPECT_EQ(refused.headers["x-request-id"].size(), 16u) << "refused before reading: its own id";
+    expected[refused.headers["x-request-id"]] = 503;
+    busy.close();
+    EXPECT_EQ(server.kill(SIGTERM), 0);
+
+    const std::string log = server.log();
+    const std::vector<nlohmann::json> access = log_events(log, "access");
+    for (const auto& [id, status] : expected) {
+      int lines = 0;
+      for (const auto& line : access) {
+        if (line.at("request_id") != id) continue;
+        ++lines;
+        EXPECT_EQ(line.at("status"), status) << line;
+        EXPECT_EQ(line.at("client"), "127.0.0.1") << line;
+        EXPECT_GT(line.at("bytes").get<double>(), 0) << line;
+        EXPECT_LT(line.at("ms").get<double>(), 1000.0) << "the duration runs from the request's first byte: " << line;
+        EXPECT_EQ(line.at("level"), status >= 500 ? "error" : "info") << line;
+      }
+      EXPECT_EQ(lines, 1) << "one access line for request " << id << "\n" << log;
+    }
+    for (const auto& line : access) {
+      if (line.at("request_id") == "it-mesh") {
+        EXPECT_EQ(line.at("method"), "POST");
+        EXPECT_EQ(line.at("route"), "/mesh");
+      }
+    }
+  }
+  {
+    // Corrupt every cache entry; the restarted server finds them corrupt, says so at error level, and recomputes.
+    for (const auto& entry : fs::recursive_directory_iterator(cache_.path())) {
+      if (!entry.is_regular_file()) continue;
+      std::fstream file(entry.path(), std::ios::in | std::ios::out | std::ios::binary);
+      file.seekp(-1, std::ios::end);
+      file.put('\x7f');
+    }
+    server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+    EXPECT_EQ(upload(server, molecule_path("gly.pqr")).status, 200);
+    EXPECT_EQ(server.kill(SIGTERM), 0);
+    const std::vector<nlohmann::json> corrupt = log_events(server.log(), "cache_corrupt");
+    ASSERT_FALSE(corrupt.empty()) << server.log();
+    EXPECT_EQ(corrupt.front().at("level"), "error");
+    EXPECT_EQ(corrupt.front().at("reason"), "checksum mismatch");
+  }
+  {
+    // A job done whose mesh the cache could not keep (1-byte memory cache, no disk): the loss is an error line.
+    server_process server(work_.path(), {"--cache-memory-bytes", "1"});
+    const curl_reply accepted = upload(server, molecule_path("gly.pqr"), "", "/jobs");
+    ASSERT_EQ(accepted.status, 202) << accepted.body;
+    const std::string id = nlohmann::json::parse(accepted.body).at("id");
+    for (int i = 0; i < 500; ++i) {
+      if (nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body).at("status") == "done") break;
+      std::this_thread::sleep_for(10ms);
+    }
+    EXPECT_EQ(curl("", server.url("/jobs/" + id + "/mesh?format=off")).status, 404);
+    EXPECT_EQ(server.kill(SIGTERM), 0);
+    const std::vector<nlohmann::json> lost = log_events(server.log(), "job_result_lost");
+    ASSERT_EQ(lost.size(), 1u) << server.log();
+    EXPECT_EQ(lost.front().at("level"), "error");
+    EXPECT_EQ(lost.front().at("job"), id);
+  }
 }
 
 }  // namespace

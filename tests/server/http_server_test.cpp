@@ -5,7 +5,11 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <chrono>
+#include <cstdio>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -15,6 +19,33 @@
 
 namespace tracemesh::server::test {
 namespace {
+
+constexpr const char* test_boundary = "----tracemesh-test-boundary";
+
+/// `bytes` compressed by the gzip command (as a client such as `curl --data-binary @x.gz` would send them).
+std::string gzipped(const std::string& bytes) {
+  char name[] = "/tmp/tracemesh-gzip-XXXXXX";
+  const int fd = ::mkstemp(name);
+  if (fd < 0) return {};
+  ::close(fd);
+  { std::ofstream(name, std::ios::binary) << bytes; }
+  std::string out;
+  if (FILE* pipe = ::popen((std::string("gzip -c -n ") + name).c_str(), "r")) {
+    char buffer[65536];
+    std::size_t n;
+    while ((n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0) out.append(buffer, n);
+    ::pclose(pipe);
+  }
+  std::remove(name);
+  return out;
+}
+
+/// A multipart upload whose body is sent with Content-Encoding: `coding`, encoded as `body`.
+std::string encoded_upload(const std::string& target, const std::string& coding, const std::string& body) {
+  return "POST " + target + " HTTP/1.1\r\nHost: test\r\nContent-Type: multipart/form-data; boundary=" +
+         std::string(test_boundary) + "\r\nContent-Encoding: " + coding +
+         "\r\nContent-Length: " + std::to_string(body.size()) + "\r\n\r\n" + body;
+}
 
 class HttpServerTest : public service_fixture {
  protected:
@@ -155,21 +186,144 @@ TEST_F(HttpServerTest, KeepAliveServesSeveralRequestsInOrder) {
   EXPECT_FALSE(nlohmann::json::parse(openapi.body, nullptr, false).is_discarded());
 }
 
-TEST_F(HttpServerTest, ConnectionsOverTheLimitGet503) {
-  start([](server_config& c) { c.limits.max_connections = 2; });
-  raw_connection first(port_);
-  raw_connection second(port_);
-  ASSERT_TRUE(first.send(get_request("/healthz")));
-  ASSERT_TRUE(second.send(get_request("/healthz")));
-  EXPECT_EQ(first.read_reply().status, 200);
-  EXPECT_EQ(second.read_reply().status, 200);
-  raw_connection third(port_);
-  expect_error(third.read_reply(), 503, "unavailable");
-  EXPECT_TRUE(third.closed_by_peer(2s));
-  ASSERT_TRUE(first.send(get_request("/healthz")));
-  EXPECT_EQ(first.read_reply().status, 200);  // existing connections are unaffected
+TEST_F(HttpServerTest, IdleKeepAliveConnectionsGiveWayToNewOnesOldestFirst) {
+  // Finding 5: idle keep-alive connections filling the limit made the server answer 503 to everyone.
+  start([](server_config& c) { c.limits.max_connections = 3; });
+  std::vector<std::unique_ptr<raw_connection>> idle;
+  for (int i = 0; i < 3; ++i) {
+    idle.push_back(std::make_unique<raw_connection>(port_));
+    ASSERT_TRUE(idle.back()->send(get_request("/healthz")));
+    ASSERT_EQ(idle.back()->read_reply().status, 200);  // now idle, kept alive
+  }
+  for (int round = 0; round < 2; ++round) {
+    raw_connection newcomer(port_);
+    ASSERT_TRUE(newcomer.send(get_request("/openapi.json")));
+    EXPECT_EQ(newcomer.read_reply().status, 200) << round;
+    EXPECT_TRUE(idle[round]->closed_by_peer(2s)) << "the oldest idle connection gives way: " << round;
+  }
+  EXPECT_FALSE(idle[2]->closed_by_peer(100ms)) << "the youngest idle connection is kept";
+  ASSERT_TRUE(idle[2]->send(get_request("/healthz")));
+  EXPECT_EQ(idle[2]->read_reply().status, 200);
 }
 
+TEST_F(HttpServerTest, HealthRoutesAnswerWhenEveryConnectionIsBusy) {
+  start([](server_config& c) {
+    c.limits.max_connections = 2;
+    c.limits.health_connection_reserve = 2;
+  });
+  // Two busy connections (header begun, never finished): nothing idle to close.
+  raw_connection busy1(port_), busy2(port_);
+  ASSERT_TRUE(busy1.send("GET /healthz HTTP/1.1\r\n"));
+  ASSERT_TRUE(busy2.send("GET /healthz HTTP/1.1\r\n"));
+  ASSERT_TRUE(eventually([&] {
+    return service_->http_state().open_connections.load() == 2 && service_->http_state().idle.size() == 0;
+  }));
+  for (const char* target : {"/healthz", "/readyz"}) {
+    raw_connection probe(port_);
+    ASSERT_TRUE(probe.send(get_request(target)));
+    const http_reply r = probe.read_reply();
+    EXPECT_EQ(r.status, 200) << target;
+    EXPECT_EQ(r.header("connection"), "close") << target;
+    EXPECT_TRUE(probe.closed_by_peer(2s));
+  }
+  raw_connection other(port_);
+  ASSERT_TRUE(other.send(get_request("/openapi.json")));
+  const http_reply refused = other.read_reply();
+  expect_error(refused, 503, "unavailable");
+  EXPECT_EQ(refused.header("retry-after"), std::to_string(config_.limits.retry_after_seconds));
+  EXPECT_TRUE(other.closed_by_peer(2s));
+  // Past the reserve too: 503 at once, without reading.
+  raw_connection reserve1(port_), reserve2(port_);
+  ASSERT_TRUE(eventually([&] { return service_->http_state().open_connections.load() == 4; }));
+  raw_connection past(port_);
+  expect_error(past.read_reply(), 503, "unavailable");
+  EXPECT_TRUE(past.closed_by_peer(2s));
+}
+
+TEST_F(HttpServerTest, Http11WithoutExactlyOneHostIs400) {
+  // Finding 13: RFC 9112 §3.2 requires 400 for an HTTP/1.1 request without Host (or with several).
+  start();
+  for (const std::string& request :
+       {std::string("GET /healthz HTTP/1.1\r\n\r\n"), std::string("GET /healthz HTTP/1.1\r\nHost: a\r\nHost: b\r\n\r\n"),
+        upload_request("/mesh", gly_).replace(0, std::string("POST /mesh HTTP/1.1\r\nHost: test\r\n").size(),
+                                              "POST /mesh HTTP/1.1\r\n")}) {
+    raw_connection connection(port_);
+    ASSERT_TRUE(connection.send(request));
+    const http_reply r = connection.read_reply();
+    expect_error(r, 400, "bad_request");
+    EXPECT_NE(r.body.find("Host"), std::string::npos) << r.body;
+  }
+  EXPECT_EQ(mesher_.runs(), 0);
+  EXPECT_EQ(round_trip(port_, "GET /healthz HTTP/1.0\r\n\r\n").status, 200) << "HTTP/1.0 needs no Host";
+  EXPECT_EQ(get("/healthz").status, 200);
+}
+
+TEST_F(HttpServerTest, GzipEncodedBodiesAreDecodedAndOtherCodingsGet415) {
+  // Finding 13: a Content-Encoding: gzip body got 400.
+  start([](server_config& c) { c.limits.max_pqr_bytes = 512 * 1024; });
+  const std::string body = tracemesh::testing::multipart_body(test_boundary, gly_, {{"density", "2.0"}});
+  const http_reply plain = post("/mesh?density=2.0", gly_);
+  ASSERT_EQ(plain.status, 200) << plain.body;
+  for (const char* coding : {"gzip", "x-gzip", "GZIP", "identity, gzip"}) {
+    const http_reply decoded = round_trip(port_, encoded_upload("/mesh", coding, gzipped(body)));
+    EXPECT_EQ(decoded.status, 200) << coding << ": " << decoded.body;
+    EXPECT_EQ(decoded.header("x-job-id"), plain.header("x-job-id")) << "the same job as the plain upload";
+    EXPECT_EQ(decoded.body, plain.body);
+  }
+  EXPECT_EQ(round_trip(port_, encoded_upload("/mesh", "identity", body)).status, 200);
+  // Not gzip data, a truncated stream, and a decoded body over the decompressed limit.
+  expect_error(round_trip(port_, encoded_upload("/mesh", "gzip", body)), 400, "invalid_input");
+  const std::string compressed = gzipped(body);
+  expect_error(round_trip(port_, encoded_upload("/mesh", "gzip", compressed.substr(0, compressed.size() / 2))), 400,
+               "invalid_input");
+  const std::string bomb = gzipped(tracemesh::testing::multipart_body(test_boundary, std::string(600 * 1024, ' ')));
+  ASSERT_LT(bomb.size(), config_.limits.max_upload_bytes);
+  expect_error(round_trip(port_, encoded_upload("/mesh", "gzip", bomb)), 413, "limit_exceeded");
+  // Codings the server does not decode: 415 with Accept-Encoding, before the body is read.
+  for (const char* coding : {"br", "deflate", "gzip, gzip", "compress"}) {
+    raw_connection connection(port_);
+    ASSERT_TRUE(connection.send(encoded_upload("/jobs", coding, body)));
+    const http_reply r = connection.read_reply();
+    expect_error(r, 415, "unsupported_media_type");
+    EXPECT_EQ(r.header("accept-encoding"), "gzip") << coding;
+  }
+  EXPECT_EQ(service_->uploads().uploads_in_flight(), 0u);
+  EXPECT_EQ(get("/healthz").status, 200);
+}
+
+TEST_F(HttpServerTest, EveryResponseCarriesARequestId) {
+  start([](server_config& c) { c.limits.health_connection_reserve = 0; });
+  const http_reply first = get("/healthz");
+  const http_reply second = get("/nowhere");
+  EXPECT_EQ(first.header("x-request-id").size(), 16u);
+  EXPECT_EQ(second.header("x-request-id").size(), 16u);
+  EXPECT_NE(first.header("x-request-id"), second.header("x-request-id"));
+  EXPECT_EQ(get("/healthz", "X-Request-Id: trace-42.a_b:c\r\n").header("x-request-id"), "trace-42.a_b:c");
+  for (const std::string& bad : {std::string("has space"), std::string(129, 'a'), std::string("<script>")}) {
+    const std::string id = get("/healthz", "X-Request-Id: " + bad + "\r\n").header("x-request-id");
+    EXPECT_EQ(id.size(), 16u) << bad;
+    EXPECT_NE(id, bad);
+  }
+  // Errors before routing and refused connections have one too.
+  raw_connection malformed(port_);
+  ASSERT_TRUE(malformed.send("GET /healthz HTTP/1.1 extra\r\nHost: t\r\n\r\n"));
+  EXPECT_EQ(malformed.read_reply().header("x-request-id").size(), 16u);
+  ASSERT_TRUE(eventually([&] { return service_->http_state().open_connections.load() == 0; }));
+  service_->shutdown();
+  start([](server_config& c) {
+    c.limits.max_connections = 1;
+    c.limits.health_connection_reserve = 0;
+  });
+  raw_connection holder(port_);
+  ASSERT_TRUE(holder.send("GET /healthz HTTP/1.1\r\n"));  // busy: cannot give way
+  ASSERT_TRUE(eventually([&] {
+    return service_->http_state().open_connections.load() == 1 && service_->http_state().idle.size() == 0;
+  }));
+  raw_connection refused(port_);
+  const http_reply busy = refused.read_reply();
+  EXPECT_EQ(busy.status, 503);
+  EXPECT_EQ(busy.header("x-request-id").size(), 16u);
+}
 
 TEST_F(HttpServerTest, PipelinedRequestsAreAnsweredInOrderBehindASlowOne) {
   start();
