@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/atom_resolution.hpp"
 #include "core/field/band_culling.hpp"
 #include "core/field/gaussian_field.hpp"
 #include "core/lattice/lattice.hpp"
@@ -23,7 +24,7 @@ constexpr double surface_distance_tolerance = 1e-3;
 
 /// Edge length of an equilateral mesh with `density` vertices per Å² (a closed mesh has about twice as many
 /// triangles as vertices, each of area √3/4·L²).
-double target_edge_length(double density) { return std::sqrt(2.0 / (std::sqrt(3.0) * density)); }
+double target_edge_length(double density) { return mesh_edge_length(density); }
 
 /// Cutoff tolerance (relative to t0) of the field the trace path walks on between lines: its contour lies within
 /// ~1e-3 Å of the exact one and it sums about half as many atoms (README "Method"); a strip whose walk conflicts is
@@ -176,6 +177,7 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
     return status{errc::limit_exceeded, std::to_string(mol.atoms.size()) + " atoms exceed the limit of " +
                                             std::to_string(limits.max_atoms)};
   }
+  if (status s = check_atom_resolution(mol, params); !s) return s;
   const int threads = params.threads == 0 ? tbb::task_arena::automatic : static_cast<int>(params.threads);
   tbb::task_arena arena(threads);
   result<mesh_output> out = status{errc::internal_error, "not run"};

@@ -65,7 +65,9 @@ struct mesh_output {
 
 /// Meshes the Gaussian surface {φ = t0} of `mol`. Deterministic: the same input gives the same mesh whatever
 /// params.threads is. Errors: invalid_argument (params), nothing_to_mesh (no atom with radius > 0),
-/// limit_exceeded (extent or size over `limits`), cancelled (token), internal_error (certificate failed).
+/// limit_exceeded (extent or size over `limits`), unresolvable_input (an atom below
+/// parameter_ranges::min_atom_surface_radius_per_edge, see atom_resolution.hpp), cancelled (token),
+/// internal_error (certificate failed).
 result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
                                   progress_token& progress);
 

@@ -12,6 +12,7 @@ const char* errc_name(errc code) noexcept {
     case errc::cancelled: return "cancelled";
     case errc::io_error: return "io_error";
     case errc::internal_error: return "internal_error";
+    case errc::unresolvable_input: return "unresolvable_input";
   }
   return "unknown";
 }

@@ -19,6 +19,8 @@ enum class errc {
   cancelled,          ///< the progress token asked to stop
   io_error,           ///< a file could not be read or written
   internal_error,     ///< a certificate check failed: a bug, never a silent wrong mesh
+  unresolvable_input, ///< well-formed atoms the sampling cannot resolve (parameter_ranges::
+                      ///< min_atom_surface_radius_per_edge): HTTP 422
 };
 
 /// Stable machine-readable name of an error code ("invalid_input"...), used in JSON error bodies.

@@ -152,6 +152,7 @@ int http_status(errc code) noexcept {
     case errc::cancelled: return 503;
     case errc::io_error: return 500;
     case errc::internal_error: return 500;
+    case errc::unresolvable_input: return 422;
   }
   return 500;
 }

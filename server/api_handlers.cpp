@@ -14,6 +14,7 @@
 #include <boost/range/iterator_range.hpp>
 #include <nlohmann/json.hpp>
 
+#include "core/atom_resolution.hpp"
 #include "core/io/pqr_reader.hpp"
 #include "core/io/structure/molecule_reader.hpp"
 #include "proto/api_types.hpp"
@@ -590,6 +591,8 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
         read_molecule(upload->pqr, upload->options, deps_.config.limits.mesh, deps_.config.limits.max_pqr_bytes);
     std::string().swap(upload->pqr);
     if (!read.ok()) return read.error();
+    // Refused here (422) rather than by the job: the client learns at once which atom is too small.
+    if (status resolvable = check_atom_resolution(read->mol, upload->request.params); !resolvable) return resolvable;
     return std::move(read->mol);
   }();
   // The upload is over once parsed (its bytes are freed above): release its admission before anything can answer

@@ -38,6 +38,22 @@ TEST(mesher, single_atom_gives_a_sphere_with_analytic_area_and_volume) {
   }
 }
 
+// At coarse densities a lattice edge is 2–5 Å long: a root accepted after a short bisection step (1e-3 of the edge)
+// was 2.1e-3 Å off the surface for one atom of radius 1.5 Å at density 0.2, and the job failed its certificate.
+TEST(mesher, coarse_densities_put_every_lattice_root_on_the_surface) {
+  for (const double density : {0.05, 0.1, 0.2, 0.3}) {
+    for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
+      mesh_params params;
+      params.density = density;
+      params.refine = refine;
+      progress_token progress;
+      const auto out = mesh_molecule(atoms({{{0.123, 0.456, 0.789}, 1.5, 0}}), params, {}, progress);
+      ASSERT_TRUE(out.ok()) << "density " << density << ": " << out.error().message();
+      EXPECT_LE(out->max_surface_distance, 1e-4) << "density " << density;  // the quality pass settles to 1e-5
+    }
+  }
+}
+
 TEST(mesher, sphere_area_error_shrinks_with_the_square_of_the_edge_length) {
   const double r = 2.0;
   const double exact = 4 * std::numbers::pi * r * r;

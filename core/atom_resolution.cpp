@@ -1,0 +1,69 @@
+#include "core/atom_resolution.hpp"
+
+#include <cmath>
+#include <optional>
+#include <sstream>
+#include <vector>
+
+#include "core/field/gaussian_field.hpp"
+#include "core/limits.hpp"
+
+namespace tracemesh {
+
+namespace {
+
+/// Radius of an atom's own surface sphere relative to its radius: √(1 + ln t0 / d), 0 when the atom alone never
+/// reaches t0 (t0 ≥ e^{-d}).
+double surface_radius_factor(double d, double t0) {
+  const double q = 1.0 + std::log(t0) / d;
+  return q > 0 ? std::sqrt(q) : 0.0;
+}
+
+}  // namespace
+
+double mesh_edge_length(double density) noexcept { return std::sqrt(2.0 / (std::sqrt(3.0) * density)); }
+
+status check_atom_resolution(const molecule& mol, const mesh_params& params) {
+  const double edge = mesh_edge_length(params.density);
+  const double min_surface_radius = parameter_ranges::min_atom_surface_radius_per_edge * edge;
+  const double factor = surface_radius_factor(params.d, params.t0);
+  const auto resolvable = [&](const atom& a) { return a.radius * factor >= min_surface_radius; };
+
+  std::vector<std::size_t> small;  // indices of atoms with radius > 0 below the rule
+  molecule resolved;
+  for (std::size_t i = 0; i < mol.atoms.size(); ++i) {
+    const atom& a = mol.atoms[i];
+    if (a.radius == 0) continue;
+    if (resolvable(a)) {
+      resolved.atoms.push_back(a);
+    } else {
+      small.push_back(i);
+    }
+  }
+  if (small.empty()) return status::success();
+
+  // Buried: the centre lies inside the surface of the resolvable atoms (their field reaches t0 there).
+  std::optional<gaussian_field> field;
+  if (!resolved.atoms.empty()) field.emplace(resolved, params.d, params.t0);
+  for (const std::size_t i : small) {
+    if (field && field->probe(mol.atoms[i].center).value >= params.t0) continue;
+    const atom& a = mol.atoms[i];
+    std::ostringstream why;
+    why << "atom " << i + 1 << " (radius " << a.radius << " \u00c5) is too small to be meshed at density "
+        << params.density << ": its surface sphere must have a radius of at least " << min_surface_radius
+        << " \u00c5 (" << parameter_ranges::min_atom_surface_radius_per_edge << " mesh edge of " << edge
+        << " \u00c5 at d = " << params.d << ", t0 = " << params.t0 << ")";
+    if (factor > 0) {
+      const double needed_density = 2.0 / (std::sqrt(3.0) * std::pow(a.radius * factor /
+                                                                      parameter_ranges::min_atom_surface_radius_per_edge, 2));
+      why << "; raise the density to at least " << needed_density << ",";
+    } else {
+      why << "; with t0 >= e^-d no atom alone reaches t0,";
+    }
+    why << " or give the atom radius 0 to leave it out";
+    return status{errc::unresolvable_input, why.str()};
+  }
+  return status::success();
+}
+
+}  // namespace tracemesh
