@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages tracemesh builds, tests and benchmarks with; does nothing when all are present.
-# Usage: scripts/install-deps.sh [--bench-paper]   (--bench-paper adds python3-matplotlib for `make bench-paper`)
+# Usage: scripts/install-deps.sh [--bench-paper]   (--bench-paper adds python3-matplotlib and python3-numpy for `make bench-paper`)
 set -euo pipefail
 packages=(
   cmake g++ make pkg-config git curl ca-certificates
@@ -10,7 +10,7 @@ packages=(
   clang-14 libclang-rt-14-dev wrk nginx-light procps
 )
 # `make bench-paper` only: the plots of bench/bench_report.py.
-if [[ ${1:-} == --bench-paper ]]; then packages+=(python3 python3-matplotlib); fi
+if [[ ${1:-} == --bench-paper ]]; then packages+=(python3 python3-matplotlib python3-numpy); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
