@@ -166,7 +166,34 @@ class TracemeshdTest : public ::testing::Test {
       reply.headers[name] = line.substr(line.find_first_not_of(' ', colon + 1));
     }
     reply.body = read_file(body);
+    record_json_exchange(args, url, reply);
     return reply;
+  }
+
+  /// Every JSON body received is kept (with its method, path and status) and checked at the end of the test against
+  /// the schema that openapi.json gives for it, with Ajv (tests/node/check_openapi.mjs).
+  void record_json_exchange(const std::string& args, const std::string& url, const curl_reply& reply) {
+    const auto type = reply.headers.find("content-type");
+    if (type == reply.headers.end() || type->second.rfind("application/json", 0) != 0) return;
+    const std::string method = args.find("-X DELETE") != std::string::npos ? "delete"
+                               : args.find("-F ") != std::string::npos || args.find("--data") != std::string::npos
+                                   ? "post"
+                                   : "get";
+    std::string path = url.substr(url.find('/', std::string("http://").size()));
+    path = path.substr(0, path.find('?'));
+    const nlohmann::json record = {{"method", method}, {"path", path}, {"status", reply.status}, {"body", reply.body}};
+    std::ofstream(work_.path() / "exchanges.jsonl", std::ios::app) << record.dump() << "\n";
+  }
+
+  void TearDown() override {
+    const fs::path exchanges = work_.path() / "exchanges.jsonl";
+    if (!fs::exists(exchanges)) return;
+    std::string command = TRACEMESH_NODE;
+    command.append(" ").append(TRACEMESH_SOURCE_DIR).append("/tests/node/check_openapi.mjs bodies ");
+    command.append(TRACEMESH_SOURCE_DIR).append("/proto/openapi.json ").append(exchanges.string());
+    command.append(" 2>&1; echo \"exit=$?\"");
+    const std::string out = run(command);
+    EXPECT_NE(out.find("exit=0"), std::string::npos) << "JSON bodies against openapi.json:\n" << out;
   }
 
   curl_reply upload(const server_process& server, const fs::path& pqr, const std::string& fields = {},
@@ -718,6 +745,18 @@ TEST_F(TracemeshdTest, FarApartAtomsAreServedAsOffAndRefusedOnlyByDraco) {
   const nlohmann::json job = nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body);
   EXPECT_EQ(job.at("report").at("encodings").at("draco").at("error").at("code"), "limit_exceeded") << job;
   EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1);
+}
+
+TEST_F(TracemeshdTest, ServedOpenApiDocumentPassesAValidator) {
+  server_process server(work_.path(), {});
+  const curl_reply served = curl("", server.url("/openapi.json"));
+  ASSERT_EQ(served.status, 200);
+  const fs::path document = write("openapi.json", served.body);
+  std::string command = TRACEMESH_NODE;
+  command.append(" ").append(TRACEMESH_SOURCE_DIR).append("/tests/node/check_openapi.mjs lint ");
+  command.append(document.string()).append(" 2>&1; echo \"exit=$?\"");
+  const std::string out = run(command);
+  EXPECT_NE(out.find("exit=0"), std::string::npos) << out;
 }
 
 }  // namespace

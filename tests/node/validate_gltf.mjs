@@ -31,4 +31,4 @@ for (const file of files) {
   console.log(JSON.stringify(summary));
   if (issues.numErrors > 0 || issues.numWarnings > 0) failed = true;
 }
-process.exit(failed ? 1 : 0);
+process.exitCode = failed ? 1 : 0;  // not process.exit(): it would cut stdout short on a pipe
