@@ -69,7 +69,7 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
                  "Molecule file: PQR, PDB, mmCIF or xyzr (told from the content), plain or gzip-compressed")
       ->required();
   app.add_option("-o,--output", options.output,
-                 "Mesh file to write; its extension (.off, .drc, .vert/.face) picks the format")
+                 "Mesh file to write; its extension (.off, .drc, .glb, .ply, .vert/.face) picks the format")
       ->required();
   app.add_option("--density", texts["density"],
                  "Vertices per Å², " + range_and_default(r::min_density, r::max_density, defaults.density))
@@ -109,7 +109,8 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
   app.add_option("--ligands", texts["ligands"], "PDB/mmCIF: keep (default) | drop ligands, ions, cofactors");
   app.add_option("--threads", options.params.threads, "Worker threads, 0 = all cores (never changes the output)")
       ->check(CLI::Range(0U, max_threads));
-  app.add_option("--format", format_text, "off | draco | msms (default: from the output's extension)");
+  app.add_option("--format", format_text,
+                 proto::format_names_text() + " or msms (default: from the output's extension; .glb is glb)");
   app.add_option("--report", report_text, "Write the JSON report to FILE, or to stdout with -");
   app.add_flag("-v,--verbose", options.verbose, "Print timings and a summary on stderr");
   app.set_version_flag("--version", std::string("tracemesh (engine ") + engine_version + ")");
@@ -142,23 +143,24 @@ status finish_options(const CLI::App& app, cli_options& options, parameter_texts
 }  // namespace
 
 result<output_format> parse_output_format(std::string_view name) {
-  if (name == "off") return output_format::off;
-  if (name == "draco") return output_format::draco;
-  if (name == "msms") return output_format::msms;
-  return status(errc::invalid_argument, "--format: expected off, draco or msms");
+  if (name == "msms") return output_format{.msms = true};
+  const result<proto::mesh_format> format = proto::parse_mesh_format(name);
+  if (!format) return status(errc::invalid_argument, "--format: expected " + proto::format_names_text() + " or msms");
+  return output_format{.mesh = *format};
 }
 
 result<output_format> infer_output_format(const std::filesystem::path& output) {
   const std::string extension = lowercase(output.extension().string());
-  if (extension == ".off") return output_format::off;
-  if (extension == ".drc") return output_format::draco;
-  if (extension == ".vert" || extension == ".face") return output_format::msms;
-  return status(errc::invalid_argument,
-                "cannot tell the format of " + output.filename().string() + " (use .off, .drc, .vert or --format)");
+  if (extension == ".vert" || extension == ".face") return output_format{.msms = true};
+  if (const result<proto::mesh_format> format = proto::format_for_extension(extension)) {
+    return output_format{.mesh = *format};
+  }
+  return status(errc::invalid_argument, "cannot tell the format of " + output.filename().string() +
+                                            " (use .off, .drc, .glb, .ply, .vert or --format)");
 }
 
 std::vector<std::filesystem::path> output_paths(const std::filesystem::path& output, output_format format) {
-  if (format != output_format::msms) return {output};
+  if (!format.msms) return {output};
   std::filesystem::path vert = output, face = output;
   return {vert.replace_extension(".vert"), face.replace_extension(".face")};
 }

@@ -20,19 +20,15 @@ double seconds_since(clock_type::time_point start) {
   return std::chrono::duration<double>(clock_type::now() - start).count();
 }
 
-/// The encoded mesh: one buffer per output path (two for MSMS).
-result<std::vector<std::string>> encode(const surface_mesh& mesh, output_format format) {
-  switch (format) {
-    case output_format::off: return std::vector<std::string>{proto::encode_off(mesh)};
-    case output_format::draco: {
-      result<std::string> bytes = proto::encode_draco(mesh);
-      if (!bytes) return bytes.error();
-      return std::vector<std::string>{std::move(bytes).value()};
-    }
-    case output_format::msms:
-      return std::vector<std::string>{proto::encode_msms_vert(mesh), proto::encode_msms_face(mesh)};
+/// The encoded mesh: one buffer per output path (two for MSMS). `input` keeps what the report states about the
+/// delivered bytes (the Draco quantisation and the decoded mesh's check).
+result<std::vector<std::string>> encode(const proto::encoder_input& input, output_format format) {
+  if (format.msms) {
+    return std::vector<std::string>{proto::encode_msms_vert(input.mesh()), proto::encode_msms_face(input.mesh())};
   }
-  return status(errc::invalid_argument, "unknown output format");
+  result<std::string> bytes = proto::format_info(format.mesh).encode(input);
+  if (!bytes) return bytes.error();
+  return std::vector<std::string>{std::move(bytes).value()};
 }
 
 status write_outputs(const cli_options& options, const std::vector<std::string>& encoded) {
@@ -89,16 +85,21 @@ status run(const cli_options& options, progress_token& progress) {
 
   start = clock_type::now();
   progress.report(mesh_stage::encoding, 0);
-  const result<std::vector<std::string>> encoded = encode(output.mesh, options.format);
+  const proto::encoder_input input(output.mesh);
+  const result<std::vector<std::string>> encoded = encode(input, options.format);
   if (!encoded) return encoded.error();
   output.timings.push_back({mesh_stage::encoding, seconds_since(start)});
   if (!progress.report(mesh_stage::done, 1)) return {errc::cancelled, "cancelled"};
 
   if (status written = write_outputs(options, *encoded); !written) return written;
   if (options.report) {
-    if (status written = write_report(*options.report, proto::report_to_json(output, options.params)); !written) {
-      return written;
+    nlohmann::json report = proto::report_to_json(output, options.params);
+    if (!options.format.msms) {
+      const proto::mesh_format format = options.format.mesh;
+      report["encodings"] = {{std::string(proto::format_name(format)),
+                              proto::encoding_to_json(input, format, encoded->front().size())}};
     }
+    if (status written = write_report(*options.report, report); !written) return written;
   }
   if (options.verbose) print_summary(output);
   return status::success();

@@ -125,3 +125,40 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
 }
 
 }  // namespace tracemesh::proto
+
+namespace tracemesh::proto {
+
+nlohmann::json delivered_check_to_json(const delivered_check& check) {
+  return {{"coincident_vertices", check.coincident_vertices},
+          {"degenerate_triangles", check.degenerate_triangles},
+          {"boundary_edges", check.boundary_edges},
+          {"non_manifold_edges", check.non_manifold_edges},
+          {"non_manifold_vertices", check.non_manifold_vertices},
+          {"inconsistently_oriented_edges", check.inconsistently_oriented_edges},
+          {"self_intersections", check.self_intersections},
+          {"passed", check.passed()}};
+}
+
+nlohmann::json encoding_to_json(const encoder_input& input, mesh_format format, const result<std::size_t>& encoded_bytes) {
+  if (!encoded_bytes) {
+    const status& error = encoded_bytes.error();
+    return {{"error", {{"code", errc_name(error.code())}, {"message", error.message()}}}};
+  }
+  nlohmann::json doc = {{"bytes", *encoded_bytes}};
+  switch (format_info(format).positions) {
+    case position_encoding::decimal: break;
+    case position_encoding::draco_grid: {
+      const draco_encoding& draco = *input.draco();  // set: the format encoded
+      doc["position_quantization"] = {{"bits", draco.grid.bits},
+                                      {"step", draco.grid.step()},
+                                      {"max_position_error", draco_settings::max_position_error},
+                                      {"bits_raised", draco.bits_raised}};
+      doc["decoded_check"] = delivered_check_to_json(draco.decoded);
+      break;
+    }
+    case position_encoding::float32: doc["decoded_check"] = delivered_check_to_json(input.float32_check()); break;
+  }
+  return doc;
+}
+
+}  // namespace tracemesh::proto

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/mesher.hpp"
+#include "proto/mesh_encoders.hpp"
 
 namespace tracemesh::proto {
 
@@ -29,6 +30,14 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
 nlohmann::json component_to_json(const component_report& component);
 nlohmann::json certificate_to_json(const mesh_output& output);
 nlohmann::json quality_to_json(const quality_report& quality);
+/// What the report states about one delivered encoding (the "encodings" object of the report, keyed by format
+/// name): {"bytes": encoded_bytes} and, by the format's position_encoding, for a Draco grid "position_quantization"
+/// {bits, step (Å), max_position_error (Å, bound), bits_raised} and "decoded_check" (of Draco's decoding of the
+/// bytes), for float32 "decoded_check" (of the float32-rounded mesh); decoded_check is {coincident_vertices,
+/// degenerate_triangles, boundary_edges, non_manifold_edges, non_manifold_vertices, inconsistently_oriented_edges,
+/// self_intersections, passed}. A format that refused the mesh gives {"error": {code, message}} instead.
+nlohmann::json encoding_to_json(const encoder_input& input, mesh_format format, const result<std::size_t>& encoded_bytes);
+nlohmann::json delivered_check_to_json(const delivered_check& check);
 /// {<stage name>: seconds summed over entries of that stage, ..., "total": sum of all}.
 nlohmann::json timings_to_json(const std::vector<stage_timing>& timings);
 

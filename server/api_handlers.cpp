@@ -22,6 +22,7 @@
 #include "server/content_hash.hpp"
 #include "server/job_id.hpp"
 #include "server/logging.hpp"
+#include "server/mesh_job.hpp"
 
 namespace tracemesh::server {
 
@@ -608,8 +609,7 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   const std::size_t atoms = mol->atoms.size();
 
   if (upload->route == route_id::mesh) {
-    const std::string key = id + "." + std::string(proto::file_extension(upload->request.format)).substr(1);
-    if (auto cached = deps_.cache.get(key)) {
+    if (auto cached = deps_.cache.get(mesh_key(id, upload->request.format))) {
       deps_.stats.count_cache_response();
       return upload->done(mesh_reply(id, upload->request.format, std::move(cached), true, route));
     }
@@ -631,8 +631,10 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
                 retry = deps_.config.limits.retry_after_seconds](const job_snapshot& final_state,
                                                                  const job_output* output) {
       if (!output) return done(job_failure_reply(final_state, "/mesh", retry));
-      auto bytes = format == proto::mesh_format::off ? output->off : output->draco;
-      done(mesh_reply(id, format, std::move(bytes), output->from_cache, "/mesh"));
+      if (const auto refused = output->refused.find(format); refused != output->refused.end()) {
+        return done(status_error_reply(refused->second, "/mesh"));
+      }
+      done(mesh_reply(id, format, output->meshes.at(format), output->from_cache, "/mesh"));
     };
   }
   const submit_result submitted = deps_.jobs.submit(id, std::move(input), std::move(listener));
@@ -708,7 +710,7 @@ void api_handlers::job_mesh(const request_head& head, const std::string& id,
   const proto::mesh_format format = requested ? *requested : job ? job->format : proto::mesh_format::off;
   // Only a URL naming its format always names the same bytes.
   const bool immutable = requested.has_value();
-  const std::string key = id + "." + std::string(proto::file_extension(format)).substr(1);
+  const std::string key = mesh_key(id, format);
   const bool if_none_match = etag_matches(head, etag_for(id, format));
   // The hot path: a memory hit is answered from the I/O thread, no hop.
   if (auto bytes = deps_.cache.get_from_memory(key)) {
@@ -731,6 +733,12 @@ void api_handlers::job_mesh(const request_head& head, const std::string& id,
       deps_.stats.count_cache_response();
       return done(if_none_match ? not_modified(id, format, route)
                                 : mesh_reply(id, format, std::move(bytes), true, route, immutable));
+    }
+    // A done job whose report says this format refused the mesh: that reason (the other formats are served).
+    if (auto report = deps_.cache.get(report_key(id))) {
+      if (std::optional<status> refused = refused_encoding(*report, format)) {
+        return done(status_error_reply(*refused, route));
+      }
     }
     // The queue says done but the cache has no mesh (evicted, not stored, or corrupt): the result is lost.
     if (known_done) {

@@ -1,5 +1,6 @@
 #include "server/job_id.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -57,8 +58,11 @@ std::string compute_job_id(const molecule& mol, const mesh_params& params) {
   return hash.hex_digest();
 }
 
-std::string off_key(const std::string& job_id) { return job_id + ".off"; }
-std::string draco_key(const std::string& job_id) { return job_id + ".drc"; }
+std::string mesh_key(const std::string& job_id, proto::mesh_format format) {
+  std::string suffix(proto::format_name(format));
+  std::replace(suffix.begin(), suffix.end(), '-', '_');  // cache keys allow [a-z0-9_] after the dot
+  return job_id + "." + suffix;
+}
 std::string report_key(const std::string& job_id) { return job_id + ".report"; }
 
 }  // namespace tracemesh::server

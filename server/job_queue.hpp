@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <deque>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -53,9 +54,11 @@ inline constexpr const char* shutdown = "shutdown";    ///< not finished at the 
 }  // namespace job_error
 
 /// What a done job produced: the encodings and the report (JSON text), shared with the responses that send them.
+/// Every format of the format table is either in `meshes` or in `refused` (a format that cannot carry this mesh
+/// faithfully, e.g. Draco for atoms 10⁵ Å apart; the others are still served).
 struct job_output {
-  std::shared_ptr<const std::string> off;
-  std::shared_ptr<const std::string> draco;
+  std::map<proto::mesh_format, std::shared_ptr<const std::string>> meshes;
+  std::map<proto::mesh_format, status> refused;
   std::shared_ptr<const std::string> report;
   bool from_cache = false;  ///< the work found every artifact in the cache and did not mesh
 };

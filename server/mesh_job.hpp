@@ -1,10 +1,11 @@
 #pragma once
 /// @file mesh_job.hpp
-/// The work of one job (job_queue's job_work): cache first, else mesh, encode OFF and Draco, build the report
-/// and store all three in the result cache. Runs on a worker thread (it blocks on CPU and disk).
+/// The work of one job (job_queue's job_work): cache first, else mesh, encode every format of the format table,
+/// build the report (which states every encoding's outcome) and store them all in the result cache. Runs on a worker thread (it blocks on CPU and disk).
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <spdlog/logger.h>
@@ -30,10 +31,16 @@ struct mesh_job_context {
   mesher_function mesher;       ///< tracemesh::mesh_molecule in production
 };
 
-/// The job's artifacts from the cache when all three are there (output.from_cache), else a mesher run
+/// The job's artifacts from the cache when the report and every encoding it lists are there (output.from_cache),
+/// else a mesher run
 /// (counted in metrics::mesher_runs) followed by encoding and caching. Errors: the mesher's (cancelled when the
-/// token was cancelled), encoder errors. A cache write failure is logged and does not fail the job: the result is
+/// token was cancelled). A format that refuses the mesh (limit_exceeded...) is in output.refused, not an error of the
+/// job. A cache write failure is logged and does not fail the job: the result is
 /// still served, just not persisted.
+/// Why the job's report says `format` was not encoded (its "encodings" entry has an error), or nullopt when it was
+/// encoded (or the report does not parse).
+std::optional<status> refused_encoding(const std::string& report, proto::mesh_format format);
+
 result<job_output> run_mesh_job(const mesh_job_context& context, const std::string& id, const job_input& input,
                                 progress_token& token);
 

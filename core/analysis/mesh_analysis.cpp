@@ -117,19 +117,35 @@ std::size_t count_inward_components(const surface_mesh& mesh, const std::vector<
       std::count_if(sums.begin(), sums.end(), [](const component_sums& sum) { return !(sum.normal_agreement > 0); }));
 }
 
-/// Largest area first; equal areas keep label order (by first triangle). NaN areas sort last.
-void sort_by_area(std::vector<component_report>& components) {
-  const auto key = [](const component_report& c) {
-    return std::isnan(c.area) ? -std::numeric_limits<double>::infinity() : c.area;
+/// The order of the components in the report: largest area first; equal areas keep label order (by first
+/// triangle). NaN areas sort last.
+std::vector<std::size_t> order_by_area(const std::vector<component_report>& components) {
+  const auto key = [&](std::size_t c) {
+    return std::isnan(components[c].area) ? -std::numeric_limits<double>::infinity() : components[c].area;
   };
-  std::stable_sort(components.begin(), components.end(),
-                   [&](const component_report& a, const component_report& b) { return key(a) > key(b); });
+  std::vector<std::size_t> order(components.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return key(a) > key(b); });
+  return order;
+}
+
+/// Per vertex, the index of its component in report.components (no_component for a vertex of no triangle).
+std::vector<std::uint32_t> vertex_components(const component_labels& labels, const std::vector<std::size_t>& order) {
+  std::vector<std::uint32_t> rank(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) rank[order[i]] = static_cast<std::uint32_t>(i);
+  std::vector<std::uint32_t> of_vertex(labels.of_vertex.size(), no_component);
+  for (std::size_t v = 0; v < of_vertex.size(); ++v) {
+    if (labels.of_vertex[v] != no_component) of_vertex[v] = rank[labels.of_vertex[v]];
+  }
+  return of_vertex;
 }
 
 void add_components(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                    const component_labels& labels, const edge_census& census, mesh_report& report) {
+                    const component_labels& labels, const edge_census& census, bool label_vertices,
+                    mesh_report& report) {
   const std::vector<component_sums> sums = sum_components(mesh, defects, labels, census);
   const std::vector<std::size_t> loops = detail::count_boundary_loops(census, labels);
+  std::vector<component_report> components;
   for (std::size_t c = 0; c < sums.size(); ++c) {
     const component_report component = make_component_report(sums[c], loops[c]);
     report.area += component.area;
@@ -137,9 +153,11 @@ void add_components(const surface_mesh& mesh, const std::vector<triangle_defect>
     report.euler_characteristic += component.euler_characteristic;
     report.genus += component.genus;
     if (component.cavity) ++report.cavities;
-    report.components.push_back(component);
+    components.push_back(component);
   }
-  sort_by_area(report.components);
+  const std::vector<std::size_t> order = order_by_area(components);
+  for (const std::size_t c : order) report.components.push_back(components[c]);
+  if (label_vertices) report.vertex_component = vertex_components(labels, order);
   report.inward_oriented_components = count_inward_components(mesh, sums);
 }
 
@@ -151,14 +169,14 @@ std::size_t count_intersecting_pairs(const surface_mesh& mesh, const std::vector
 }
 
 void add_topology_and_components(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                                 const detail::vertex_fans& fans, mesh_report& report) {
+                                 const detail::vertex_fans& fans, bool label_vertices, mesh_report& report) {
   const component_labels labels = detail::label_components(mesh, defects);
   edge_census census = detail::take_edge_census(mesh, fans);
   report.boundary_edges = census.boundary_edges;
   report.non_manifold_edges = census.non_manifold_edges;
   report.non_manifold_vertices = census.non_manifold_vertices;
   report.inconsistently_oriented_edges = census.inconsistently_oriented_edges;
-  add_components(mesh, defects, labels, census, report);
+  add_components(mesh, defects, labels, census, label_vertices, report);
   detail::measure_edge_lengths(census.lengths, report.quality);
 }
 
@@ -180,10 +198,16 @@ mesh_report analyze_mesh(const surface_mesh& mesh, const analysis_options& optio
   report.unreferenced_vertices = count_unreferenced_vertices(mesh);
   report.quality = detail::measure_triangle_quality(mesh, defects);
   const detail::vertex_fans fans = detail::build_vertex_fans(mesh, defects);
-  add_topology_and_components(mesh, defects, fans, report);
+  add_topology_and_components(mesh, defects, fans, options.label_vertices, report);
   if (options.check_self_intersections) report.self_intersections = count_intersecting_pairs(mesh, defects, fans);
   report.achieved_density = report.area > 0 ? static_cast<double>(report.vertices) / report.area : 0.0;
   return report;
+}
+
+std::size_t count_degenerate_triangles(const surface_mesh& mesh) {
+  const std::vector<triangle_defect> defects = detail::classify_triangles(mesh);
+  return static_cast<std::size_t>(
+      std::count_if(defects.begin(), defects.end(), [](triangle_defect d) { return d != triangle_defect::none; }));
 }
 
 std::size_t count_self_intersections(const surface_mesh& mesh) {

@@ -76,6 +76,9 @@ struct mesh_report {
   std::size_t inward_oriented_components = 0;
   double achieved_density = 0;          ///< vertices per Å² of area (0 when the area is 0)
   quality_report quality;
+  /// With analysis_options::label_vertices (else empty): per vertex, the index in `components` of the component
+  /// it belongs to; 2³² − 1 for a vertex that no well-formed triangle uses.
+  std::vector<std::uint32_t> vertex_component;
 
   /// Closed, edge- and vertex-manifold, consistently oriented, no degenerate or invalid triangles, no unused
   /// vertex, no self-intersections, and (when normals are supplied) faces oriented like the normals.
@@ -88,6 +91,7 @@ struct mesh_report {
 
 struct analysis_options {
   bool check_self_intersections = true;  ///< false leaves self_intersections at 0 (the test dominates the cost)
+  bool label_vertices = false;           ///< true fills mesh_report::vertex_component
 };
 
 /// An edge shorter than this (Å) makes its triangle degenerate.
@@ -102,6 +106,9 @@ inline constexpr double max_analysed_coordinate = 1e30;
 /// Analyses `mesh` (see the vocabulary above). When mesh.normals is non-empty, each component's face orientation
 /// is compared with those normals. Components are sorted by decreasing area, ties by their first triangle.
 mesh_report analyze_mesh(const surface_mesh& mesh, const analysis_options& options = {});
+
+/// mesh_report::degenerate_triangles + invalid_triangles alone: O(triangles), no topology.
+std::size_t count_degenerate_triangles(const surface_mesh& mesh);
 
 /// Counts pairs of non-degenerate, well-formed triangles that intersect, each pair once, with exact predicates:
 /// - pairs sharing no vertex: any common point (touching counts);

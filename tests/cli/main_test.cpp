@@ -441,6 +441,29 @@ TEST_F(TracemeshCli, FormatFromTheExtensionOrTheOption) {
   EXPECT_TRUE(parse_off(read_file(path("upper.OFF"))).ok);
 }
 
+TEST_F(TracemeshCli, GlbAndPlyFromTheExtensionGlbRawFromTheOption) {
+  const std::string input = tracemesh::testing::molecule_path("gly.pqr").string();
+  ASSERT_EQ(run({input, "-o", path("gly.glb").string()}).exit_code, 0);
+  const std::string glb = read_file(path("gly.glb"));
+  EXPECT_EQ(glb.rfind("glTF", 0), 0U) << "GLB magic";
+  EXPECT_NE(glb.find("KHR_draco_mesh_compression"), std::string::npos) << ".glb is the compressed GLB";
+  ASSERT_EQ(run({input, "-o", path("raw.glb").string(), "--format", "glb-raw", "--report", path("raw.json").string()})
+                .exit_code,
+            0);
+  const std::string raw = read_file(path("raw.glb"));
+  EXPECT_EQ(raw.rfind("glTF", 0), 0U);
+  EXPECT_EQ(raw.find("KHR_draco_mesh_compression"), std::string::npos);
+  const nlohmann::json report = nlohmann::json::parse(read_file(path("raw.json")));
+  EXPECT_EQ(report.at("encodings").at("glb-raw").at("bytes"), raw.size()) << "the report states the encoding";
+  EXPECT_EQ(report.at("encodings").at("glb-raw").at("decoded_check").at("passed"), true);
+  ASSERT_EQ(run({input, "-o", path("gly.ply").string(), "--report", path("ply.json").string()}).exit_code, 0);
+  EXPECT_EQ(read_file(path("gly.ply")).rfind("ply\nformat binary_little_endian 1.0\n", 0), 0U);
+  ASSERT_EQ(run({input, "-o", path("gly.drc").string(), "--report", path("drc.json").string()}).exit_code, 0);
+  const nlohmann::json draco = nlohmann::json::parse(read_file(path("drc.json"))).at("encodings").at("draco");
+  EXPECT_LE(draco.at("position_quantization").at("step").get<double>(), 0.01);
+  EXPECT_EQ(draco.at("decoded_check").at("passed"), true);
+}
+
 TEST_F(TracemeshCli, MsmsPair) {
   const run_result result =
       run({tracemesh::testing::molecule_path("gly.pqr").string(), "-o", path("gly.vert").string()});

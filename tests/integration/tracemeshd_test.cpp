@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support/delivered_mesh.hpp"
 #include "support/pqr_edits.hpp"
 #include "support/structure_writers.hpp"
 #include "support/test_http_client.hpp"
@@ -168,7 +169,34 @@ class TracemeshdTest : public ::testing::Test {
       reply.headers[name] = line.substr(line.find_first_not_of(' ', colon + 1));
     }
     reply.body = read_file(body);
+    record_json_exchange(args, url, reply);
     return reply;
+  }
+
+  /// Every JSON body received is kept (with its method, path and status) and checked at the end of the test against
+  /// the schema that openapi.json gives for it, with Ajv (tests/node/check_openapi.mjs).
+  void record_json_exchange(const std::string& args, const std::string& url, const curl_reply& reply) {
+    const auto type = reply.headers.find("content-type");
+    if (type == reply.headers.end() || type->second.rfind("application/json", 0) != 0) return;
+    const std::string method = args.find("-X DELETE") != std::string::npos ? "delete"
+                               : args.find("-F ") != std::string::npos || args.find("--data") != std::string::npos
+                                   ? "post"
+                                   : "get";
+    std::string path = url.substr(url.find('/', std::string("http://").size()));
+    path = path.substr(0, path.find('?'));
+    const nlohmann::json record = {{"method", method}, {"path", path}, {"status", reply.status}, {"body", reply.body}};
+    std::ofstream(work_.path() / "exchanges.jsonl", std::ios::app) << record.dump() << "\n";
+  }
+
+  void TearDown() override {
+    const fs::path exchanges = work_.path() / "exchanges.jsonl";
+    if (!fs::exists(exchanges)) return;
+    std::string command = TRACEMESH_NODE;
+    command.append(" ").append(TRACEMESH_SOURCE_DIR).append("/tests/node/check_openapi.mjs bodies ");
+    command.append(TRACEMESH_SOURCE_DIR).append("/proto/openapi.json ").append(exchanges.string());
+    command.append(" 2>&1; echo \"exit=$?\"");
+    const std::string out = run(command);
+    EXPECT_NE(out.find("exit=0"), std::string::npos) << "JSON bodies against openapi.json:\n" << out;
   }
 
   curl_reply upload(const server_process& server, const fs::path& pqr, const std::string& fields = {},
@@ -798,6 +826,109 @@ TEST_F(TracemeshdTest, LogsHaveOneAccessLinePerRequestAndErrorLinesFor5xxCorrupt
     EXPECT_EQ(lost.front().at("level"), "error");
     EXPECT_EQ(lost.front().at("job"), id);
   }
+}
+
+// ---- formats (issue 11 item 4; issue 12 findings 3 and 9) --------------------------------------------------------
+
+/// Runs the Khronos glTF validator (tests/node/validate_gltf.mjs) on `files`; its output, and whether it passed.
+std::pair<bool, std::string> validate_gltf(const std::vector<fs::path>& files) {
+  std::string command = TRACEMESH_NODE;
+  command.append(" ").append(TRACEMESH_SOURCE_DIR).append("/tests/node/validate_gltf.mjs");
+  for (const fs::path& file : files) command.append(" ").append(file.string());
+  command.append(" 2>&1; echo \"exit=$?\"");
+  const std::string out = run(command);
+  return {out.find("exit=0") != std::string::npos, out};
+}
+
+TEST_F(TracemeshdTest, EveryFormatIsServedAndDecodesToTheCertifiedMesh) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  const nlohmann::json job = run_job(server, molecule_path("fas2.pqr"), "-F format=glb");
+  const nlohmann::json report = expect_certified_job(server, job);
+  ASSERT_FALSE(report.empty());
+  const std::string id = job.at("id");
+  EXPECT_EQ(job.at("links").at("mesh"), "/jobs/" + id + "/mesh?format=glb");
+  std::vector<fs::path> glbs;
+  for (const tracemesh::proto::mesh_format_info& row : tracemesh::proto::mesh_formats()) {
+    const std::string name(row.name);
+    SCOPED_TRACE(name);
+    curl_reply mesh = curl("", server.url("/jobs/" + id + "/mesh?format=" + name));
+    ASSERT_EQ(mesh.status, 200) << mesh.body;
+    EXPECT_EQ(mesh.headers["content-type"], row.content_type);
+    EXPECT_EQ(mesh.headers["content-disposition"],
+              "attachment; filename=\"" + id.substr(0, 12) + std::string(row.extension) + "\"");
+    // The report states every encoding: its size, and for Draco and float32 the check of what a reader decodes.
+    const nlohmann::json& encoding = report.at("encodings").at(name);
+    EXPECT_EQ(encoding.at("bytes"), mesh.body.size());
+    if (row.positions != tracemesh::proto::position_encoding::decimal) {
+      EXPECT_EQ(encoding.at("decoded_check").at("passed"), true) << encoding;
+    }
+    if (row.positions == tracemesh::proto::position_encoding::draco_grid) {
+      EXPECT_LE(encoding.at("position_quantization").at("step").get<double>(), 0.01) << encoding;
+    }
+    const auto decoded = tracemesh::testing::read_delivered(mesh.body, row.format);
+    ASSERT_TRUE(decoded) << decoded.error().message();
+    EXPECT_EQ(decoded->mesh.vertex_count(), report.at("vertices").get<std::size_t>());
+    EXPECT_EQ(decoded->mesh.triangle_count(), report.at("triangles").get<std::size_t>());
+    tracemesh::testing::expect_sound(decoded->mesh, name);
+    if (!decoded->component.empty()) {
+      const std::int32_t components = *std::max_element(decoded->component.begin(), decoded->component.end()) + 1;
+      EXPECT_EQ(static_cast<std::size_t>(components), report.at("components").size());
+    }
+    if (row.extension == ".glb") glbs.push_back(write(name + ".glb", mesh.body));
+  }
+  const auto [valid, output] = validate_gltf(glbs);
+  EXPECT_TRUE(valid) << output;
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1) << "one run serves every format";
+}
+
+TEST_F(TracemeshdTest, FormatsAreAcceptedByTheCliAndTheServiceAlike) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  const fs::path glb = work_.path() / "gly.glb";
+  const std::string cli = binary_path("tracemesh").string() + " " + molecule_path("gly.pqr").string() + " -o ";
+  ASSERT_EQ(std::system((cli + glb.string()).c_str()), 0);
+  const curl_reply served = upload(server, molecule_path("gly.pqr"), "-F format=glb");
+  ASSERT_EQ(served.status, 200);
+  EXPECT_EQ(served.body, read_file(glb)) << "the CLI and the service write the same bytes";
+  const fs::path ply = work_.path() / "gly.ply";
+  ASSERT_EQ(std::system((cli + ply.string()).c_str()), 0);
+  EXPECT_EQ(upload(server, molecule_path("gly.pqr"), "-F format=ply").body, read_file(ply));
+  expect_error(upload(server, molecule_path("gly.pqr"), "-F format=obj"), 400, "invalid_argument", "unknown format");
+}
+
+// Finding 3: two atoms 40,000 Å apart are a fine molecule; Draco cannot carry its mesh within 0.01 Å in float32,
+// which must cost the Draco formats only: OFF (the default), PLY and GLB-raw are served, Draco and GLB get 413
+// with the reason, and the report says so.
+TEST_F(TracemeshdTest, FarApartAtomsAreServedAsOffAndRefusedOnlyByDraco) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  const fs::path far = write("far.pqr",
+                             "ATOM      1  C   GLY A   1  -20000.000   0.000   0.000  0.0000 1.7000\n"
+                             "ATOM      2  C   GLY A   2   20000.000   0.000   0.000  0.0000 1.7000\n");
+  curl_reply off = upload(server, far);
+  ASSERT_EQ(off.status, 200) << off.body;
+  const auto decoded = tracemesh::testing::read_off(off.body);
+  ASSERT_TRUE(decoded);
+  tracemesh::testing::expect_sound(decoded->mesh, "far-apart OFF");
+  const std::string id = off.headers["x-job-id"];
+  for (const char* format : {"draco", "glb"}) {
+    expect_error(curl("", server.url("/jobs/" + id + "/mesh?format=" + format)), 413, "limit_exceeded", format);
+    expect_error(upload(server, far, std::string("-F format=") + format), 413, "limit_exceeded", format);
+  }
+  EXPECT_EQ(curl("", server.url("/jobs/" + id + "/mesh?format=ply")).status, 200);
+  const nlohmann::json job = nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body);
+  EXPECT_EQ(job.at("report").at("encodings").at("draco").at("error").at("code"), "limit_exceeded") << job;
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1);
+}
+
+TEST_F(TracemeshdTest, ServedOpenApiDocumentPassesAValidator) {
+  server_process server(work_.path(), {});
+  const curl_reply served = curl("", server.url("/openapi.json"));
+  ASSERT_EQ(served.status, 200);
+  const fs::path document = write("openapi.json", served.body);
+  std::string command = TRACEMESH_NODE;
+  command.append(" ").append(TRACEMESH_SOURCE_DIR).append("/tests/node/check_openapi.mjs lint ");
+  command.append(document.string()).append(" 2>&1; echo \"exit=$?\"");
+  const std::string out = run(command);
+  EXPECT_NE(out.find("exit=0"), std::string::npos) << out;
 }
 
 }  // namespace

@@ -175,7 +175,7 @@ std::uint32_t identity_vertex(std::int32_t atom) { return static_cast<std::uint3
 
 TEST(EncodeOff, HeaderCountsThenVerticesThenZeroBasedTriangles) {
   const surface_mesh mesh = tetrahedron();
-  const std::vector<std::string> lines = lines_of(encode_off(mesh));
+  const std::vector<std::string> lines = lines_of(*encode_mesh(mesh, mesh_format::off));
   ASSERT_EQ(lines.size(), 2 + mesh.vertex_count() + mesh.triangle_count());
   EXPECT_EQ(lines[0], "OFF");
   EXPECT_EQ(lines[1], "4 4 0");
@@ -198,17 +198,17 @@ TEST(EncodeOff, HeaderCountsThenVerticesThenZeroBasedTriangles) {
 }
 
 TEST(EncodeOff, NineSignificantDigitsAndNoNegativeZero) {
-  const std::vector<std::string> lines = lines_of(encode_off(tetrahedron()));
+  const std::vector<std::string> lines = lines_of(*encode_mesh(tetrahedron(), mesh_format::off));
   EXPECT_EQ(lines[2], "0.123456789 0 1.5");
   EXPECT_EQ(lines[4], "1234.56789 3 -0.001953125");
 }
 
-TEST(EncodeOff, EmptyMesh) { EXPECT_EQ(encode_off(surface_mesh{}), "OFF\n0 0 0\n"); }
+TEST(EncodeOff, EmptyMesh) { EXPECT_EQ(*encode_mesh(surface_mesh{}, mesh_format::off), "OFF\n0 0 0\n"); }
 
 TEST(EncodeOff, Deterministic) {
   const surface_mesh mesh = icosphere(2, 10, {1, 2, 3});
   const surface_mesh copy = mesh;
-  EXPECT_EQ(encode_off(mesh), encode_off(copy));
+  EXPECT_EQ(*encode_mesh(mesh, mesh_format::off), *encode_mesh(copy, mesh_format::off));
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -216,7 +216,7 @@ TEST(EncodeOff, Deterministic) {
 
 TEST(EncodeDraco, RoundTripsInProcessWithExactAtomIndices) {
   const surface_mesh mesh = icosphere(3, 20, {5, -3, 12});
-  const result<std::string> bytes = encode_draco(mesh);
+  const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
   ASSERT_TRUE(bytes) << bytes.error().message();
   EXPECT_LE(check_draco_round_trip(mesh, *bytes, identity_vertex), draco_settings::max_position_error);
 }
@@ -226,7 +226,7 @@ TEST(EncodeDraco, LargeAtomIndicesRoundTripExactly) {
   const auto atom_of = [](std::uint32_t vertex) { return 1'999'999U - 7 * vertex; };
   const auto vertex_of = [](std::int32_t atom) { return (1'999'999U - static_cast<std::uint32_t>(atom)) / 7; };
   const surface_mesh mesh = icosphere(2, 15, {0, 0, 0}, atom_of);
-  const result<std::string> bytes = encode_draco(mesh);
+  const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
   ASSERT_TRUE(bytes) << bytes.error().message();
   EXPECT_LE(check_draco_round_trip(mesh, *bytes, vertex_of), draco_settings::max_position_error);
 }
@@ -238,7 +238,7 @@ TEST(EncodeDraco, QuantizationBoundHoldsOnA500AngstromBox) {
   EXPECT_GE(grid->bits, 16) << "500 Å at ≤ 0.0115 Å spacing needs 16 bits";
   EXPECT_LE(grid->bits, 17) << "and not much more";
   EXPECT_GE(grid->range, 500.0F);
-  const result<std::string> bytes = encode_draco(mesh);
+  const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
   ASSERT_TRUE(bytes) << bytes.error().message();
   const double max_error = check_draco_round_trip(mesh, *bytes, identity_vertex);
   EXPECT_LE(max_error, draco_settings::max_position_error);
@@ -248,7 +248,7 @@ TEST(EncodeDraco, QuantizationBoundHoldsOnA500AngstromBox) {
 TEST(EncodeDraco, QuantizationBoundHoldsFarFromTheOrigin) {
   // Float32 spacing at 5,000 Å is 0.5 mÅ: the grid must leave room for it.
   const surface_mesh mesh = icosphere(3, 250, {5000, -5000, 4000});
-  const result<std::string> bytes = encode_draco(mesh);
+  const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
   ASSERT_TRUE(bytes) << bytes.error().message();
   EXPECT_LE(check_draco_round_trip(mesh, *bytes, identity_vertex), draco_settings::max_position_error);
 }
@@ -260,7 +260,7 @@ TEST(EncodeDraco, SmallMeshesUseTheMinimumBits) {
 }
 
 TEST(EncodeDraco, CoordinatesTooLargeForFloat32AreALimit) {
-  const result<std::string> bytes = encode_draco(icosphere(1, 10, {1e6, 0, 0}));
+  const result<std::string> bytes = encode_mesh(icosphere(1, 10, {1e6, 0, 0}), mesh_format::draco);
   ASSERT_FALSE(bytes);
   EXPECT_EQ(bytes.error().code(), errc::limit_exceeded);
 }
@@ -268,13 +268,13 @@ TEST(EncodeDraco, CoordinatesTooLargeForFloat32AreALimit) {
 TEST(EncodeDraco, DeterministicBytes) {
   const surface_mesh mesh = icosphere(3, 30, {1, 2, 3});
   const surface_mesh copy = mesh;
-  const result<std::string> first = encode_draco(mesh);
-  const result<std::string> second = encode_draco(copy);
+  const result<std::string> first = encode_mesh(mesh, mesh_format::draco);
+  const result<std::string> second = encode_mesh(copy, mesh_format::draco);
   ASSERT_TRUE(first && second);
   EXPECT_EQ(*first, *second);
   surface_mesh moved = mesh;
   moved.positions[0].x += 0.5;
-  const result<std::string> other = encode_draco(moved);
+  const result<std::string> other = encode_mesh(moved, mesh_format::draco);
   ASSERT_TRUE(other);
   EXPECT_NE(*other, *first) << "the bytes depend on the geometry";
 }
@@ -283,7 +283,7 @@ TEST(EncodeDraco, OptionalAttributesMayBeAbsent) {
   surface_mesh mesh = icosphere(2, 10, {0, 0, 0});
   mesh.normals.clear();
   mesh.atom_index.clear();
-  const result<std::string> bytes = encode_draco(mesh);
+  const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
   ASSERT_TRUE(bytes) << bytes.error().message();
   const std::unique_ptr<draco::Mesh> decoded = decode_in_process(*bytes);
   ASSERT_NE(decoded, nullptr);
@@ -294,7 +294,7 @@ TEST(EncodeDraco, OptionalAttributesMayBeAbsent) {
 
 TEST(EncodeDraco, RejectsMalformedMeshesWithoutCrashing) {
   const auto expect_invalid = [](const surface_mesh& mesh, const char* what) {
-    const result<std::string> bytes = encode_draco(mesh);
+    const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
     ASSERT_FALSE(bytes) << what;
     EXPECT_EQ(bytes.error().code(), errc::invalid_argument) << what;
   };
@@ -337,7 +337,7 @@ std::string decode_with_cli(const std::string& bytes) {
 TEST(EncodeDraco, DecodesWithDebiansDracoDecoder) {
   if (std::string(TRACEMESH_DRACO_DECODER).empty()) GTEST_SKIP() << "draco_decoder not installed";
   const surface_mesh mesh = icosphere(4, 250, {0.37, -0.81, 0.29});  // the 500 Å box
-  const result<std::string> bytes = encode_draco(mesh);
+  const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
   ASSERT_TRUE(bytes) << bytes.error().message();
   const std::string obj = decode_with_cli(*bytes);
 
@@ -395,10 +395,10 @@ TEST(EncodeMesh, DispatchesOnTheFormat) {
   const surface_mesh mesh = icosphere(1, 5, {0, 0, 0});
   const result<std::string> off = encode_mesh(mesh, mesh_format::off);
   ASSERT_TRUE(off);
-  EXPECT_EQ(*off, encode_off(mesh));
+  EXPECT_EQ(*off, *encode_mesh(mesh, mesh_format::off));
   const result<std::string> draco = encode_mesh(mesh, mesh_format::draco);
   ASSERT_TRUE(draco);
-  EXPECT_EQ(*draco, *encode_draco(mesh));
+  EXPECT_EQ(*draco, *encode_mesh(mesh, mesh_format::draco));
 }
 
 TEST(EncodeMsms, VertFileHasOneLinePerVertexWithOneBasedAtoms) {

@@ -12,6 +12,7 @@
 
 #include "core/io/pqr_reader.hpp"
 #include "server/content_hash.hpp"
+#include "server/result_cache.hpp"
 
 namespace tracemesh::server {
 namespace {
@@ -121,8 +122,12 @@ TEST(JobId, HashesLargeMoleculesInBlocks) {
 
 TEST(JobId, ArtifactKeysAreValidCacheKeys) {
   const std::string id = compute_job_id(parse(two_atoms), mesh_params{});
-  EXPECT_EQ(off_key(id), id + ".off");
-  EXPECT_EQ(draco_key(id), id + ".drc");
+  EXPECT_EQ(mesh_key(id, proto::mesh_format::off), id + ".off");
+  EXPECT_EQ(mesh_key(id, proto::mesh_format::draco), id + ".draco");
+  EXPECT_EQ(mesh_key(id, proto::mesh_format::glb_raw), id + ".glb_raw");
+  for (const proto::mesh_format_info& row : proto::mesh_formats()) {
+    EXPECT_TRUE(is_valid_cache_key(mesh_key(id, row.format))) << row.name;
+  }
   EXPECT_EQ(report_key(id), id + ".report");
 }
 

@@ -35,7 +35,7 @@ class gate_work {
       if (id == failing_id) return status(errc::nothing_to_mesh, "nothing here");
       if (id == throwing_id) throw std::runtime_error("boom");
       job_output output;
-      output.off = std::make_shared<const std::string>("OFF " + id);
+      output.meshes[proto::mesh_format::off] = std::make_shared<const std::string>("OFF " + id);
       output.report = std::make_shared<const std::string>("{}");
       return output;
     };
@@ -103,7 +103,7 @@ TEST(JobQueue, IdenticalConcurrentSubmissionsRunOnceAndShareTheOutput) {
       const submit_result r = queue.submit("same", any_input(), [&](const job_snapshot& s, const job_output* out) {
         EXPECT_EQ(s.state, job_state::done);
         std::lock_guard lock(outputs_mutex);
-        outputs.push_back(out ? *out->off : "no output");
+        outputs.push_back(out ? *out->meshes.at(proto::mesh_format::off) : "no output");
         all_notified.count_down();
       });
       (r.outcome == submit_outcome::accepted ? accepted : coalesced).fetch_add(1);

@@ -136,6 +136,32 @@ TEST(MeshAnalysis, DisjointSpheresAreTwoComponentsLargestFirst) {
   EXPECT_TRUE(report.topologically_certified());
 }
 
+TEST(MeshAnalysis, VertexComponentsFollowTheReportOrder) {
+  surface_mesh mesh = icosphere(2, 1.0, {0, 0, 0});
+  const std::size_t small_vertices = mesh.vertex_count();
+  append(mesh, icosphere(2, 2.0, {10, 0, 0}));  // larger, so component 0, though second in vertex order
+  mesh.positions.push_back({50, 50, 50});       // used by no triangle
+  analysis_options options;
+  options.label_vertices = true;
+  const mesh_report report = analyze_mesh(mesh, options);
+  ASSERT_EQ(report.vertex_component.size(), mesh.vertex_count());
+  for (std::size_t v = 0; v < small_vertices; ++v) EXPECT_EQ(report.vertex_component[v], 1U) << v;
+  for (std::size_t v = small_vertices; v + 1 < mesh.vertex_count(); ++v) EXPECT_EQ(report.vertex_component[v], 0U);
+  EXPECT_EQ(report.vertex_component.back(), std::numeric_limits<std::uint32_t>::max());
+  EXPECT_TRUE(analyze_mesh(mesh).vertex_component.empty()) << "only when asked for";
+}
+
+TEST(MeshAnalysis, DegenerateTrianglesCountAlone) {
+  surface_mesh mesh = icosphere(1);
+  EXPECT_EQ(count_degenerate_triangles(mesh), 0U);
+  const auto t = mesh.triangles[0];
+  mesh.positions.push_back(0.25 * mesh.positions[t[0]] + 0.75 * mesh.positions[t[1]]);  // collinear corners
+  mesh.triangles.push_back({t[0], t[1], static_cast<std::uint32_t>(mesh.positions.size() - 1)});
+  mesh.triangles.push_back({t[0], t[0], t[1]});  // repeated index
+  EXPECT_EQ(count_degenerate_triangles(mesh), 2U);
+  EXPECT_EQ(count_degenerate_triangles(mesh), analyze_mesh(mesh).degenerate_triangles);
+}
+
 TEST(MeshAnalysis, EqualAreasKeepTriangleOrder) {
   // A 2 × 2 square and a 4 × 1 strip: both exactly 4 Å², told apart by their vertex counts (9 and 10).
   const surface_mesh square = flat_grid(2, 2);
