@@ -8,15 +8,9 @@
 #include "reader_invariants.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const tracemesh::mesh_limits limits = tracemesh::fuzz::small_limits();
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  for (int variant = 0; variant < 4; ++variant) {
-    tracemesh::structure_options options;
-    options.radii = variant % 2 == 0 ? tracemesh::radii_set::bondi : tracemesh::radii_set::mantina;
-    options.keep_waters = variant >= 2;
-    options.keep_ligands = variant < 2;
-    options.keep_hydrogens = variant != 1;
-    tracemesh::fuzz::check("pdb_reader_fuzzer", tracemesh::parse_pdb(text, options, limits), limits);
-  }
+  tracemesh::fuzz::check_every_structure_option("pdb_reader_fuzzer", text, [](auto... args) {
+    return tracemesh::parse_pdb(args...);
+  });
   return 0;
 }

@@ -13,20 +13,12 @@
 #include <string_view>
 
 #include "core/io/pqr_reader.hpp"
+#include "reader_invariants.hpp"
 
 namespace {
 
 using namespace tracemesh;
 
-/// Small limits so that the fuzzer reaches every limit with short inputs.
-mesh_limits fuzz_limits() {
-  mesh_limits limits;
-  limits.max_atoms = 64;
-  limits.max_abs_coordinate = 1e4;
-  limits.max_radius = 5;
-  limits.max_line_bytes = 256;
-  return limits;
-}
 constexpr std::size_t max_gunzip_bytes = 1 << 20;
 /// Fixed text plus at most 40 quoted bytes escaped to 4 characters each stays well under this.
 constexpr std::size_t max_message_bytes = 400;
@@ -97,7 +89,7 @@ bool same_atoms(const molecule& a, const molecule& b) {
 }
 
 void check_parse(std::string_view text) {
-  const mesh_limits limits = fuzz_limits();
+  const mesh_limits limits = fuzz::small_limits();
   const result<molecule> parsed = parse_pqr(text, limits);
   if (parsed.ok()) {
     check_molecule(*parsed, limits);

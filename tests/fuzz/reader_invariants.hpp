@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <string>
+#include <string_view>
 
+#include "core/io/input_format.hpp"
 #include "core/limits.hpp"
 #include "core/molecule.hpp"
 #include "core/status.hpp"
@@ -71,6 +73,21 @@ void check(const char* reader, const Parsed& parsed, const mesh_limits& limits) 
     check_molecule(reader, *parsed, limits);
   } else {
     check_error(reader, parsed.error());
+  }
+}
+
+/// Runs `parse(text, options, limits)` of a structure reader (PDB, mmCIF) under every combination of its options
+/// that matters (both radii sets, waters, ligands and hydrogens kept or dropped) and checks each result.
+template <class Parse>
+void check_every_structure_option(const char* reader, std::string_view text, Parse parse) {
+  const mesh_limits limits = small_limits();
+  for (int variant = 0; variant < 4; ++variant) {
+    structure_options options;
+    options.radii = variant % 2 == 0 ? radii_set::bondi : radii_set::mantina;
+    options.keep_waters = variant >= 2;
+    options.keep_ligands = variant < 2;
+    options.keep_hydrogens = variant != 1;
+    check(reader, parse(text, options, limits), limits);
   }
 }
 

@@ -30,14 +30,26 @@ surface_sample sample_at(const gaussian_field& field, vec3 p) {
   return s;
 }
 
-TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
-  const gaussian_field field(one_atom(), -1, 1);
-  const double rho = contour_radius();
+/// A strip between the lines y = 0.2 and y = 1.2 of the plane z = plane_z, walked with steps of at most 0.25 Å.
+trace_step_settings strip_from_0_2_to_1_2() {
   trace_step_settings settings;
   settings.v_low = 0.2;
   settings.v_high = 1.2;
   settings.max_step = 0.25;
-  const surface_sample start = sample_at(field, {std::sqrt(rho * rho - 0.04), 0.2, plane_z});
+  return settings;
+}
+
+/// The contour's crossing of the low line y = 0.2 at x > 0.
+surface_sample start_on_the_low_line(const gaussian_field& field) {
+  const double rho = contour_radius();
+  return sample_at(field, {std::sqrt(rho * rho - 0.04), 0.2, plane_z});
+}
+
+TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const double rho = contour_radius();
+  const trace_step_settings settings = strip_from_0_2_to_1_2();
+  const surface_sample start = start_on_the_low_line(field);
   // Into +y from the low line: s·φ_x > 0, and φ_x < 0 at x > 0.
   std::size_t evaluations = 0;
   const traced_arc arc = trace_contour(field, {2, plane_z}, start, -1, settings, evaluations);
@@ -65,11 +77,8 @@ TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
 TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing) {
   const gaussian_field field(one_atom(), -1, 1);
   const double rho = contour_radius();
-  trace_step_settings settings;
-  settings.v_low = 0.2;
-  settings.v_high = 1.2;
-  settings.max_step = 0.25;
-  const surface_sample start = sample_at(field, {std::sqrt(rho * rho - 0.04), 0.2, plane_z});
+  trace_step_settings settings = strip_from_0_2_to_1_2();
+  const surface_sample start = start_on_the_low_line(field);
   std::size_t polished_evaluations = 0;
   const traced_arc polished = trace_contour(field, {2, plane_z}, start, -1, settings, polished_evaluations);
   ASSERT_EQ(polished.end, trace_end::high_line);
@@ -104,13 +113,11 @@ TEST(trace_step, walks_on_the_walk_field_and_decides_near_lines_on_the_exact_one
   const double rho = contour_radius();
   const double walk_rho = std::sqrt(radius * radius * (1 - std::log(1.01)) - plane_z * plane_z);
   ASSERT_GT(rho - walk_rho, 5e-3);
-  trace_step_settings settings;
-  settings.v_low = 0.2;
-  settings.v_high = 1.2;
+  trace_step_settings settings = strip_from_0_2_to_1_2();
   settings.max_step = 0.1;
   settings.walk_field = &walk;
   settings.exact_near_line = 0.15;  // wider than a step: some walk points surely land in it
-  const surface_sample start = sample_at(field, {std::sqrt(rho * rho - 0.04), 0.2, plane_z});
+  const surface_sample start = start_on_the_low_line(field);
   std::size_t evaluations = 0;
   const traced_arc arc = trace_contour(field, {2, plane_z}, start, -1, settings, evaluations);
   ASSERT_EQ(arc.end, trace_end::high_line);
