@@ -57,8 +57,5 @@ std::string compute_job_id(const molecule& mol, const mesh_params& params) {
   return hash.hex_digest();
 }
 
-std::string off_key(const std::string& job_id) { return job_id + ".off"; }
-std::string draco_key(const std::string& job_id) { return job_id + ".drc"; }
-std::string report_key(const std::string& job_id) { return job_id + ".report"; }
 
 }  // namespace tracemesh::server

@@ -12,10 +12,10 @@
 ///   distinct values never share a spelling)
 /// An omitted request parameter and its default spelled out give the same id; the trace parameters do not change
 /// the id of a lattice job (they do not change its mesh or report). params.threads is excluded (it never changes
-/// the output); so is the output format: one job produces the mesh, and its encodings are cached as "<id>.off",
-/// "<id>.drc" and the report as "<id>.report". (v1 hashed f64 density, d, t0 and knew no method: v1 ids are
-/// simply never asked for again; v2 also hashed the charge, which no output depends on, so a PQR and the
-/// PDB of the same atoms were two jobs.)
+/// the output); so is the output format: one job produces the mesh, which the job store keeps, and its encodings
+/// are cached as "<id>.off" and "<id>.drc" (mesh_job.hpp: encoding_key). (v1 hashed f64 density, d, t0 and knew
+/// no method: v1 ids are simply never asked for again; v2 also hashed the charge, which no output depends on, so
+/// a PQR and the PDB of the same atoms were two jobs.)
 
 #include <string>
 
@@ -27,9 +27,5 @@ namespace tracemesh::server {
 /// 64 lower-case hex characters (is_valid_job_id holds). Linear in the atom count; hashes in 64 KiB blocks.
 std::string compute_job_id(const molecule& mol, const mesh_params& params);
 
-/// Cache keys of a job's artifacts.
-std::string off_key(const std::string& job_id);
-std::string draco_key(const std::string& job_id);
-std::string report_key(const std::string& job_id);
 
 }  // namespace tracemesh::server

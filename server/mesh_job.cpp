@@ -2,44 +2,23 @@
 
 #include <chrono>
 
+#include "proto/api_types.hpp"
 #include "proto/mesh_encoders.hpp"
 #include "proto/report_json.hpp"
-#include "server/job_id.hpp"
 #include "server/logging.hpp"
 
 namespace tracemesh::server {
 
-namespace {
-
-std::shared_ptr<const std::string> share(std::string bytes) {
-  return std::make_shared<const std::string>(std::move(bytes));
+std::string encoding_key(const std::string& id, proto::mesh_format format) {
+  return id + "." + std::string(proto::file_extension(format)).substr(1);
 }
-
-std::optional<job_output> cached_output(result_cache& cache, const std::string& id) {
-  job_output output;
-  output.report = cache.get(report_key(id));
-  if (!output.report) return std::nullopt;
-  output.off = cache.get(off_key(id));
-  output.draco = cache.get(draco_key(id));
-  if (!output.off || !output.draco) return std::nullopt;
-  output.from_cache = true;
-  return output;
-}
-
-void store(const mesh_job_context& context, const std::string& id, const std::string& key,
-           const std::string& bytes) {
-  const status stored = context.cache.put(key, bytes);
-  if (!stored.ok()) {
-    log_event(context.log, spdlog::level::warn, "cache_write_failed",
-              {{"job", id}, {"key", key}, {"bytes", bytes.size()}, {"error", stored.message()}});
-  }
-}
-
-}  // namespace
 
 result<job_output> run_mesh_job(const mesh_job_context& context, const std::string& id, const job_input& input,
                                 progress_token& token) {
-  if (auto cached = cached_output(context.cache, id)) return *std::move(cached);
+  if (const std::optional<stored_job> stored = context.store.find(id);
+      stored && stored->state == job_state::done && stored->report) {
+    if (auto mesh = context.store.mesh(id)) return job_output{std::move(mesh), stored->report, true};
+  }
 
   mesh_params params = input.params;
   params.threads = context.mesher_threads;
@@ -47,20 +26,20 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
   const auto started = std::chrono::steady_clock::now();
   result<mesh_output> meshed = context.mesher(input.mol, params, context.limits, token);
   if (!meshed.ok()) return meshed.error();
-
   if (!token.report(mesh_stage::encoding, 0.0)) return status(errc::cancelled, "cancelled");
-  result<std::string> off = proto::encode_mesh(meshed->mesh, proto::mesh_format::off);
-  if (!off.ok()) return off.error();
-  if (!token.report(mesh_stage::encoding, 0.5)) return status(errc::cancelled, "cancelled");
-  result<std::string> draco = proto::encode_mesh(meshed->mesh, proto::mesh_format::draco);
-  if (!draco.ok()) return draco.error();
-  const std::string report = proto::report_to_json(*meshed, input.params).dump();
-  token.report(mesh_stage::encoding, 1.0);
+  auto report = std::make_shared<const std::string>(proto::report_to_json(*meshed, input.params).dump());
 
-  // The report goes last: its presence marks a complete set of artifacts.
-  store(context, id, off_key(id), *off);
-  store(context, id, draco_key(id), *draco);
-  store(context, id, report_key(id), report);
+  stored_job record;
+  record.id = id;
+  record.parameters = proto::canonical_parameters(input.params);
+  record.format = input.format;
+  record.accepted_ms = unix_millis();
+  const status stored = context.store.complete(id, record, meshed->mesh, report);
+  if (!stored.ok()) {
+    log_event(context.log, spdlog::level::err, "job_store_write_failed", {{"job", id}, {"error", stored.message()}});
+    return status(errc::io_error, "the result could not be stored: " + stored.message());
+  }
+  token.report(mesh_stage::encoding, 1.0);
 
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   log_event(context.log, spdlog::level::info, "mesh_done",
@@ -68,16 +47,32 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
              {"atoms", input.mol.atoms.size()},
              {"vertices", meshed->mesh.vertex_count()},
              {"triangles", meshed->mesh.triangle_count()},
-             {"off_bytes", off->size()},
-             {"draco_bytes", draco->size()},
              {"certified", meshed->certified},
              {"seconds", seconds}});
+  return job_output{std::make_shared<const surface_mesh>(std::move(meshed->mesh)), std::move(report), false};
+}
 
-  job_output output;
-  output.off = share(std::move(*off));
-  output.draco = share(std::move(*draco));
-  output.report = share(report);
-  return output;
+result<std::shared_ptr<const std::string>> encoded_result(const mesh_job_context& context, const std::string& id,
+                                                          proto::mesh_format format,
+                                                          std::shared_ptr<const surface_mesh> mesh,
+                                                          bool* cache_hit) {
+  const std::string key = encoding_key(id, format);
+  if (auto cached = context.cache.get(key)) {
+    if (cache_hit) *cache_hit = true;
+    return cached;
+  }
+  if (cache_hit) *cache_hit = false;
+  if (!mesh) mesh = context.store.mesh(id);
+  if (!mesh) return status(errc::invalid_argument, "no mesh");
+  result<std::string> encoded = proto::encode_mesh(*mesh, format);
+  if (!encoded.ok()) return encoded.error();
+  auto bytes = std::make_shared<const std::string>(std::move(*encoded));
+  // The cache only saves work: a failed write loses nothing, the store keeps the mesh.
+  if (const status put = context.cache.put(key, *bytes); !put.ok()) {
+    log_event(context.log, spdlog::level::warn, "cache_write_failed",
+              {{"job", id}, {"key", key}, {"bytes", bytes->size()}, {"error", put.message()}});
+  }
+  return bytes;
 }
 
 }  // namespace tracemesh::server

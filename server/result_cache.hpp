@@ -68,7 +68,8 @@ class result_cache {
   /// Creates the directory, removes orphan temporary files, indexes the existing entries (by modification time,
   /// oldest first, for LRU) and evicts the oldest if they exceed disk_bytes. Entries are verified lazily by
   /// get(). Until open() succeeds the cache works in memory only.
-  /// @return errc::io_error when the directory cannot be created or listed.
+  /// @return errc::io_error when the directory cannot be created, is not a directory or is not writable (a probe
+  ///         file is written, fsync'd and removed).
   status open();
 
   /// The entry's bytes, or nullptr on a miss (unknown or invalid key, corrupt entry — then removed —, read

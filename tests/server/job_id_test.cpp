@@ -12,6 +12,8 @@
 
 #include "core/io/pqr_reader.hpp"
 #include "server/content_hash.hpp"
+#include "server/mesh_job.hpp"
+#include "server/result_cache.hpp"
 
 namespace tracemesh::server {
 namespace {
@@ -121,9 +123,9 @@ TEST(JobId, HashesLargeMoleculesInBlocks) {
 
 TEST(JobId, ArtifactKeysAreValidCacheKeys) {
   const std::string id = compute_job_id(parse(two_atoms), mesh_params{});
-  EXPECT_EQ(off_key(id), id + ".off");
-  EXPECT_EQ(draco_key(id), id + ".drc");
-  EXPECT_EQ(report_key(id), id + ".report");
+  EXPECT_EQ(encoding_key(id, proto::mesh_format::off), id + ".off");
+  EXPECT_EQ(encoding_key(id, proto::mesh_format::draco), id + ".drc");
+  EXPECT_TRUE(is_valid_cache_key(encoding_key(id, proto::mesh_format::draco)));
 }
 
 }  // namespace
