@@ -255,15 +255,22 @@ std::string job_document(const job_snapshot& job) {
   return text;
 }
 
-job_snapshot done_from_cache(const std::string& id, std::shared_ptr<const std::string> report) {
+/// A finished job as the job store keeps it.
+job_snapshot snapshot_from_store(const stored_job& record) {
   job_snapshot job;
-  job.id = id;
-  job.state = job_state::done;
-  job.progress = 1.0;
-  job.stage = mesh_stage::done;
-  job.report = std::move(report);
+  job.id = record.id;
+  job.state = record.state;
+  job.format = record.format;
+  job.progress = record.state == job_state::done ? 1.0 : 0.0;
+  job.stage = record.state == job_state::done ? mesh_stage::done : mesh_stage::reading;
+  job.error_code = record.error_code;
+  if (!record.error_code.empty()) job.error = status(errc::cancelled, record.error_message);
+  job.report = record.report;
   return job;
 }
+
+/// The owner token header of POST /jobs replies and DELETE /jobs/{id} requests.
+constexpr const char* job_token_header = "X-Job-Token";
 
 /// A final job that did not produce a mesh, as the error reply of a synchronous request: 409 cancelled by a
 /// DELETE; 504 past the per-job deadline (the request waited its whole time budget; retrying the same input would
@@ -376,6 +383,8 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
     return r;
   }
 
+  if (auto refused = authorization_failure(head, route.name)) return *std::move(refused);
+
   const server_limits& limits = deps_.config.limits;
   const bool upload = match.id == route_id::mesh || match.id == route_id::jobs;
   const auto declared_length = head[http::field::content_length];
@@ -468,7 +477,9 @@ void api_handlers::handle(const request_head& head, const body_plan&, std::strin
     if (const status known = only_known(*query, {}, "query parameter"); !known.ok()) {
       return done(error_reply(400, "invalid_argument", known.message(), route));
     }
-    if (head.method() == http::verb::delete_) return cancel_job(match.job_id, std::move(done));
+    if (head.method() == http::verb::delete_) {
+      return cancel_job(match.job_id, std::string(to_std(head[job_token_header])), std::move(done));
+    }
     return job_status(match.job_id, std::move(done));
   }
   if (const status known = only_known(*query, {"format"}, "query parameter"); !known.ok()) {
@@ -608,12 +619,20 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   const std::string id = compute_job_id(*mol, upload->request.params);
   const std::size_t atoms = mol->atoms.size();
 
+  // A result already made (cached encoding, or the job store's mesh) is answered without a job.
   if (upload->route == route_id::mesh) {
-    if (auto cached = deps_.cache.get(mesh_key(id, upload->request.format))) {
+    auto encoded = encoded_result(deps_.results, id, upload->request.format);
+    if (encoded.ok()) {
       deps_.stats.count_cache_response();
-      return upload->done(mesh_reply(id, upload->request.format, std::move(cached), true, route));
+      return upload->done(mesh_reply(id, upload->request.format, std::move(encoded->bytes), true, route));
     }
-  } else if (auto report = deps_.cache.get(report_key(id))) {
+    // A lost result is logged and made again by the job below; a refusal is the answer.
+    if (encoded.error().code() == errc::io_error) {
+      log_result_lost(id, upload->request.format, encoded.error().message());
+    } else if (encoded.error().code() != errc::invalid_argument) {
+      return upload->done(status_error_reply(encoded.error(), route));
+    }
+  } else if (const auto stored = deps_.store.find(id); stored && stored->state == job_state::done) {
     deps_.stats.count_cache_response();
     nlohmann::json accepted = {{"id", id}, {"status", "done"}, {"links", job_links(id, upload->request.format)}};
     reply r = json_reply(200, accepted.dump(), route);
@@ -626,18 +645,54 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   input->params = upload->request.params;
   input->format = upload->request.format;
   job_listener listener;
+  submit_options how;
+  std::string owner_token;
   if (upload->route == route_id::mesh) {
-    listener = [done = upload->done, id, format = upload->request.format,
+    how.holder = job_holder{};  // the waiter holds the job until it ends
+    listener = [done = upload->done, id, format = upload->request.format, results = &deps_.results,
                 retry = deps_.config.limits.retry_after_seconds](const job_snapshot& final_state,
                                                                  const job_output* output) {
       if (!output) return done(job_failure_reply(final_state, "/mesh", retry));
-      if (const auto refused = output->refused.find(format); refused != output->refused.end()) {
-        return done(status_error_reply(refused->second, "/mesh"));
-      }
-      done(mesh_reply(id, format, output->meshes.at(format), output->from_cache, "/mesh"));
+      auto encoded = encoded_result(*results, id, format, output->mesh);
+      if (!encoded.ok()) return done(status_error_reply(encoded.error(), "/mesh"));
+      done(mesh_reply(id, format, std::move(encoded->bytes), output->from_cache, "/mesh"));
     };
+  } else {
+    owner_token = new_owner_token();
+    how.holder = job_holder{token_digest(owner_token)};
   }
-  const submit_result submitted = deps_.jobs.submit(id, std::move(input), std::move(listener));
+  const std::shared_ptr<const job_input> shared_input = std::move(input);
+  submit_result submitted{submit_outcome::shutting_down, {}};
+  if (upload->route == route_id::mesh) {
+    submitted = deps_.jobs.submit(id, shared_input, std::move(listener), how);
+  } else {
+    // Accepted work is durable: the store holds the job (record + input) before the queue runs it and before
+    // the client hears 202; a job the queue refuses is forgotten again.
+    std::lock_guard accepting(accept_mutex_);
+    const std::optional<stored_job> stored = deps_.store.find(id);
+    status recorded = status::success();
+    if (stored && stored->state == job_state::queued) {
+      recorded = deps_.store.add_owner(id, how.holder->owner_hash);
+    } else {
+      stored_job record;
+      record.id = id;
+      record.parameters = proto::canonical_parameters(shared_input->params);
+      record.format = shared_input->format;
+      record.owners = {how.holder->owner_hash};
+      record.accepted_ms = unix_millis();
+      recorded = deps_.store.accept(record, *shared_input);
+    }
+    if (!recorded.ok()) {
+      log_event(deps_.log, spdlog::level::err, "job_store_write_failed", {{"job", id}, {"error", recorded.message()}});
+      return upload->done(with_retry_after(
+          error_reply(503, "unavailable", "the job could not be stored; retry later", route),
+          deps_.config.limits.retry_after_seconds));
+    }
+    submitted = deps_.jobs.submit(id, shared_input, {}, how);
+    const bool refused =
+        submitted.outcome == submit_outcome::queue_full || submitted.outcome == submit_outcome::shutting_down;
+    if (refused && !(stored && stored->state == job_state::queued)) deps_.store.forget(id);
+  }
   const unsigned retry = deps_.config.limits.retry_after_seconds;
   log_event(deps_.log, spdlog::level::info, "job_submitted",
             {{"job", id},
@@ -663,42 +718,79 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   if (upload->route == route_id::mesh) return;  // the listener answers
   nlohmann::json accepted = {{"id", id},
                              {"status", std::string(proto::job_state_name(submitted.snapshot.state))},
+                             {"token", owner_token},
                              {"links", job_links(id, upload->request.format)}};
   reply r = json_reply(202, accepted.dump(), route);
   r.headers.emplace_back("Location", "/jobs/" + id);
+  r.headers.emplace_back(job_token_header, owner_token);
   upload->done(std::move(r));
 }
 
 // ---- job routes ---------------------------------------------------------------------------------------------
 
-void api_handlers::job_status(const std::string& id, reply_sink done) {
-  if (auto job = deps_.jobs.find(id)) return done(json_reply(200, job_document(*job), "/jobs/{id}"));
-  boost::asio::post(deps_.prep, [this, id, done = std::move(done)] {
-    if (auto report = deps_.cache.get(report_key(id))) {
-      return done(json_reply(200, job_document(done_from_cache(id, std::move(report))), "/jobs/{id}"));
-    }
-    done(error_reply(404, "not_found", "no such job", "/jobs/{id}"));
-  });
+void api_handlers::log_result_lost(const std::string& id, proto::mesh_format format, const std::string& reason) {
+  log_event(deps_.log, spdlog::level::err, "job_result_lost",
+            {{"job", id}, {"key", mesh_key(id, format)}, {"reason", reason}});
 }
 
-void api_handlers::cancel_job(const std::string& id, reply_sink done) {
+void api_handlers::job_status(const std::string& id, reply_sink done) {
+  if (auto job = deps_.jobs.find(id)) {
+    // The stored report has the encodings made since the job ended; the queue's copy was taken at its end.
+    if (job->state == job_state::done) {
+      if (const std::optional<stored_job> stored = deps_.store.find(id); stored && stored->report) {
+        job->report = stored->report;
+      }
+    }
+    return done(json_reply(200, job_document(*job), "/jobs/{id}"));
+  }
+  // Finished jobs the queue no longer remembers: the job store keeps them for the retention period.
+  if (auto stored = deps_.store.find(id)) {
+    return done(json_reply(200, job_document(snapshot_from_store(*stored)), "/jobs/{id}"));
+  }
+  done(error_reply(404, "not_found", "no such job", "/jobs/{id}"));
+}
+
+void api_handlers::cancel_job(const std::string& id, const std::string& owner_token, reply_sink done) {
   const std::string route = "/jobs/{id}";
-  const cancel_outcome outcome = deps_.jobs.cancel(id);
-  const std::optional<job_snapshot> job = deps_.jobs.find(id);
-  if (outcome == cancel_outcome::not_found || !job) {
-    // Unknown to the queue: a done job may still be known to the cache, and a done job cannot be cancelled.
-    boost::asio::post(deps_.prep, [this, id, route, done = std::move(done)] {
-      if (deps_.cache.get(report_key(id))) return done(already_finished_reply(job_state::done, route));
-      done(error_reply(404, "not_found", "no such job", route));
-    });
-    return;
+  if (owner_token.empty()) {
+    return done(error_reply(401, "unauthorized",
+                            "cancelling a job needs the X-Job-Token header returned when it was submitted", route));
   }
-  if (job->state == job_state::done || job->state == job_state::failed) {
-    return done(already_finished_reply(job->state, route));
+  const std::string owner = token_digest(owner_token);
+  const cancel_outcome outcome = deps_.jobs.withdraw(id, owner);
+  std::optional<job_snapshot> job = deps_.jobs.find(id);
+  if (outcome == cancel_outcome::not_found || outcome == cancel_outcome::already_final) {
+    // A finished job changes for nobody: cancelled again is 200 (idempotent), done or failed 409, whoever asks
+    // (GET tells the same).
+    std::optional<job_snapshot> final_state = job;
+    if (!final_state) {
+      if (const std::optional<stored_job> stored = deps_.store.find(id)) final_state = snapshot_from_store(*stored);
+    }
+    if (!final_state) return done(error_reply(404, "not_found", "no such job", route));
+    if (final_state->state == job_state::cancelled) return done(json_reply(200, job_document(*final_state), route));
+    return done(already_finished_reply(final_state->state, route));
   }
+  if (outcome == cancel_outcome::not_owner) {
+    return done(error_reply(403, "forbidden", "this token does not own the job", route));
+  }
+  deps_.store.remove_owner(id, owner);
   log_event(deps_.log, spdlog::level::info, "job_cancel",
-            {{"job", id}, {"status", std::string(proto::job_state_name(job->state))}});
-  done(json_reply(200, job_document(*job), route));  // cancelled, or running until the pipeline sees the token
+            {{"job", id},
+             {"outcome", outcome == cancel_outcome::withdrawn ? "withdrawn" : "cancelled"},
+             {"status", job ? std::string(proto::job_state_name(job->state)) : "unknown"}});
+  if (!job) return done(error_reply(404, "not_found", "no such job", route));
+  // cancelled; running until the pipeline sees the token; or, when other owners hold it, going on for them.
+  done(json_reply(200, job_document(*job), route));
+}
+
+std::optional<reply> api_handlers::authorization_failure(const request_head& head, const char* route) const {
+  if (!deps_.auth.enabled()) return std::nullopt;
+  const auto& exempt = deps_.config.auth_exempt_routes;
+  if (std::find(exempt.begin(), exempt.end(), route) != exempt.end()) return std::nullopt;
+  if (deps_.auth.accepts(to_std(head[http::field::authorization]))) return std::nullopt;
+  reply r = error_reply(401, "unauthorized", "this server needs an Authorization: Bearer token", route);
+  r.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"tracemeshd\"");
+  return r;
 }
 
 void api_handlers::job_mesh(const request_head& head, const std::string& id,
@@ -726,25 +818,22 @@ void api_handlers::job_mesh(const request_head& head, const std::string& id,
             : "the job " + std::string(proto::job_state_name(job->state)) + ": " + job->error.message();
     return done(error_reply(409, "conflict", message, route));
   }
-  const bool known_done = job && job->state == job_state::done;
-  boost::asio::post(deps_.prep, [this, id, key, format, if_none_match, immutable, route, known_done,
-                                 done = std::move(done)] {
-    if (auto bytes = deps_.cache.get(key)) {
-      deps_.stats.count_cache_response();
+  // The cached encoding, else the job store's mesh encoded now (and cached): a done job within retention always
+  // has every format, whatever the cache evicted or lost. A format the report says refused this mesh gets that
+  // reason (413 for that format only; the others are served).
+  boost::asio::post(deps_.prep, [this, id, format, if_none_match, immutable, route, done = std::move(done)] {
+    auto encoded = encoded_result(deps_.results, id, format);
+    if (encoded.ok()) {
+      if (encoded->cache_hit) deps_.stats.count_cache_response();
       return done(if_none_match ? not_modified(id, format, route)
-                                : mesh_reply(id, format, std::move(bytes), true, route, immutable));
+                                : mesh_reply(id, format, std::move(encoded->bytes), encoded->cache_hit, route,
+                                             immutable));
     }
-    // A done job whose report says this format refused the mesh: that reason (the other formats are served).
-    if (auto report = deps_.cache.get(report_key(id))) {
-      if (std::optional<status> refused = refused_encoding(*report, format)) {
-        return done(status_error_reply(*refused, route));
-      }
+    if (encoded.error().code() == errc::io_error) {
+      log_result_lost(id, format, encoded.error().message());
+      return done(error_reply(404, "not_found", "the result of this job was lost; submit it again", route));
     }
-    // The queue says done but the cache has no mesh (evicted, not stored, or corrupt): the result is lost.
-    if (known_done) {
-      log_event(deps_.log, spdlog::level::err, "job_result_lost",
-                {{"job", id}, {"key", key}, {"reason", "the job is done but its mesh is not in the cache"}});
-    }
+    if (encoded.error().code() != errc::invalid_argument) return done(status_error_reply(encoded.error(), route));
     done(error_reply(404, "not_found", "no mesh for this job", route));
   });
 }
@@ -759,7 +848,13 @@ reply api_handlers::readiness_reply() const {
     return with_retry_after(error_reply(503, "unavailable", "the job queue is full", "/readyz"),
                             deps_.config.limits.retry_after_seconds);
   }
-  return json_reply(200, R"({"status":"ready"})", "/readyz");
+  if (!deps_.store.durable()) {
+    return json_reply(200,
+                      R"({"status":"ready","durable":false,"warning":"no disk store: accepted jobs and results )"
+                      R"(are kept in memory only and a restart loses them"})",
+                      "/readyz");
+  }
+  return json_reply(200, R"({"status":"ready","durable":true})", "/readyz");
 }
 
 reply api_handlers::metrics_reply() const {

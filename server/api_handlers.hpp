@@ -3,7 +3,9 @@
 /// The routes of tracemeshd (proto/openapi.json) on top of the HTTP transport:
 ///   POST /mesh                 upload → mesh bytes (waits for the job without holding an I/O thread)
 ///   POST /jobs                 upload → 202 {id, status, links} (200 when the result is already cached)
-///   GET|HEAD|DELETE /jobs/{id} job status JSON / cancel (409 when the job already finished)
+///   GET|HEAD|DELETE /jobs/{id} job status JSON (the job store answers for finished jobs within retention) /
+///                              withdraw the owner of X-Job-Token (401 without it, 403 for a stranger's; the job is
+///                              cancelled when its last holder withdrew; 409 when it already finished)
 ///   GET|HEAD /jobs/{id}/mesh   ?format=off|draco (default: the job's submitted format, else off), ETag /
 ///                              If-None-Match → 304, 409 while the job has no mesh
 ///   GET|HEAD /healthz /readyz /metrics /openapi.json; OPTIONS on every route (CORS preflight)
@@ -11,6 +13,7 @@
 /// every disk cache read run on the prep pool; meshing runs on the job queue's workers.
 
 #include <cstddef>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -20,8 +23,11 @@
 #include <spdlog/logger.h>
 
 #include "proto/mesh_format.hpp"
+#include "server/access_tokens.hpp"
 #include "server/http_server.hpp"
 #include "server/job_queue.hpp"
+#include "server/job_store.hpp"
+#include "server/mesh_job.hpp"
 #include "server/metrics.hpp"
 #include "server/result_cache.hpp"
 #include "server/server_limits.hpp"
@@ -34,6 +40,9 @@ struct api_dependencies {
   const server_config& config;
   job_queue& jobs;
   result_cache& cache;
+  job_store& store;
+  const mesh_job_context& results;  ///< encodes stored meshes on demand (encoded_result)
+  const bearer_tokens& auth;        ///< empty: no bearer authentication
   metrics& stats;
   spdlog::logger& log;
   http_server_state& state;
@@ -65,7 +74,10 @@ class api_handlers final : public request_handler {
   reply metrics_reply() const;
   reply readiness_reply() const;
   void job_status(const std::string& id, reply_sink done);
-  void cancel_job(const std::string& id, reply_sink done);
+  void cancel_job(const std::string& id, const std::string& owner_token, reply_sink done);
+  std::optional<reply> authorization_failure(const request_head& head, const char* route) const;
+  /// The error line of a done job whose stored mesh the job store cannot give back any more.
+  void log_result_lost(const std::string& id, proto::mesh_format format, const std::string& reason);
   void job_mesh(const request_head& head, const std::string& id, std::optional<proto::mesh_format> format,
                 reply_sink done);
   void prepare_upload(std::shared_ptr<upload_request> upload);  // on the prep pool
@@ -73,6 +85,9 @@ class api_handlers final : public request_handler {
 
   api_dependencies deps_;
   upload_admission uploads_;
+  // Serialises the accept step of POST /jobs (job store record + queue submit), so concurrent submissions of one
+  // job never overwrite each other's owners.
+  std::mutex accept_mutex_;
 };
 
 }  // namespace tracemesh::server

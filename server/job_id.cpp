@@ -63,6 +63,5 @@ std::string mesh_key(const std::string& job_id, proto::mesh_format format) {
   std::replace(suffix.begin(), suffix.end(), '-', '_');  // cache keys allow [a-z0-9_] after the dot
   return job_id + "." + suffix;
 }
-std::string report_key(const std::string& job_id) { return job_id + ".report"; }
 
 }  // namespace tracemesh::server

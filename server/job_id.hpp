@@ -12,10 +12,11 @@
 ///   distinct values never share a spelling)
 /// An omitted request parameter and its default spelled out give the same id; the trace parameters do not change
 /// the id of a lattice job (they do not change its mesh or report). params.threads is excluded (it never changes
-/// the output); so is the output format: one job produces the mesh, and its encodings are cached as
-/// "<id>.<format name>" ('-' spelled '_': "<id>.off", "<id>.draco", "<id>.glb_raw", ...) and the report as
-/// "<id>.report". (v1 hashed f64 density, d, t0 and knew no method: v1 ids are simply never asked for again; v2 also
-/// hashed the charge, which no output depends on, so a PQR and the PDB of the same atoms were two jobs.)
+/// the output); so is the output format: one job produces the mesh, which the job store keeps (job_store.hpp), and
+/// its encodings, made on request, are cached as "<id>.<format name>" ('-' spelled '_': "<id>.off", "<id>.draco",
+/// "<id>.glb_raw", ...; mesh_key). (v1 hashed f64 density, d, t0 and knew no method: v1 ids are simply never asked
+/// for again; v2 also hashed the charge, which no output depends on, so a PQR and the PDB of the same atoms were two
+/// jobs.)
 
 #include <string>
 
@@ -28,8 +29,7 @@ namespace tracemesh::server {
 /// 64 lower-case hex characters (is_valid_job_id holds). Linear in the atom count; hashes in 64 KiB blocks.
 std::string compute_job_id(const molecule& mol, const mesh_params& params);
 
-/// Cache keys of a job's artifacts.
+/// Cache key of a job's encoding in `format`.
 std::string mesh_key(const std::string& job_id, proto::mesh_format format);
-std::string report_key(const std::string& job_id);
 
 }  // namespace tracemesh::server

@@ -57,10 +57,21 @@ struct job_queue::job {
   status error;
   std::shared_ptr<const std::string> report;
   std::vector<job_listener> listeners;
+  std::vector<std::string> owners;  // owner token hashes still holding the job
+  std::size_t anonymous_holders = 0;
+
+  void hold(const std::optional<job_holder>& holder) {
+    if (!holder) return;
+    if (holder->owner_hash.empty()) {
+      ++anonymous_holders;
+    } else {
+      owners.push_back(holder->owner_hash);
+    }
+  }
 };
 
-job_queue::job_queue(job_queue_options options, job_work work, metrics& stats)
-    : options_(options), work_(std::move(work)), metrics_(stats) {
+job_queue::job_queue(job_queue_options options, job_work work, metrics& stats, job_listener on_final)
+    : options_(options), work_(std::move(work)), metrics_(stats), on_final_(std::move(on_final)) {
   const unsigned workers = std::max(1u, options_.workers);
   workers_.reserve(workers);
   for (unsigned i = 0; i < workers; ++i) workers_.emplace_back([this] { worker_loop(); });
@@ -70,17 +81,19 @@ job_queue::job_queue(job_queue_options options, job_work work, metrics& stats)
 job_queue::~job_queue() { shutdown(std::chrono::milliseconds(0)); }
 
 submit_result job_queue::submit(const std::string& id, std::shared_ptr<const job_input> input,
-                                job_listener listener) {
+                                job_listener listener, submit_options how) {
   std::unique_lock lock(mutex_);
   if (!accepting_) return {submit_outcome::shutting_down, {}};
   const auto existing = jobs_.find(id);
   if (existing != jobs_.end() && !proto::is_final(existing->second->state)) {
     if (listener) existing->second->listeners.push_back(std::move(listener));
+    existing->second->hold(how.holder);
     return {submit_outcome::coalesced, snapshot_of(*existing->second)};
   }
-  if (queue_.size() >= options_.max_queue) return {submit_outcome::queue_full, {}};
+  if (queue_.size() >= options_.max_queue && !how.recovered) return {submit_outcome::queue_full, {}};
   auto created = std::make_shared<job>(id, std::move(input));
   if (listener) created->listeners.push_back(std::move(listener));
+  created->hold(how.holder);
   jobs_[id] = created;
   queue_.push_back(created);
   job_snapshot snapshot = snapshot_of(*created);
@@ -108,7 +121,23 @@ cancel_outcome job_queue::cancel(const std::string& id) {
   std::unique_lock lock(mutex_);
   const auto it = jobs_.find(id);
   if (it == jobs_.end()) return cancel_outcome::not_found;
+  return cancel_locked(lock, it->second);
+}
+
+cancel_outcome job_queue::withdraw(const std::string& id, const std::string& owner_hash) {
+  std::unique_lock lock(mutex_);
+  const auto it = jobs_.find(id);
+  if (it == jobs_.end()) return cancel_outcome::not_found;
   const std::shared_ptr<job> target = it->second;
+  if (proto::is_final(target->state)) return cancel_outcome::already_final;
+  const auto owner = std::find(target->owners.begin(), target->owners.end(), owner_hash);
+  if (owner == target->owners.end()) return cancel_outcome::not_owner;
+  target->owners.erase(owner);
+  if (!target->owners.empty() || target->anonymous_holders > 0) return cancel_outcome::withdrawn;
+  return cancel_locked(lock, target);
+}
+
+cancel_outcome job_queue::cancel_locked(std::unique_lock<std::mutex>& lock, const std::shared_ptr<job>& target) {
   if (proto::is_final(target->state)) return cancel_outcome::already_final;
   if (target->state == job_state::running) {
     // The worker sees the token, the work returns errc::cancelled and finish() records "cancelled".
@@ -296,7 +325,8 @@ job_snapshot job_queue::snapshot_of(const job& j) const {
 }
 
 void job_queue::notify(std::vector<job_listener> listeners, const job_snapshot& final_state,
-                       const job_output* output) {
+                       const job_output* output) const {
+  if (on_final_) listeners.insert(listeners.begin(), on_final_);
   for (auto& listener : listeners) {
     try {
       listener(final_state, output);

@@ -53,14 +53,12 @@ inline constexpr const char* timeout = "timeout";      ///< ran past job_timeout
 inline constexpr const char* shutdown = "shutdown";    ///< not finished at the end of the shutdown grace period
 }  // namespace job_error
 
-/// What a done job produced: the encodings and the report (JSON text), shared with the responses that send them.
-/// Every format of the format table is either in `meshes` or in `refused` (a format that cannot carry this mesh
-/// faithfully, e.g. Draco for atoms 10⁵ Å apart; the others are still served).
+/// What a done job produced: the certified mesh and the report (JSON text), shared with the responses that encode
+/// and send them (encodings are made per format on demand and cached, see mesh_job.hpp).
 struct job_output {
-  std::map<proto::mesh_format, std::shared_ptr<const std::string>> meshes;
-  std::map<proto::mesh_format, status> refused;
+  std::shared_ptr<const surface_mesh> mesh;
   std::shared_ptr<const std::string> report;
-  bool from_cache = false;  ///< the work found every artifact in the cache and did not mesh
+  bool from_cache = false;  ///< the work found the result stored and did not mesh
 };
 
 /// A consistent copy of a job's state.
@@ -93,17 +91,32 @@ struct job_queue_options {
 
 enum class submit_outcome { accepted, coalesced, queue_full, shutting_down };
 
+/// Who holds a job: an owner token's hash (POST /jobs), or nobody named (a synchronous /mesh waiter, which holds
+/// the job until it ends). A job is cancelled only when no holder is left.
+struct job_holder {
+  std::string owner_hash;  ///< empty: an anonymous waiter
+};
+
+/// How a job is submitted: `recovered` jobs (re-queued from the job store at start) are queued past max_queue.
+struct submit_options {
+  std::optional<job_holder> holder;
+  bool recovered = false;
+};
+
 struct submit_result {
   submit_outcome outcome;
   job_snapshot snapshot;  ///< of the new or joined job (empty id when refused)
 };
 
-enum class cancel_outcome { cancelled, not_found, already_final };
+/// DELETE by an owner: `withdrawn` when other holders keep the job running, `not_owner` when the token holds no
+/// share of the job.
+enum class cancel_outcome { cancelled, withdrawn, not_owner, not_found, already_final };
 
 class job_queue {
  public:
   /// Starts `options.workers` worker threads and the timeout watchdog. `stats` must outlive the queue.
-  job_queue(job_queue_options options, job_work work, metrics& stats);
+  /// `on_final` (optional) is called for every job that reaches a final state, before its listeners.
+  job_queue(job_queue_options options, job_work work, metrics& stats, job_listener on_final = {});
   ~job_queue();  ///< shutdown with no grace period
   job_queue(const job_queue&) = delete;
   job_queue& operator=(const job_queue&) = delete;
@@ -111,7 +124,8 @@ class job_queue {
   /// Queues job `id`, or joins it when it is queued or running (a finished record is replaced: failed jobs are
   /// retried, and done jobs re-run their work, which finds its results in the cache). `listener` (optional) is
   /// called when the job is final. Refused with queue_full when max_queue jobs wait, shutting_down after shutdown().
-  submit_result submit(const std::string& id, std::shared_ptr<const job_input> input, job_listener listener = {});
+  submit_result submit(const std::string& id, std::shared_ptr<const job_input> input, job_listener listener = {},
+                       submit_options how = {});
 
   /// Adds a listener to a queued or running job; false (listener not kept) when the job is unknown or final.
   bool subscribe(const std::string& id, job_listener listener);
@@ -121,6 +135,8 @@ class job_queue {
 
   /// Cancels a queued job at once, or asks a running job to stop (it then ends as cancelled).
   cancel_outcome cancel(const std::string& id);
+  /// Withdraws the owner `owner_hash` from the job; the job is cancelled (as cancel()) when it was the last holder.
+  cancel_outcome withdraw(const std::string& id, const std::string& owner_hash);
 
   /// Stops accepting jobs, lets queued and running jobs finish for up to `grace`, then cancels what is left
   /// (final state failed, error "shutdown") and joins the threads. Idempotent; returns when every thread is joined.
@@ -138,13 +154,15 @@ class job_queue {
   void watchdog_loop();
   void run(const std::shared_ptr<job>& j);
   void finish(const std::shared_ptr<job>& j, result<job_output> outcome);
+  cancel_outcome cancel_locked(std::unique_lock<std::mutex>& lock, const std::shared_ptr<job>& target);
   void remember_finished(const std::shared_ptr<job>& j);  // needs mutex_
   job_snapshot snapshot_of(const job& j) const;            // needs mutex_
-  static void notify(std::vector<job_listener> listeners, const job_snapshot& final_state, const job_output* output);
+  void notify(std::vector<job_listener> listeners, const job_snapshot& final_state, const job_output* output) const;
 
   const job_queue_options options_;
   const job_work work_;
   metrics& metrics_;
+  const job_listener on_final_;
 
   mutable std::mutex mutex_;
   std::condition_variable work_available_;

@@ -31,7 +31,10 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   CLI::App app{"tracemeshd: meshes molecular Gaussian surfaces over HTTP (POST /mesh, /jobs; see /openapi.json)"};
 
   std::string listen = config.listen_host + ":" + std::to_string(config.listen_port);
-  std::string cache_dir;
+  std::string cache_dir, job_dir, auth_token_file;
+  bool no_disk_store = false;
+  double job_retention = 86400;
+  std::vector<std::string> auth_exempt;
   std::size_t max_atoms = limits.mesh.max_atoms;
   std::uint64_t max_upload_bytes = 0;
   double job_timeout = 600, header_timeout = 30, request_timeout = 300, write_timeout = 60, shutdown_grace = 20;
@@ -49,7 +52,24 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   app.add_option("--prep-threads", config.prep_threads, "Threads parsing uploads and reading the disk cache")
       ->capture_default_str()
       ->check(CLI::Range(1u, 64u));
-  app.add_option("--cache-dir", cache_dir, "Result cache directory (empty: memory only)");
+  app.add_option("--cache-dir", cache_dir,
+                 "Result cache directory; accepted jobs and their meshes are kept in <cache-dir>/jobs unless "
+                 "--job-dir is given. Required unless --no-disk-store");
+  app.add_option("--job-dir", job_dir, "Job store directory (records, inputs of unfinished jobs, meshes)");
+  app.add_flag("--no-disk-store", no_disk_store,
+               "Keep the cache and the jobs in memory only: a restart loses accepted jobs (/readyz says so)");
+  app.add_option("--job-retention", job_retention,
+                 "Seconds a finished job's record and mesh are kept after it ended")
+      ->capture_default_str();
+  app.add_option("--job-store-memory-bytes", limits.job_store_memory_bytes,
+                 "With --no-disk-store: bytes of meshes the in-memory job store holds")
+      ->capture_default_str();
+  app.add_option("--auth-token-file", auth_token_file,
+                 "File of bearer tokens (one per line): every route but the exempt ones then needs "
+                 "'Authorization: Bearer <token>'");
+  app.add_option("--auth-exempt", auth_exempt,
+                 "Route answered without a bearer token; repeat for several (default: /healthz /readyz /metrics; "
+                 "'none' = no exemption)");
   app.add_option("--cache-max-bytes", limits.cache_disk_bytes, "Disk bytes of the result cache")->capture_default_str();
   app.add_option("--cache-memory-bytes", limits.cache_memory_bytes, "Memory bytes of the result cache")
       ->capture_default_str();
@@ -105,7 +125,31 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
     std::fprintf(stderr, "tracemeshd: --shutdown-grace must be >= 0 and --max-atoms > 0\n");
     return 2;
   }
+  if (no_disk_store && (!cache_dir.empty() || !job_dir.empty())) {
+    std::fprintf(stderr, "tracemeshd: --no-disk-store cannot be combined with --cache-dir or --job-dir\n");
+    return 2;
+  }
+  if (!no_disk_store && cache_dir.empty()) {
+    std::fprintf(stderr,
+                 "tracemeshd: give --cache-dir DIR (accepted jobs and results survive restarts) or --no-disk-store\n");
+    return 2;
+  }
+  if (!(job_retention > 0) || job_retention > 1e9) {
+    std::fprintf(stderr, "tracemeshd: --job-retention must be a positive number of seconds\n");
+    return 2;
+  }
   config.cache_dir = cache_dir;
+  config.job_dir = !job_dir.empty() ? std::filesystem::path(job_dir)
+                   : cache_dir.empty() ? std::filesystem::path()
+                                       : std::filesystem::path(cache_dir) / "jobs";
+  config.auth_token_file = auth_token_file;
+  if (!auth_exempt.empty()) {
+    config.auth_exempt_routes.clear();
+    for (const std::string& route : auth_exempt) {
+      if (route != "none") config.auth_exempt_routes.push_back(route);
+    }
+  }
+  limits.job_retention = to_millis(job_retention);
   if (!cors_origins.empty()) config.cors_origins = cors_origins;
   limits.mesh.max_atoms = max_atoms;
   limits.max_upload_bytes =
@@ -137,8 +181,8 @@ int main(int argc, char** argv) {
   tracemesh::server::service service(line.config, log);
   const tracemesh::status started = service.start();
   if (!started.ok()) {
-    tracemesh::server::log_event(*log, spdlog::level::critical, "start_failed",
-                                 {{"error", started.message()}, {"code", tracemesh::errc_name(started.code())}});
+    // One line a person can read (the JSON log may be going elsewhere), then exit 1.
+    std::fprintf(stderr, "tracemeshd: cannot start: %s\n", started.message().c_str());
     return 1;
   }
   signal_io.run();  // blocks until SIGINT or SIGTERM

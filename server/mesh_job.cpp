@@ -1,9 +1,9 @@
 #include "server/mesh_job.hpp"
 
 #include <chrono>
-#include <span>
 #include <string_view>
 
+#include "proto/api_types.hpp"
 #include "proto/mesh_encoders.hpp"
 #include "proto/report_json.hpp"
 #include "server/job_id.hpp"
@@ -12,27 +12,6 @@
 namespace tracemesh::server {
 
 namespace {
-
-std::shared_ptr<const std::string> share(std::string bytes) {
-  return std::make_shared<const std::string>(std::move(bytes));
-}
-
-std::optional<job_output> cached_output(result_cache& cache, const std::string& id) {
-  job_output output;
-  output.report = cache.get(report_key(id));
-  if (!output.report) return std::nullopt;
-  for (const proto::mesh_format_info& row : proto::mesh_formats()) {
-    if (std::optional<status> refused = refused_encoding(*output.report, row.format)) {
-      output.refused.emplace(row.format, *std::move(refused));
-    } else if (auto bytes = cache.get(mesh_key(id, row.format))) {
-      output.meshes.emplace(row.format, std::move(bytes));
-    } else {
-      return std::nullopt;
-    }
-  }
-  output.from_cache = true;
-  return output;
-}
 
 /// The errc whose errc_name is `name` (internal_error for an unknown name).
 errc errc_named(std::string_view name) {
@@ -43,13 +22,44 @@ errc errc_named(std::string_view name) {
   return errc::internal_error;
 }
 
-void store(const mesh_job_context& context, const std::string& id, const std::string& key,
-           const std::string& bytes) {
-  const status stored = context.cache.put(key, bytes);
-  if (!stored.ok()) {
-    log_event(context.log, spdlog::level::err, "cache_write_failed",
-              {{"job", id}, {"key", key}, {"bytes", bytes.size()}, {"error", stored.message()}});
+/// `report` with encodings.<name> set to `entry`.
+std::string with_encoding(const std::string& report, std::string_view name, const nlohmann::json& entry) {
+  nlohmann::json doc = nlohmann::json::parse(report, nullptr, false);
+  if (!doc.is_object()) return report;  // never written by this service; leave it as it is
+  nlohmann::json& encodings = doc["encodings"];
+  if (!encodings.is_object()) encodings = nlohmann::json::object();
+  encodings[std::string(name)] = entry;
+  return doc.dump();
+}
+
+/// Encodes `mesh` in `format` and states the outcome in the stored report. A refusal (limit_exceeded) is
+/// recorded too, so that the next request is refused from the report without encoding again. `recorded` tells
+/// whether the report now states this encoding (bytes the report does not describe must not be cached).
+result<std::string> encode_and_record(const mesh_job_context& context, const std::string& id,
+                                      proto::mesh_format format, const surface_mesh& mesh, bool& recorded) {
+  const auto started = std::chrono::steady_clock::now();
+  const proto::encoder_input encoder(mesh);
+  result<std::string> bytes = proto::format_info(format).encode(encoder);
+  if (!bytes && bytes.error().code() != errc::limit_exceeded) return bytes.error();  // a bug, not a refusal
+  const result<std::size_t> size = bytes ? result<std::size_t>(bytes->size()) : result<std::size_t>(bytes.error());
+  const nlohmann::json entry = proto::encoding_to_json(encoder, format, size);
+  const std::string_view name = proto::format_name(format);
+  const status amended = context.store.amend_report(
+      id, [&](const std::string& report) { return with_encoding(report, name, entry); });
+  recorded = amended.ok();
+  // A job the store does not hold (a memory store forgot it) has no report to amend; a write failure is an error.
+  if (!amended.ok() && amended.code() != errc::invalid_argument) {
+    log_event(context.log, spdlog::level::err, "job_store_write_failed",
+              {{"job", id}, {"format", name}, {"error", amended.message()}});
   }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  log_event(context.log, spdlog::level::info, "mesh_encoded",
+            {{"job", id},
+             {"format", name},
+             {"bytes", bytes ? nlohmann::json(bytes->size()) : nlohmann::json(nullptr)},
+             {"recorded", recorded},
+             {"seconds", seconds}});
+  return bytes;
 }
 
 }  // namespace
@@ -67,7 +77,10 @@ std::optional<status> refused_encoding(const std::string& report, proto::mesh_fo
 
 result<job_output> run_mesh_job(const mesh_job_context& context, const std::string& id, const job_input& input,
                                 progress_token& token) {
-  if (auto cached = cached_output(context.cache, id)) return *std::move(cached);
+  const std::optional<stored_job> stored = context.store.find(id);
+  if (stored && stored->state == job_state::done && stored->report) {
+    if (auto mesh = context.store.mesh(id)) return job_output{std::move(mesh), stored->report, true};
+  }
 
   mesh_params params = input.params;
   params.threads = context.mesher_threads;
@@ -75,36 +88,31 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
   const auto started = std::chrono::steady_clock::now();
   result<mesh_output> meshed = context.mesher(input.mol, params, context.limits, token);
   if (!meshed.ok()) return meshed.error();
-
-  // Every format of the table, each from the same encoder_input (Draco's checked encoding serves draco and glb).
-  const proto::encoder_input encoder(meshed->mesh);
-  const std::span<const proto::mesh_format_info> formats = proto::mesh_formats();
-  job_output output;
-  nlohmann::json report = proto::report_to_json(*meshed, input.params);
-  nlohmann::json& encodings = report["encodings"] = nlohmann::json::object();
-  nlohmann::json sizes = nlohmann::json::object();
-  for (std::size_t i = 0; i < formats.size(); ++i) {
-    if (!token.report(mesh_stage::encoding, static_cast<double>(i) / static_cast<double>(formats.size()))) {
-      return status(errc::cancelled, "cancelled");
-    }
-    const proto::mesh_format format = formats[i].format;
-    result<std::string> bytes = formats[i].encode(encoder);
-    if (!bytes && bytes.error().code() != errc::limit_exceeded) return bytes.error();  // a bug, not a refusal
-    const result<std::size_t> size = bytes ? result<std::size_t>(bytes->size()) : result<std::size_t>(bytes.error());
-    encodings[std::string(formats[i].name)] = proto::encoding_to_json(encoder, format, size);
-    sizes[std::string(formats[i].name)] = bytes ? nlohmann::json(bytes->size()) : nlohmann::json(nullptr);
-    if (bytes) {
-      output.meshes.emplace(format, share(std::move(*bytes)));
-    } else {
-      output.refused.emplace(format, bytes.error());
+  if (!token.report(mesh_stage::encoding, 0.0)) return status(errc::cancelled, "cancelled");
+  nlohmann::json report_doc = proto::report_to_json(*meshed, input.params);
+  // Filled as formats are first encoded (encoded_result). A result made again after the store lost its mesh keeps
+  // the entries already known: the mesh is the same (deterministic), and so are the cached encodings they describe.
+  report_doc["encodings"] = nlohmann::json::object();
+  if (stored && stored->report) {
+    const nlohmann::json before = nlohmann::json::parse(*stored->report, nullptr, false);
+    if (before.is_object() && before.contains("encodings") && before["encodings"].is_object()) {
+      report_doc["encodings"] = before["encodings"];
     }
   }
-  token.report(mesh_stage::encoding, 1.0);
-  output.report = share(report.dump());
+  auto report = std::make_shared<const std::string>(report_doc.dump());
 
-  // The report goes last: its presence marks a complete set of artifacts.
-  for (const auto& [format, bytes] : output.meshes) store(context, id, mesh_key(id, format), *bytes);
-  store(context, id, report_key(id), *output.report);
+  stored_job record;
+  record.id = id;
+  record.parameters = proto::canonical_parameters(input.params);
+  record.format = input.format;
+  record.accepted_ms = unix_millis();
+  const status completed = context.store.complete(id, record, meshed->mesh, report);
+  if (!completed.ok()) {
+    log_event(context.log, spdlog::level::err, "job_store_write_failed",
+              {{"job", id}, {"error", completed.message()}});
+    return status(errc::io_error, "the result could not be stored: " + completed.message());
+  }
+  token.report(mesh_stage::encoding, 1.0);
 
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   log_event(context.log, spdlog::level::info, "mesh_done",
@@ -112,10 +120,38 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
              {"atoms", input.mol.atoms.size()},
              {"vertices", meshed->mesh.vertex_count()},
              {"triangles", meshed->mesh.triangle_count()},
-             {"bytes", sizes},
              {"certified", meshed->certified},
              {"seconds", seconds}});
-  return output;
+  return job_output{std::make_shared<const surface_mesh>(std::move(meshed->mesh)), std::move(report), false};
+}
+
+result<encoded_mesh> encoded_result(const mesh_job_context& context, const std::string& id,
+                                    proto::mesh_format format, std::shared_ptr<const surface_mesh> mesh) {
+  const std::string key = mesh_key(id, format);
+  if (auto cached = context.cache.get(key)) return encoded_mesh{std::move(cached), true};
+  const std::optional<stored_job> stored = context.store.find(id);
+  if (stored && stored->report) {
+    if (std::optional<status> refused = refused_encoding(*stored->report, format)) return *std::move(refused);
+  }
+  if (!mesh) mesh = context.store.mesh(id);
+  if (!mesh) {
+    if (stored && stored->state == job_state::done) {
+      return status(errc::io_error, "the job is done but the job store cannot read its mesh");
+    }
+    return status(errc::invalid_argument, "no mesh");
+  }
+  bool recorded = false;
+  result<std::string> encoded = encode_and_record(context, id, format, *mesh, recorded);
+  if (!encoded.ok()) return encoded.error();
+  auto bytes = std::make_shared<const std::string>(std::move(*encoded));
+  // Cached only once the report states it (a cache hit then always has its entry). The cache only saves work: a
+  // failed write loses nothing, the store keeps the mesh.
+  if (!recorded) return encoded_mesh{std::move(bytes), false};
+  if (const status put = context.cache.put(key, *bytes); !put.ok()) {
+    log_event(context.log, spdlog::level::warn, "cache_write_failed",
+              {{"job", id}, {"key", key}, {"bytes", bytes->size()}, {"error", put.message()}});
+  }
+  return encoded_mesh{std::move(bytes), false};
 }
 
 }  // namespace tracemesh::server

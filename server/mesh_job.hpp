@@ -1,7 +1,12 @@
 #pragma once
 /// @file mesh_job.hpp
-/// The work of one job (job_queue's job_work): cache first, else mesh, encode every format of the format table,
-/// build the report (which states every encoding's outcome) and store them all in the result cache. Runs on a worker thread (it blocks on CPU and disk).
+/// The work of one job (job_queue's job_work): the stored result when the job store has one, else mesh, build the
+/// report and store mesh + report once in the job store. Encodings are made per format on request from that one
+/// mesh (encoded_result) through the format table's encoders (Draco: checked after decoding, bits raised until it
+/// passes), cached, and stated in the stored report's `encodings` when first made, refusals included, so a format
+/// that cannot carry the mesh is refused again from the report without encoding. No format of a done job can be
+/// missing while another is served: they all come from the one stored mesh.
+/// Runs on a worker thread or the prep pool (it blocks on CPU and disk).
 
 #include <functional>
 #include <memory>
@@ -13,6 +18,7 @@
 #include "core/limits.hpp"
 #include "core/mesher.hpp"
 #include "server/job_queue.hpp"
+#include "server/job_store.hpp"
 #include "server/metrics.hpp"
 #include "server/result_cache.hpp"
 
@@ -24,6 +30,7 @@ using mesher_function = std::function<result<mesh_output>(const molecule&, const
 
 struct mesh_job_context {
   result_cache& cache;
+  job_store& store;
   metrics& stats;
   spdlog::logger& log;
   mesh_limits limits;
@@ -31,17 +38,31 @@ struct mesh_job_context {
   mesher_function mesher;       ///< tracemesh::mesh_molecule in production
 };
 
-/// The job's artifacts from the cache when the report and every encoding it lists are there (output.from_cache),
-/// else a mesher run
-/// (counted in metrics::mesher_runs) followed by encoding and caching. Errors: the mesher's (cancelled when the
-/// token was cancelled). A format that refuses the mesh (limit_exceeded...) is in output.refused, not an error of the
-/// job. A cache write failure is logged and does not fail the job: the result is
-/// still served, just not persisted.
-/// Why the job's report says `format` was not encoded (its "encodings" entry has an error), or nullopt when it was
-/// encoded (or the report does not parse).
-std::optional<status> refused_encoding(const std::string& report, proto::mesh_format format);
-
+/// The job's stored mesh and report when the job store has them (output.from_cache), else a mesher run (counted
+/// in metrics::mesher_runs) whose mesh and report (with an empty `encodings`: no format is encoded yet) are stored
+/// in the job store before the job is done.
+/// Errors: the mesher's (cancelled when the token was cancelled); errc::io_error when the result cannot be stored
+/// (a job is never done without a result that can be served for the whole retention period).
 result<job_output> run_mesh_job(const mesh_job_context& context, const std::string& id, const job_input& input,
                                 progress_token& token);
+
+/// A done job's mesh in one format.
+struct encoded_mesh {
+  std::shared_ptr<const std::string> bytes;
+  bool cache_hit = false;  ///< the bytes came from the result cache (no encoding was made)
+};
+
+/// The bytes of a done job's mesh in `format`: the cached encoding; else, unless the stored report says the format
+/// refused this mesh, `mesh` (or, when null, the job store's mesh) encoded, its `encodings` entry added to the
+/// stored report, and the bytes cached. Errors: errc::invalid_argument "no mesh" when the job has no stored result
+/// (unknown, unfinished or expired); errc::io_error when the store says the job is done but its mesh cannot be read
+/// (the result was lost); the format's refusal (limit_exceeded: this format cannot carry the mesh faithfully) from
+/// the encoder or the report; the encoder's other errors.
+result<encoded_mesh> encoded_result(const mesh_job_context& context, const std::string& id,
+                                    proto::mesh_format format, std::shared_ptr<const surface_mesh> mesh = nullptr);
+
+/// Why the job's report says `format` was not encoded (its "encodings" entry has an error), or nullopt when it was
+/// encoded or not tried yet (or the report does not parse).
+std::optional<status> refused_encoding(const std::string& report, proto::mesh_format format);
 
 }  // namespace tracemesh::server

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "server/content_hash.hpp"
+#include "server/detail/durable_file.hpp"
 
 namespace tracemesh::server {
 namespace {
@@ -173,11 +174,8 @@ result_cache::~result_cache() = default;
 
 status result_cache::open() {
   if (dir_.empty()) return status::success();
-  std::error_code error;
-  fs::create_directories(dir_, error);
-  if (error || !fs::is_directory(dir_, error)) {
-    return status(errc::io_error, "result cache: cannot create directory " + dir_.string() + ": " + error.message());
-  }
+  // A read-only or unusable directory is an error here, not a cache that silently never stores (issue 12, 1).
+  if (const status usable = detail::ensure_writable_directory(dir_, "cache directory"); !usable.ok()) return usable;
   {
     std::lock_guard lock(disk_mutex_);
     disk_lru_.clear();

@@ -69,7 +69,8 @@ class result_cache {
   /// Creates the directory, removes orphan temporary files, indexes the existing entries (by modification time,
   /// oldest first, for LRU) and evicts the oldest if they exceed disk_bytes. Entries are verified lazily by
   /// get(). Until open() succeeds the cache works in memory only.
-  /// @return errc::io_error when the directory cannot be created or listed.
+  /// @return errc::io_error when the directory cannot be created, is not a directory or is not writable (a probe
+  ///         file is written, fsync'd and removed).
   status open();
 
   /// Called (on the thread of get()) for every corrupt or truncated entry found, with its key and why; set before

@@ -75,6 +75,12 @@ struct server_limits {
   std::chrono::milliseconds shutdown_grace{std::chrono::seconds(20)};
   /// Retry-After (seconds) sent with 429 and 503.
   unsigned retry_after_seconds = 5;
+  /// How long a finished job's record and mesh stay in the job store (--job-retention, seconds): GET /jobs/{id}
+  /// and its mesh answer for this long after the job ended, whatever the result cache evicted.
+  std::chrono::milliseconds job_retention{std::chrono::hours(24)};
+  /// --no-disk-store only: bytes of meshes and reports the in-memory job store holds (--job-store-memory-bytes);
+  /// past it the oldest finished jobs are forgotten.
+  std::size_t job_store_memory_bytes = std::size_t{1} << 30;
   /// Result cache: memory LRU bytes and disk bytes (--cache-max-bytes).
   std::size_t cache_memory_bytes = 256u << 20;
   std::uint64_t cache_disk_bytes = 4ull << 30;
@@ -88,6 +94,13 @@ struct server_config {
   unsigned io_threads = 1;            ///< HTTP I/O threads (never mesh, never touch disk)
   unsigned prep_threads = 1;          ///< PQR parsing, hashing and disk cache reads
   std::filesystem::path cache_dir;    ///< empty → memory-only cache
+  /// The job store (records, inputs of unfinished jobs, meshes); empty → in memory, nothing survives a restart
+  /// (tracemeshd: --job-dir, default <cache-dir>/jobs; --no-disk-store empties both).
+  std::filesystem::path job_dir;
+  /// --auth-token-file: when set, every route but auth_exempt_routes needs "Authorization: Bearer <token>".
+  std::filesystem::path auth_token_file;
+  /// Routes answered without a bearer token (--auth-exempt); CORS preflights (OPTIONS) always are.
+  std::vector<std::string> auth_exempt_routes{"/healthz", "/readyz", "/metrics"};
   std::vector<std::string> cors_origins{"*"};  ///< allowed Origins; "*" = any
   server_limits limits;
 };

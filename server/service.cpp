@@ -36,15 +36,17 @@ service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesh
       log_(std::move(log)),
       cors_(config_.cors_origins),
       cache_(config_.cache_dir, cache_limits{config_.limits.cache_memory_bytes, config_.limits.cache_disk_bytes}),
-      mesh_context_{cache_, metrics_, *log_, config_.limits.mesh, config_.mesher_threads,
+      store_(job_store_options{config_.job_dir, config_.limits.job_retention, config_.limits.job_store_memory_bytes}),
+      mesh_context_{cache_, store_, metrics_, *log_, config_.limits.mesh, config_.mesher_threads,
                     default_mesher(std::move(mesher))},
       jobs_(queue_options(config_),
             [this](const std::string& id, const job_input& input, progress_token& token) {
               return run_mesh_job(mesh_context_, id, input, token);
             },
-            metrics_),
+            metrics_, [this](const job_snapshot& final_state, const job_output*) { record_final(final_state); }),
       prep_(std::max(1u, config_.prep_threads)),
-      api_(api_dependencies{config_, jobs_, cache_, metrics_, *log_, state_, cors_, prep_}),
+      api_(api_dependencies{config_, jobs_, cache_, store_, mesh_context_, auth_, metrics_, *log_, state_, cors_,
+                            prep_}),
       http_context_{config_.limits, api_, state_, metrics_, *log_, cors_} {
   cache_.set_corruption_listener([log = log_](const std::string& key, const char* reason) {
     log_event(*log, spdlog::level::err, "cache_corrupt", {{"key", key}, {"reason", reason}, {"action", "removed"}});
@@ -53,11 +55,48 @@ service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesh
 
 service::~service() { shutdown(); }
 
+// Failed and cancelled jobs are recorded in the store; done jobs were stored by their work. A job stopped by the
+// shutdown stays queued in the store: it runs again at the next start.
+void service::record_final(const job_snapshot& final_state) {
+  if (final_state.state == job_state::done || final_state.error_code == job_error::shutdown) return;
+  const status recorded =
+      store_.finish(final_state.id, final_state.state, final_state.error_code, final_state.error.message());
+  if (!recorded.ok()) {
+    log_event(*log_, spdlog::level::err, "job_store_write_failed",
+              {{"job", final_state.id}, {"error", recorded.message()}});
+  }
+}
+
+void service::requeue_unfinished() {
+  for (const std::string& id : store_.take_lost()) {
+    log_event(*log_, spdlog::level::err, "job_lost",
+              {{"job", id}, {"error", "its stored input or record was damaged; the job ends failed (lost)"}});
+  }
+  std::size_t requeued = 0;
+  for (unfinished_job& unfinished : store_.take_unfinished()) {
+    submit_options how;
+    how.recovered = true;
+    for (const std::string& owner : unfinished.record.owners) {
+      jobs_.submit(unfinished.record.id, unfinished.input, {}, submit_options{job_holder{owner}, true});
+    }
+    if (unfinished.record.owners.empty()) jobs_.submit(unfinished.record.id, unfinished.input, {}, how);
+    ++requeued;
+  }
+  if (requeued > 0) log_event(*log_, spdlog::level::info, "jobs_requeued", {{"jobs", requeued}});
+}
+
 status service::start() {
   if (!config_.cache_dir.empty()) {
     const status opened = cache_.open();
     if (!opened.ok()) return opened;
   }
+  if (const status opened = store_.open(); !opened.ok()) return opened;
+  if (!config_.auth_token_file.empty()) {
+    result<bearer_tokens> tokens = bearer_tokens::from_file(config_.auth_token_file);
+    if (!tokens.ok()) return tokens.error();
+    auth_ = std::move(*tokens);
+  }
+  requeue_unfinished();
   listener_ = std::make_shared<http_listener>(io_, http_context_);
   const status listening = listener_->open(config_.listen_host, config_.listen_port);
   if (!listening.ok()) return listening;
@@ -70,6 +109,10 @@ status service::start() {
   settings["port"] = listener_->port();
   settings["engine_version"] = engine_version;
   log_event(*log_, spdlog::level::info, "started", settings);
+  if (!store_.durable()) {
+    log_event(*log_, spdlog::level::warn, "no_disk_store",
+              {{"message", "jobs and results are kept in memory only: a restart loses them"}});
+  }
   return status::success();
 }
 

@@ -15,8 +15,10 @@
 #include <spdlog/logger.h>
 
 #include "server/api_handlers.hpp"
+#include "server/access_tokens.hpp"
 #include "server/http_server.hpp"
 #include "server/job_queue.hpp"
+#include "server/job_store.hpp"
 #include "server/mesh_job.hpp"
 #include "server/metrics.hpp"
 #include "server/result_cache.hpp"
@@ -32,8 +34,10 @@ class service {
   service(const service&) = delete;
   service& operator=(const service&) = delete;
 
-  /// Opens the cache (errc::io_error when its directory is unusable), binds the listener (errc::io_error when
-  /// the address is taken, errc::invalid_argument when malformed) and starts the I/O threads. Logs the settings.
+  /// Opens the cache and the job store (errc::io_error, one line, when a directory is not a writable directory),
+  /// reads the bearer tokens, queues again the jobs the store had accepted and not finished, binds the listener
+  /// (errc::io_error when the address is taken, errc::invalid_argument when malformed) and starts the I/O
+  /// threads. Logs the settings.
   status start();
   /// The bound port (useful with listen_port 0).
   unsigned short port() const { return listener_ ? listener_->port() : 0; }
@@ -45,6 +49,7 @@ class service {
   metrics& stats() { return metrics_; }
   job_queue& jobs() { return jobs_; }
   result_cache& cache() { return cache_; }
+  job_store& store() { return store_; }
   /// Uploads in flight and the body bytes they hold.
   const upload_admission& uploads() const { return api_.uploads(); }
   /// Open connections and requests being served.
@@ -57,6 +62,8 @@ class service {
   http_server_state state_;
   cors_policy cors_;
   result_cache cache_;
+  job_store store_;
+  bearer_tokens auth_;
   mesh_job_context mesh_context_;
   job_queue jobs_;
   boost::asio::thread_pool prep_;
@@ -69,6 +76,9 @@ class service {
   std::shared_ptr<http_listener> listener_;
   std::vector<std::thread> io_threads_;
   bool running_ = false;
+
+  void record_final(const job_snapshot& final_state);
+  void requeue_unfinished();
 };
 
 }  // namespace tracemesh::server

@@ -133,14 +133,16 @@ struct fuzz_service {
   http_server_state state;
   cors_policy cors{{"*"}};
   result_cache cache{{}, cache_limits{1u << 20, 0}};
-  mesh_job_context mesh_context{cache, stats, *log, config.limits.mesh, 1, tetrahedron};
+  job_store store{job_store_options{{}, std::chrono::hours(1), 1u << 20}};
+  bearer_tokens auth;
+  mesh_job_context mesh_context{cache, store, stats, *log, config.limits.mesh, 1, tetrahedron};
   job_queue jobs{job_queue_options{1, config.limits.max_queue, 64, config.limits.job_timeout},
                  [this](const std::string& id, const job_input& input, progress_token& token) {
                    return run_mesh_job(mesh_context, id, input, token);
                  },
                  stats};
   net::thread_pool prep{1};
-  api_handlers api{api_dependencies{config, jobs, cache, stats, *log, state, cors, prep}};
+  api_handlers api{api_dependencies{config, jobs, cache, store, mesh_context, auth, stats, *log, state, cors, prep}};
   recording_handler recorder{api};
   http_context context{config.limits, recorder, state, stats, *log, cors};
 
@@ -171,7 +173,7 @@ std::string serve(fuzz_service& service, std::string_view input, std::size_t rea
   return std::string(client_side.str());
 }
 
-const std::set<unsigned> known_statuses{100, 200, 202, 204, 304, 400, 404, 405, 408, 409,
+const std::set<unsigned> known_statuses{100, 200, 202, 204, 304, 400, 401, 403, 404, 405, 408, 409,
                                         413, 415, 422, 429, 431, 500, 503, 504};
 
 void check_error_body(const std::string& body, std::string_view context) {

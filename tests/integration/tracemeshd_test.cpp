@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdio>
@@ -81,6 +82,11 @@ class temp_dir {
 class server_process {
  public:
   server_process(const fs::path& work, std::vector<std::string> args) : log_(work / "server.log") {
+    // Tests that give no --cache-dir run without a disk store, which tracemeshd requires to be asked for.
+    if (std::find(args.begin(), args.end(), "--cache-dir") == args.end() &&
+        std::find(args.begin(), args.end(), "--no-disk-store") == args.end()) {
+      args.push_back("--no-disk-store");
+    }
     args.insert(args.begin(), {binary_path("tracemeshd").string(), "--listen", "127.0.0.1:0"});
     std::error_code ignored;
     fs::remove(log_, ignored);  // the port is read from this run's "started" line
@@ -529,8 +535,9 @@ TEST_F(TracemeshdTest, QueueOverflowGives429WithRetryAfter) {
   curl_reply status = curl("", server.url("/jobs/" + id));
   const auto doc = nlohmann::json::parse(status.body);
   EXPECT_TRUE(doc.at("status") == "running" || doc.at("status") == "done") << doc;
-  curl_reply cancelled = curl("-X DELETE", server.url("/jobs/" + std::string(nlohmann::json::parse(
-                                                                           queued.body).at("id"))));
+  const auto queued_doc = nlohmann::json::parse(queued.body);
+  curl_reply cancelled = curl("-X DELETE -H 'X-Job-Token: " + queued_doc.at("token").get<std::string>() + "'",
+                              server.url("/jobs/" + queued_doc.at("id").get<std::string>()));
   EXPECT_EQ(cancelled.status, 200) << cancelled.body;
 }
 
@@ -794,9 +801,10 @@ TEST_F(TracemeshdTest, LogsHaveOneAccessLinePerRequestAndErrorLinesFor5xxCorrupt
     }
   }
   {
-    // Corrupt every cache entry; the restarted server finds them corrupt, says so at error level, and recomputes.
+    // Corrupt every cache entry (not the job store's files under jobs/); the restarted server finds them corrupt,
+    // says so at error level, and encodes again from the stored mesh.
     for (const auto& entry : fs::recursive_directory_iterator(cache_.path())) {
-      if (!entry.is_regular_file()) continue;
+      if (!entry.is_regular_file() || entry.path().parent_path().parent_path().filename() == "jobs") continue;
       std::fstream file(entry.path(), std::ios::in | std::ios::out | std::ios::binary);
       file.seekp(-1, std::ios::end);
       file.put('\x7f');
@@ -810,19 +818,23 @@ TEST_F(TracemeshdTest, LogsHaveOneAccessLinePerRequestAndErrorLinesFor5xxCorrupt
     EXPECT_EQ(corrupt.front().at("reason"), "checksum mismatch");
   }
   {
-    // A job done whose mesh the cache could not keep (1-byte memory cache, no disk): the loss is an error line.
-    server_process server(work_.path(), {"--cache-memory-bytes", "1"});
-    const curl_reply accepted = upload(server, molecule_path("gly.pqr"), "", "/jobs");
-    ASSERT_EQ(accepted.status, 202) << accepted.body;
-    const std::string id = nlohmann::json::parse(accepted.body).at("id");
-    for (int i = 0; i < 500; ++i) {
-      if (nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body).at("status") == "done") break;
-      std::this_thread::sleep_for(10ms);
-    }
-    EXPECT_EQ(curl("", server.url("/jobs/" + id + "/mesh?format=off")).status, 404);
+    // A done job whose stored mesh the job store lost (its result file removed; nothing was encoded, so nothing is
+    // cached): the loss is an error line and a 404. The cache alone losing an encoding is no loss any more (the
+    // store's mesh is encoded again: ADoneJobServesEveryFormatAfterItsCacheEntriesAreGone).
+    temp_dir lost_cache;
+    server_process server(work_.path(), {"--cache-dir", lost_cache.path().string()});
+    const nlohmann::json job = run_job(server, molecule_path("gly.pqr"), "");
+    ASSERT_EQ(job.value("status", ""), "done") << job;
+    const std::string id = job.at("id");
+    ASSERT_TRUE(fs::remove(lost_cache.path() / "jobs" / id.substr(0, 2) / (id + ".result")));
+    expect_error(curl("", server.url("/jobs/" + id + "/mesh?format=off")), 404, "not_found", "lost");
+    // POST /mesh of the same molecule makes the result again (and says it was lost).
+    EXPECT_EQ(upload(server, molecule_path("gly.pqr")).status, 200);
+    EXPECT_EQ(curl("", server.url("/jobs/" + id + "/mesh?format=off")).status, 200);
+    EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 2);
     EXPECT_EQ(server.kill(SIGTERM), 0);
     const std::vector<nlohmann::json> lost = log_events(server.log(), "job_result_lost");
-    ASSERT_EQ(lost.size(), 1u) << server.log();
+    ASSERT_EQ(lost.size(), 2u) << server.log();
     EXPECT_EQ(lost.front().at("level"), "error");
     EXPECT_EQ(lost.front().at("job"), id);
   }
@@ -843,15 +855,25 @@ std::pair<bool, std::string> validate_gltf(const std::vector<fs::path>& files) {
 TEST_F(TracemeshdTest, EveryFormatIsServedAndDecodesToTheCertifiedMesh) {
   server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
   const nlohmann::json job = run_job(server, molecule_path("fas2.pqr"), "-F format=glb");
-  const nlohmann::json report = expect_certified_job(server, job);
-  ASSERT_FALSE(report.empty());
+  ASSERT_EQ(job.value("status", ""), "done") << job;
+  // Encodings are made on request: when the job is done its report lists none yet.
+  EXPECT_EQ(job.at("report").at("encodings"), nlohmann::json::object()) << job.at("report");
   const std::string id = job.at("id");
   EXPECT_EQ(job.at("links").at("mesh"), "/jobs/" + id + "/mesh?format=glb");
+  std::map<std::string, curl_reply> meshes;
+  for (const tracemesh::proto::mesh_format_info& row : tracemesh::proto::mesh_formats()) {
+    meshes[std::string(row.name)] = curl("", server.url("/jobs/" + id + "/mesh?format=" + std::string(row.name)));
+  }
+  // Each format requested once is now in the report (expect_certified_job fetches the OFF again: a cache hit).
+  const nlohmann::json done = nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body);
+  const nlohmann::json report = expect_certified_job(server, done);
+  ASSERT_FALSE(report.empty());
+  EXPECT_EQ(report.at("encodings").size(), tracemesh::proto::mesh_formats().size()) << report.at("encodings");
   std::vector<fs::path> glbs;
   for (const tracemesh::proto::mesh_format_info& row : tracemesh::proto::mesh_formats()) {
     const std::string name(row.name);
     SCOPED_TRACE(name);
-    curl_reply mesh = curl("", server.url("/jobs/" + id + "/mesh?format=" + name));
+    curl_reply& mesh = meshes[name];
     ASSERT_EQ(mesh.status, 200) << mesh.body;
     EXPECT_EQ(mesh.headers["content-type"], row.content_type);
     EXPECT_EQ(mesh.headers["content-disposition"],
@@ -916,7 +938,12 @@ TEST_F(TracemeshdTest, FarApartAtomsAreServedAsOffAndRefusedOnlyByDraco) {
   EXPECT_EQ(curl("", server.url("/jobs/" + id + "/mesh?format=ply")).status, 200);
   const nlohmann::json job = nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body);
   EXPECT_EQ(job.at("report").at("encodings").at("draco").at("error").at("code"), "limit_exceeded") << job;
+  EXPECT_EQ(job.at("report").at("encodings").at("off").at("bytes"), off.body.size()) << job;
   EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1);
+  // Each refusal was found once and then answered from the report, without encoding again.
+  std::map<std::string, int> encoded;
+  for (const nlohmann::json& line : log_events(server.log(), "mesh_encoded")) ++encoded[line.at("format")];
+  EXPECT_EQ(encoded, (std::map<std::string, int>{{"draco", 1}, {"glb", 1}, {"off", 1}, {"ply", 1}}));
 }
 
 TEST_F(TracemeshdTest, ServedOpenApiDocumentPassesAValidator) {
@@ -929,6 +956,208 @@ TEST_F(TracemeshdTest, ServedOpenApiDocumentPassesAValidator) {
   command.append(document.string()).append(" 2>&1; echo \"exit=$?\"");
   const std::string out = run(command);
   EXPECT_NE(out.find("exit=0"), std::string::npos) << out;
+}
+
+// ---- issue 12: accepted work is durable; owners and bearer tokens ------------------------------------------------
+
+/// The id and owner token of a 202 reply.
+std::pair<std::string, std::string> id_and_token(const curl_reply& accepted) {
+  const auto doc = nlohmann::json::parse(accepted.body);
+  return {doc.at("id"), doc.value("token", "")};
+}
+
+/// `tracemeshd ARGS` run to its end: its exit code and everything it printed.
+std::pair<int, std::string> run_tracemeshd(const std::string& args) {
+  const std::string out =
+      run(binary_path("tracemeshd").string() + " --listen 127.0.0.1:0 " + args + " 2>&1; echo \"exit=$?\"");
+  const auto at = out.rfind("exit=");
+  return {std::atoi(out.c_str() + at + 5), out.substr(0, at)};
+}
+
+// Finding 1: a done job's mesh lived only in the evictable cache. Now the job store keeps the mesh for the
+// retention period: with the cache's files removed (and nothing held in memory) every format is still served.
+TEST_F(TracemeshdTest, ADoneJobServesEveryFormatAfterItsCacheEntriesAreGone) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--cache-memory-bytes", "0"});
+  const nlohmann::json job = run_job(server, molecule_path("gly.pqr"), "-F format=draco");
+  ASSERT_EQ(job.value("status", ""), "done") << job;
+  const std::string id = job.at("id");
+  const curl_reply draco_before = curl("", server.url("/jobs/" + id + "/mesh?format=draco"));
+  ASSERT_EQ(draco_before.status, 200);
+  std::size_t removed = 0;
+  for (const auto& shard : fs::directory_iterator(cache_.path())) {
+    if (shard.path().filename() == "jobs") continue;
+    removed += fs::remove_all(shard.path());
+  }
+  EXPECT_GT(removed, 0u) << "the cache held the encoding";
+  const curl_reply off = curl("", server.url("/jobs/" + id + "/mesh?format=off"));
+  EXPECT_EQ(off.status, 200) << off.body;
+  EXPECT_GT(off_counts(off.body).first, 0);
+  const curl_reply draco = curl("", server.url("/jobs/" + id + "/mesh?format=draco"));
+  EXPECT_EQ(draco.status, 200) << draco.body;
+  EXPECT_EQ(draco.body, draco_before.body) << "re-encoded from the stored mesh: the same bytes";
+  EXPECT_EQ(nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body).at("status"), "done");
+  EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 1) << "served from the stored mesh, not meshed again";
+  EXPECT_TRUE(log_events(server.log(), "job_result_lost").empty()) << "the cache losing an encoding loses nothing";
+}
+
+// Finding 14: a 202-accepted job vanished with kill -9. Now the journal queues it again at start.
+TEST_F(TracemeshdTest, JobsAcceptedBeforeAKill9FinishAfterTheRestart) {
+  std::vector<std::string> ids;
+  {
+    server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "1"});
+    for (const char* molecule : {"2buk_12asu.pqr", "fas2.pqr", "villin_1vii.pqr", "gly.pqr"}) {
+      const curl_reply accepted = upload(server, molecule_path(molecule), "", "/jobs");
+      ASSERT_EQ(accepted.status, 202) << molecule << ": " << accepted.body;
+      ids.push_back(id_and_token(accepted).first);
+    }
+    server.kill(SIGKILL);  // the first is running, the others queued
+  }
+  server_process restarted(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "2"});
+  EXPECT_NE(restarted.log().find("\"event\":\"jobs_requeued\""), std::string::npos) << restarted.log();
+  for (const std::string& id : ids) {
+    const curl_reply first = curl("", restarted.url("/jobs/" + id));
+    ASSERT_EQ(first.status, 200) << "a 202-accepted job is known after kill -9: " << first.body;
+    const auto deadline = std::chrono::steady_clock::now() + 120s;
+    nlohmann::json doc = nlohmann::json::parse(first.body);
+    while (doc.at("status") != "done" && doc.at("status") != "failed" && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(50ms);
+      doc = nlohmann::json::parse(curl("", restarted.url("/jobs/" + id)).body);
+    }
+    expect_certified_job(restarted, doc);
+  }
+}
+
+// Finding 11: after kill -9 during a write the OFF was served but the Draco and the record were 404. Now a job is
+// done with its mesh and every format, or queued to run again, never in between.
+TEST_F(TracemeshdTest, Kill9AtAnyMomentLeavesAJobWholeOrQueuedAgain) {
+  const fs::path villin = molecule_path("villin_1vii.pqr");
+  std::string reference_off, reference_draco;
+  {
+    temp_dir clean;
+    server_process server(work_.path(), {"--cache-dir", clean.path().string()});
+    const nlohmann::json job = run_job(server, villin, "");
+    ASSERT_EQ(job.value("status", ""), "done");
+    reference_off = curl("", server.url("/jobs/" + job.at("id").get<std::string>() + "/mesh?format=off")).body;
+    reference_draco = curl("", server.url("/jobs/" + job.at("id").get<std::string>() + "/mesh?format=draco")).body;
+  }
+  std::string id;
+  for (int delay_ms : {0, 100, 250, 350, 450, 550, 700}) {
+    server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+    const curl_reply accepted = upload(server, villin, "", "/jobs");
+    ASSERT_TRUE(accepted.status == 202 || accepted.status == 200) << accepted.body;
+    id = id_and_token(accepted).first;
+    std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+    server.kill(SIGKILL);
+    // Straight after the kill the job must be known: done (whole) or waiting to run again.
+    server_process checked(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "1"});
+    const curl_reply status = curl("", checked.url("/jobs/" + id));
+    ASSERT_EQ(status.status, 200) << "after a kill at " << delay_ms << " ms: " << status.body;
+    const std::string state = nlohmann::json::parse(status.body).at("status");
+    EXPECT_TRUE(state == "done" || state == "queued" || state == "running") << state;
+    if (state == "done") {
+      EXPECT_EQ(curl("", checked.url("/jobs/" + id + "/mesh?format=off")).body, reference_off) << delay_ms;
+      EXPECT_EQ(curl("", checked.url("/jobs/" + id + "/mesh?format=draco")).body, reference_draco) << delay_ms;
+    }
+    checked.kill(SIGKILL);
+    if (delay_ms < 700) fs::remove_all(cache_.path() / "jobs");  // the next round starts from nothing again
+  }
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  const nlohmann::json final_state = run_job(server, villin, "");
+  ASSERT_EQ(final_state.value("status", ""), "done") << final_state;
+  EXPECT_EQ(curl("", server.url("/jobs/" + id + "/mesh?format=off")).body, reference_off);
+  EXPECT_EQ(curl("", server.url("/jobs/" + id + "/mesh?format=draco")).body, reference_draco);
+  EXPECT_EQ(metric(server, "tracemesh_cache_corrupt_entries_total"), 0);
+}
+
+// Finding 1: a read-only or unusable --cache-dir silently disabled caching. Now it stops the start with one line
+// and exit 1; running without a disk store takes an explicit flag, and /readyz and the logs say so.
+TEST_F(TracemeshdTest, AnUnusableCacheOrJobDirectoryStopsTheStartWithOneLine) {
+  const fs::path file = write("plain-file", "not a directory");
+  fs::path read_only = work_.path() / "read-only";
+  if (::geteuid() == 0) {
+    read_only = "/sys/kernel";  // root writes through permission bits; sysfs refuses new files even to root
+  } else {
+    fs::create_directory(read_only);
+    fs::permissions(read_only, fs::perms::owner_read | fs::perms::owner_exec);
+  }
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"--cache-dir " + file.string(), "not a directory"},
+      {"--cache-dir " + (file / "below").string(), "cannot be created"},
+      {"--cache-dir " + read_only.string(), "not writable"},
+      {"--cache-dir " + (work_.path() / "ok").string() + " --job-dir " + file.string(), "not a directory"},
+  };
+  for (const auto& [args, reason] : cases) {
+    const auto [code, output] = run_tracemeshd(args);
+    EXPECT_EQ(code, 1) << args << ": " << output;
+    EXPECT_EQ(std::count(output.begin(), output.end(), '\n'), 1) << args << ": " << output;
+    EXPECT_NE(output.find(reason), std::string::npos) << args << ": " << output;
+  }
+  const auto [code, output] = run_tracemeshd("");
+  EXPECT_EQ(code, 2) << output;
+  EXPECT_NE(output.find("--no-disk-store"), std::string::npos) << output;
+
+  server_process memory_only(work_.path(), {"--no-disk-store"});
+  const curl_reply ready = curl("", memory_only.url("/readyz"));
+  EXPECT_EQ(ready.status, 200);
+  EXPECT_EQ(nlohmann::json::parse(ready.body).at("durable"), false) << ready.body;
+  EXPECT_NE(memory_only.log().find("\"event\":\"no_disk_store\""), std::string::npos) << memory_only.log();
+  server_process durable(work_.path(), {"--cache-dir", cache_.path().string()});
+  EXPECT_EQ(nlohmann::json::parse(curl("", durable.url("/readyz")).body).at("durable"), true);
+}
+
+// Finding 2: any client could DELETE any job, and a second submitter of the same molecule lost its job. Now each
+// submission gets an owner token; a shared job is cancelled only when every owner withdrew.
+TEST_F(TracemeshdTest, ASharedJobIsCancelledOnlyWhenEveryOwnerWithdrew) {
+  server_process server(work_.path(), {"--no-disk-store", "--workers", "1"});
+  const curl_reply blocker = upload(server, molecule_path("2buk_12asu.pqr"), "", "/jobs");
+  ASSERT_EQ(blocker.status, 202) << blocker.body;
+  const curl_reply first = upload(server, molecule_path("fas2.pqr"), "", "/jobs");
+  const curl_reply second = upload(server, molecule_path("fas2.pqr"), "", "/jobs");
+  ASSERT_EQ(first.status, 202) << first.body;
+  ASSERT_EQ(second.status, 202) << second.body;
+  const auto [id, first_token] = id_and_token(first);
+  const auto [same_id, second_token] = id_and_token(second);
+  ASSERT_EQ(id, same_id) << "one job for both";
+  EXPECT_NE(first_token, second_token) << "one token per submission";
+  EXPECT_EQ(first.headers.at("x-job-token"), first_token);
+  const std::string url = server.url("/jobs/" + id);
+  expect_error(curl("-X DELETE", url), 401, "unauthorized", "no token");
+  expect_error(curl("-X DELETE -H 'X-Job-Token: " + id_and_token(blocker).second + "'", url), 403, "forbidden",
+               "another job's token");
+  const curl_reply withdrawn = curl("-X DELETE -H 'X-Job-Token: " + first_token + "'", url);
+  EXPECT_EQ(withdrawn.status, 200) << withdrawn.body;
+  EXPECT_EQ(nlohmann::json::parse(withdrawn.body).at("status"), "queued") << "the second owner still holds it";
+  expect_error(curl("-X DELETE -H 'X-Job-Token: " + first_token + "'", url), 403, "forbidden", "withdrawn twice");
+  const curl_reply cancelled = curl("-X DELETE -H 'X-Job-Token: " + second_token + "'", url);
+  EXPECT_EQ(cancelled.status, 200) << cancelled.body;
+  EXPECT_EQ(nlohmann::json::parse(cancelled.body).at("status"), "cancelled") << "the last owner withdrew";
+  EXPECT_EQ(curl("-X DELETE -H 'X-Job-Token: " + id_and_token(blocker).second + "'",
+                 server.url("/jobs/" + id_and_token(blocker).first)).status, 200);
+}
+
+// Finding 2: there was no way to require a token. --auth-token-file makes every route but the exempt ones need
+// "Authorization: Bearer".
+TEST_F(TracemeshdTest, ABearerTokenFileGuardsEveryRouteButTheExemptOnes) {
+  const fs::path tokens = write("tokens", "# lab tokens\nalpha-0123456789abcdef\n\n  beta-0123456789abcdef  \n");
+  server_process server(work_.path(), {"--no-disk-store", "--auth-token-file", tokens.string()});
+  const fs::path gly = molecule_path("gly.pqr");
+  expect_error(upload(server, gly), 401, "unauthorized", "no token");
+  expect_error(curl("-H 'Authorization: Bearer alpha-0123456789abcdeX'", server.url("/openapi.json")), 401,
+               "unauthorized", "a wrong token");
+  EXPECT_EQ(curl("", server.url("/openapi.json")).headers["www-authenticate"], "Bearer realm=\"tracemeshd\"");
+  EXPECT_EQ(curl("-H 'Authorization: Bearer alpha-0123456789abcdef'", server.url("/openapi.json")).status, 200);
+  EXPECT_EQ(curl("-F pqr=@" + gly.string() + " -H 'Authorization: bearer beta-0123456789abcdef'",
+                 server.url("/mesh")).status, 200);
+  for (const char* open_route : {"/healthz", "/readyz", "/metrics"}) {
+    EXPECT_EQ(curl("", server.url(open_route)).status, 200) << open_route;
+  }
+  server_process strict(work_.path(), {"--no-disk-store", "--auth-token-file", tokens.string(), "--auth-exempt",
+                                       "/healthz"});
+  EXPECT_EQ(curl("", strict.url("/healthz")).status, 200);
+  expect_error(curl("", strict.url("/metrics")), 401, "unauthorized", "metrics not exempt");
+  const auto [code, output] = run_tracemeshd("--no-disk-store --auth-token-file " + write("short", "abc\n").string());
+  EXPECT_EQ(code, 1) << output;
+  EXPECT_NE(output.find("shorter than 16"), std::string::npos) << output;
 }
 
 }  // namespace

@@ -468,7 +468,7 @@ TEST_F(HttpServerTest, ARequestAtTheEdgeOfTheIdleTimeoutIsServedOrCleanlyRefused
     const http_reply r = connection.read_reply();
     if (r.status != 0) {
       EXPECT_EQ(r.status, 200) << pause_ms;
-      EXPECT_EQ(r.body, R"({"status":"ready"})") << pause_ms;
+      EXPECT_EQ(nlohmann::json::parse(r.body).at("status"), "ready") << pause_ms;
     } else {
       EXPECT_TRUE(connection.closed_by_peer(1s)) << pause_ms;
       EXPECT_TRUE(connection.unread().empty()) << "a partial response: " << connection.unread();

@@ -128,7 +128,6 @@ TEST(JobId, ArtifactKeysAreValidCacheKeys) {
   for (const proto::mesh_format_info& row : proto::mesh_formats()) {
     EXPECT_TRUE(is_valid_cache_key(mesh_key(id, row.format))) << row.name;
   }
-  EXPECT_EQ(report_key(id), id + ".report");
 }
 
 }  // namespace

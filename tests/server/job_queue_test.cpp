@@ -35,8 +35,7 @@ class gate_work {
       if (id == failing_id) return status(errc::nothing_to_mesh, "nothing here");
       if (id == throwing_id) throw std::runtime_error("boom");
       job_output output;
-      output.meshes[proto::mesh_format::off] = std::make_shared<const std::string>("OFF " + id);
-      output.report = std::make_shared<const std::string>("{}");
+      output.report = std::make_shared<const std::string>("OFF " + id);
       return output;
     };
   }
@@ -103,7 +102,7 @@ TEST(JobQueue, IdenticalConcurrentSubmissionsRunOnceAndShareTheOutput) {
       const submit_result r = queue.submit("same", any_input(), [&](const job_snapshot& s, const job_output* out) {
         EXPECT_EQ(s.state, job_state::done);
         std::lock_guard lock(outputs_mutex);
-        outputs.push_back(out ? *out->meshes.at(proto::mesh_format::off) : "no output");
+        outputs.push_back(out ? *out->report : "no output");
         all_notified.count_down();
       });
       (r.outcome == submit_outcome::accepted ? accepted : coalesced).fetch_add(1);
@@ -216,7 +215,7 @@ TEST(JobQueue, ReportsProgressWhileRunning) {
   gate.open();
   const job_snapshot done = wait_final(queue, "job");
   EXPECT_EQ(done.progress, 1.0);
-  EXPECT_EQ(*done.report, "{}");
+  EXPECT_EQ(*done.report, "OFF job");
 }
 
 TEST(JobQueue, ProgressFollowsEitherMethodsStagesAndNeverGoesBack) {

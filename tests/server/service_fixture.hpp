@@ -180,8 +180,15 @@ class service_fixture : public ::testing::Test {
   http_reply get(const std::string& target, const std::string& headers = {}) {
     return round_trip(port_, get_request(target, headers));
   }
-  http_reply request(const std::string& method, const std::string& target) {
-    return round_trip(port_, method + " " + target + " HTTP/1.1\r\nHost: test\r\n\r\n", method == "HEAD");
+  http_reply request(const std::string& method, const std::string& target, const std::string& headers = {}) {
+    return round_trip(port_, method + " " + target + " HTTP/1.1\r\nHost: test\r\n" + headers + "\r\n",
+                      method == "HEAD");
+  }
+  /// DELETE /jobs/{id} with the owner token of its submission (`accepted`: the 202 reply of POST /jobs).
+  http_reply withdraw(const http_reply& accepted) {
+    const auto doc = nlohmann::json::parse(accepted.body);
+    return request("DELETE", "/jobs/" + doc.at("id").get<std::string>(),
+                   "X-Job-Token: " + doc.at("token").get<std::string>() + "\r\n");
   }
   /// Polls GET /jobs/{id} until the job is final.
   nlohmann::json wait_job(const std::string& id) {

@@ -1,0 +1,79 @@
+#include "server/access_tokens.hpp"
+
+#include <openssl/crypto.h>
+#include <openssl/rand.h>
+
+#include <array>
+#include <new>
+#include <sstream>
+
+#include "server/content_hash.hpp"
+#include "server/detail/durable_file.hpp"
+
+namespace tracemesh::server {
+
+namespace {
+
+constexpr std::size_t min_bearer_token_length = 16;
+
+std::string_view trim(std::string_view text) {
+  while (!text.empty() && (text.front() == ' ' || text.front() == '\t' || text.front() == '\r')) text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\t' || text.back() == '\r')) text.remove_suffix(1);
+  return text;
+}
+
+}  // namespace
+
+std::string new_owner_token() {
+  std::array<unsigned char, 32> bytes{};
+  if (RAND_bytes(bytes.data(), static_cast<int>(bytes.size())) != 1) throw std::bad_alloc();  // no entropy: as OOM
+  return to_hex(bytes.data(), bytes.size());
+}
+
+std::string token_digest(std::string_view token) { return sha256_hex(token); }
+
+bool digests_equal(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && CRYPTO_memcmp(a.data(), b.data(), a.size()) == 0;
+}
+
+result<bearer_tokens> bearer_tokens::from_file(const std::filesystem::path& path) {
+  const std::optional<std::string> text = detail::read_whole_file(path);
+  if (!text) return status(errc::io_error, "--auth-token-file " + path.string() + ": cannot be read");
+  std::vector<std::string> tokens;
+  std::istringstream lines(*text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    const std::string_view token = trim(line);
+    if (token.empty() || token.front() == '#') continue;
+    if (token.size() < min_bearer_token_length) {
+      return status(errc::invalid_input, "--auth-token-file " + path.string() + ": a token is shorter than " +
+                                             std::to_string(min_bearer_token_length) + " characters");
+    }
+    tokens.emplace_back(token);
+  }
+  if (tokens.empty()) return status(errc::invalid_input, "--auth-token-file " + path.string() + ": holds no token");
+  return from_tokens(tokens);
+}
+
+bearer_tokens bearer_tokens::from_tokens(const std::vector<std::string>& tokens) {
+  bearer_tokens out;
+  for (const std::string& token : tokens) out.digests_.push_back(token_digest(token));
+  return out;
+}
+
+bool bearer_tokens::accepts(std::string_view authorization) const {
+  constexpr std::string_view scheme = "Bearer ";
+  if (authorization.size() <= scheme.size()) return false;
+  for (std::size_t i = 0; i < scheme.size(); ++i) {  // the scheme is case-insensitive (RFC 9110 §11.1)
+    if (std::tolower(static_cast<unsigned char>(authorization[i])) !=
+        std::tolower(static_cast<unsigned char>(scheme[i]))) {
+      return false;
+    }
+  }
+  const std::string presented = token_digest(trim(authorization.substr(scheme.size())));
+  bool accepted = false;
+  for (const std::string& digest : digests_) accepted = digests_equal(presented, digest) || accepted;
+  return accepted;
+}
+
+}  // namespace tracemesh::server
