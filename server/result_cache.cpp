@@ -19,6 +19,9 @@ namespace tracemesh::server {
 namespace {
 
 namespace fs = std::filesystem;
+using detail::fsync_directory;
+using detail::open_retrying;
+using detail::write_all;
 
 // ---- Entry file format ------------------------------------------------------------------------------------
 // magic (8) | payload length, u64 little-endian (8) | SHA-256 of the payload (32) | key length, u32 LE (4) | key
@@ -100,24 +103,6 @@ class unique_fd {
   int fd_;
 };
 
-int open_retrying(const char* path, int flags, mode_t mode = 0) {
-  int fd;
-  do {
-    fd = ::open(path, flags | O_CLOEXEC, mode);
-  } while (fd < 0 && errno == EINTR);
-  return fd;
-}
-
-bool write_all(int fd, std::string_view bytes) {
-  while (!bytes.empty()) {
-    const ssize_t written = ::write(fd, bytes.data(), bytes.size());
-    if (written < 0 && errno == EINTR) continue;
-    if (written <= 0) return false;
-    bytes.remove_prefix(static_cast<std::size_t>(written));
-  }
-  return true;
-}
-
 enum class read_outcome { complete, short_file, error };
 
 read_outcome read_all(int fd, char* out, std::size_t size) {
@@ -130,11 +115,6 @@ read_outcome read_all(int fd, char* out, std::size_t size) {
     size -= static_cast<std::size_t>(got);
   }
   return read_outcome::complete;
-}
-
-bool fsync_directory(const fs::path& dir) {
-  const unique_fd fd(open_retrying(dir.c_str(), O_RDONLY | O_DIRECTORY));
-  return fd && ::fsync(fd.get()) == 0;
 }
 
 status io_failure(std::string_view what, const fs::path& path, int error_number) {

@@ -23,7 +23,19 @@ status io_failure(std::string_view what, const fs::path& path, int error_number)
   return status(errc::io_error, std::string(what) + " " + path.string() + ": " + std::strerror(error_number));
 }
 
-int open_retrying(const char* path, int flags, mode_t mode = 0) {
+void append_u64(std::string& out, std::uint64_t value) {
+  for (int i = 0; i < 8; ++i) out.push_back(static_cast<char>((value >> (8 * i)) & 0xff));
+}
+
+std::uint64_t read_u64(const char* in) {
+  std::uint64_t value = 0;
+  for (int i = 0; i < 8; ++i) value |= std::uint64_t{static_cast<unsigned char>(in[i])} << (8 * i);
+  return value;
+}
+
+}  // namespace
+
+int open_retrying(const char* path, int flags, unsigned mode) {
   int fd;
   do {
     fd = ::open(path, flags | O_CLOEXEC, mode);
@@ -48,18 +60,6 @@ bool fsync_directory(const fs::path& dir) {
   ::close(fd);
   return synced;
 }
-
-void append_u64(std::string& out, std::uint64_t value) {
-  for (int i = 0; i < 8; ++i) out.push_back(static_cast<char>((value >> (8 * i)) & 0xff));
-}
-
-std::uint64_t read_u64(const char* in) {
-  std::uint64_t value = 0;
-  for (int i = 0; i < 8; ++i) value |= std::uint64_t{static_cast<unsigned char>(in[i])} << (8 * i);
-  return value;
-}
-
-}  // namespace
 
 status write_file_durably(const fs::path& path, std::string_view bytes) {
   const fs::path temp = path.parent_path() / (std::string(durable_temp_prefix) + path.filename().string() + "-" +

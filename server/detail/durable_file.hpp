@@ -17,6 +17,13 @@ namespace tracemesh::server::detail {
 /// The prefix of temporary files; a directory's owner removes leftovers (of a killed writer) at start.
 inline constexpr std::string_view durable_temp_prefix = ".tmp-";
 
+/// The POSIX steps both durable stores (this job store, the result cache) build on, retried on EINTR:
+/// open(2) with O_CLOEXEC (−1 and errno on failure); every byte written (false and errno on failure); fsync of a
+/// directory, which makes a rename or removal in it durable.
+int open_retrying(const char* path, int flags, unsigned mode = 0);
+bool write_all(int fd, std::string_view bytes);
+bool fsync_directory(const std::filesystem::path& dir);
+
 /// Writes `bytes` to `path` atomically and durably. @return errc::io_error naming the step and path on failure
 /// (no temporary file is left then).
 status write_file_durably(const std::filesystem::path& path, std::string_view bytes);
