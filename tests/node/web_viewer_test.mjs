@@ -10,7 +10,7 @@
 //     the atom index of the vertex at the same position in the PLY of the same job;
 //   - no console error, page error or failed request happened.
 // --measure: only load the molecule and print the times (submit → job done → mesh decoded → first frame) and the
-// longest main-thread task while the mesh was loaded.
+// longest main-thread task while the mesh was loaded; --colour MODE and --opacity X set the view of the screenshot.
 // Exits 0 on success, 1 on a failure, 77 (ctest SKIP_RETURN_CODE) when no Chromium is installed.
 import { spawn } from 'node:child_process';
 import { existsSync } from 'node:fs';
@@ -27,13 +27,17 @@ const { values: options } = parseArgs({
     density: { type: 'string', default: '1' },
     screenshot: { type: 'string' },
     measure: { type: 'boolean', default: false },
+    colour: { type: 'string' },   // with --measure: the colour mode of the screenshot
+    opacity: { type: 'string' },  // with --measure: the outer surface's opacity in the screenshot
   },
 });
 if (!options.tracemeshd || !options.molecules) {
   console.error('usage: web_viewer_test.mjs --tracemeshd BIN --molecules DIR [--screenshot OUT.png] [--molecule FILE] [--measure]');
   process.exit(2);
 }
-const chromiumPath = [process.env.CHROMIUM, '/usr/bin/chromium', '/usr/bin/chromium-browser'].find((p) => p && existsSync(p));
+// $CHROMIUM names the browser explicitly (and only it); otherwise Debian's.
+const chromiumPath = (process.env.CHROMIUM ? [process.env.CHROMIUM] : ['/usr/bin/chromium', '/usr/bin/chromium-browser'])
+  .find((path) => existsSync(path));
 if (!chromiumPath) {
   console.log('SKIP: no Chromium (apt-get install chromium; scripts/install-deps.sh installs it)');
   process.exit(77);
@@ -195,6 +199,10 @@ try {
   page.on('requestfailed', (request) => {
     if (!expected404(request.url())) problems.push(`request failed: ${request.url()} ${request.failure()?.errorText}`);
   });
+  const jobPolls = [];  // GET /jobs/{id}: the page's fallback when the events stream is not there
+  page.on('request', (request) => {
+    if (/\/jobs\/[0-9a-f]{64}$/.test(new URL(request.url()).pathname) && request.method() === 'GET') jobPolls.push(request.url());
+  });
   page.on('response', (response) => {
     if (response.status() >= 400 && !expected404(response.url())) problems.push(`HTTP ${response.status()}: ${response.url()}`);
   });
@@ -222,6 +230,8 @@ try {
     `${ms('finished', 'meshDecoded')}, decoded → first frame ${ms('meshDecoded', 'firstFrame')}; submit → first ` +
     `frame ${ms('submitted', 'firstFrame')}; longest main-thread task ${viewer.longestTaskMs.toFixed(0)} ms`);
 
+  if (options.colour) await page.selectOption('#colour-mode', options.colour);
+  if (options.opacity) await page.fill('#outer-opacity', options.opacity);
   const canvasPng = await page.locator('#canvas').screenshot();
   const share = foregroundShare(canvasPng);
   console.log(`canvas: ${(100 * share).toFixed(1)}% of the pixels show the mesh`);
@@ -232,6 +242,9 @@ try {
     const id = viewer.jobId;
     const job = await (await fetch(`${server.url}/jobs/${id}`)).json();
     check(job.status === 'done', `GET /jobs/${id}: status ${job.status}`);
+    // The page follows the job by Server-Sent Events where the server has them, and polls only where it has not.
+    if (eventsRouteServed) check(jobPolls.length === 0, `the page polled GET /jobs/{id} ${jobPolls.length} times although the events route is served`);
+    else check(jobPolls.length >= 1, 'without the events route the page never polled GET /jobs/{id}');
     const cells = await page.$$eval('#report dd[data-field]', (dds) => dds.map((dd) => ({ field: dd.dataset.field, text: dd.textContent })));
     check(cells.length >= 12, `the report panel shows ${cells.length} values`);
     for (const field of ['certificate.certified', 'vertices', 'triangles', 'area', 'volume', 'components', 'genus', 'timings.total']) {

@@ -166,7 +166,7 @@ function formParameters() {
 async function runJob() {
   $('submit').disabled = true;
   setMessage('');
-  setPictureState(view.mesh ? 'shown' : 'empty');
+  setPictureState('working');
   viewer.times = { submitted: performance.now() };
   try {
     const accepted = await submitJob(chosenFile, formParameters());
@@ -177,6 +177,7 @@ async function runJob() {
     viewer.times.finished = performance.now();
     $('cancel').disabled = true;
     if (job.status !== 'done') {
+      setPictureState(job.status);
       setMessage(job.status === 'cancelled' ? 'The job was cancelled.'
         : `The job failed: ${job.error?.message ?? 'no reason given'} (${job.error?.code ?? job.status})`);
       return;

@@ -38,43 +38,44 @@ export function detectFormat(text) {
 }
 
 /// PQR: ATOM/HETATM records of 10 fields (ATOM serial name resName resSeq x y z charge radius) or 11 (a chain id
-/// before resSeq). With 10 fields a chain id may be glued to resSeq ("A1000").
-function readPqr(text) {
+/// before resSeq). With 10 fields a chain id may be glued to resSeq ("A1000"). A capsid has ~10⁵–10⁶ records: the
+/// text is scanned line by line without splitting it whole, and the page gets the main thread back every
+/// `recordsPerSlice` records so that it stays responsive.
+async function readPqr(text) {
+  const recordsPerSlice = 20000;
   const charge = [];
   const chain = [];
-  const residue = [];
   const residueName = [];
-  for (const line of text.split(/\r?\n/)) {
-    if (!line.startsWith('ATOM') && !line.startsWith('HETATM')) continue;
-    const fields = line.trim().split(/\s+/);
-    let chainId = '';
-    let sequence = fields[4];
-    if (fields.length === 11) {
-      chainId = fields[4];
-      sequence = fields[5];
-    } else {
-      const glued = /^([A-Za-z]+)(-?\d+[A-Za-z]?)$/.exec(sequence ?? '');
-      if (glued) [, chainId, sequence] = glued;
+  const whitespace = /\s+/;
+  const gluedChain = /^([A-Za-z]+)-?\d+[A-Za-z]?$/;
+  let start = 0;
+  while (start < text.length) {
+    let end = text.indexOf('\n', start);
+    if (end < 0) end = text.length;
+    if (text.startsWith('ATOM', start) || text.startsWith('HETATM', start)) {
+      const fields = text.slice(start, end).trim().split(whitespace);
+      const chainId = fields.length === 11 ? fields[4] : (gluedChain.exec(fields[4] ?? '')?.[1] ?? '');
+      charge.push(Number(fields[fields.length - 2]));
+      chain.push(chainId);
+      residueName.push(fields[3]);
+      if (charge.length % recordsPerSlice === 0) await new Promise((resolve) => setTimeout(resolve));
     }
-    charge.push(Number(fields[fields.length - 2]));
-    chain.push(chainId);
-    residueName.push(fields[3]);
-    residue.push(`${chainId}:${sequence}`);
+    start = end + 1;
   }
-  return { format: 'pqr', count: charge.length, charge, chain, residue, residueName };
+  return { format: 'pqr', count: charge.length, charge, chain, residueName };
 }
 
 function readXyzr(text) {
   const count = text.split(/\r?\n/).filter((line) => line.trim() !== '').length;
-  return { format: 'xyzr', count, charge: null, chain: null, residue: null, residueName: null };
+  return { format: 'xyzr', count, charge: null, chain: null, residueName: null };
 }
 
-/// The per-atom properties the page can colour by ({format, count, charge, chain, residue, residueName}; a
+/// The per-atom properties the page can colour by ({format, count, charge, chain, residueName}; a
 /// property the format lacks is null).
 export async function readAtoms(file) {
   const text = await fileText(file);
   const format = detectFormat(text);
   if (format === 'pqr') return readPqr(text);
   if (format === 'xyzr') return readXyzr(text);
-  return { format, count: null, charge: null, chain: null, residue: null, residueName: null };
+  return { format, count: null, charge: null, chain: null, residueName: null };
 }
