@@ -226,10 +226,32 @@ try {
   const viewer = await page.evaluate(() => ({ ...window.tracemeshViewer, longestTaskMs: window.longestTaskMs }));
   const times = viewer.times;
   const ms = (from, to) => `${(times[to] - times[from]).toFixed(0)} ms`;
-  console.log(`${options.molecule}: submit → job done ${ms('submitted', 'finished')}, job done → mesh decoded ` +
-    `${ms('finished', 'meshDecoded')}, decoded → first frame ${ms('meshDecoded', 'firstFrame')}; submit → first ` +
+  console.log(`${options.molecule}: submit → job done ${ms('submitted', 'finished')}, GLB downloaded ` +
+    `${ms('finished', 'meshDownloaded')}, decoded ${ms('meshDownloaded', 'meshDecoded')}, first frame ` +
+    `${ms('meshDecoded', 'firstFrame')}; submit → first ` +
     `frame ${ms('submitted', 'firstFrame')}; longest main-thread task ${viewer.longestTaskMs.toFixed(0)} ms`);
 
+  if (options.measure) {
+    // Orbiting: frames drawn while the mouse drags across the canvas for ~2 s.
+    const box = await page.locator('#canvas').boundingBox();
+    await page.evaluate(() => {
+      window.frameTimes = [];
+      const tick = (time) => { window.frameTimes.push(time); if (window.frameTimes.length < 1000) requestAnimationFrame(tick); };
+      requestAnimationFrame(tick);
+    });
+    await page.mouse.move(box.x + box.width / 2, box.y + box.height / 2);
+    await page.mouse.down();
+    const dragStarted = Date.now();
+    for (let step = 1; Date.now() - dragStarted < 2000; ++step) {
+      await page.mouse.move(box.x + box.width / 2 + 3 * step, box.y + box.height / 2 + step);
+    }
+    await page.mouse.up();
+    const frames = await page.evaluate(() => window.frameTimes.slice(1).map((t, i) => t - window.frameTimes[i]));
+    frames.sort((a, b) => a - b);
+    console.log(`orbiting: ${frames.length} frames in ~2 s, median ${frames[frames.length >> 1]?.toFixed(0)} ms, ` +
+      `slowest ${frames.at(-1)?.toFixed(0)} ms (SwiftShader: WebGL on the CPU)`);
+    await page.click('#fit');
+  }
   if (options.colour) await page.selectOption('#colour-mode', options.colour);
   if (options.opacity) await page.fill('#outer-opacity', options.opacity);
   const canvasPng = await page.locator('#canvas').screenshot();

@@ -16,12 +16,16 @@ export function createTracemeshGltfLoader(dracoDecoderPath) {
 
 /// Loads the GLB at `url`; resolves to { mesh, geometry, atomIndex, component }.
 export async function loadTracemeshGlb(loader, url) {
-  const gltf = await loader.loadAsync(url);
+  return readTracemeshGltf(await loader.loadAsync(url), url);
+}
+
+/// The mesh of a loaded tracemesh glTF (what GLTFLoader's load/parse gives) and its per-vertex attributes.
+export function readTracemeshGltf(gltf, what = 'the glTF') {
   let mesh = null;
   gltf.scene.traverse((object) => {
     if (object.isMesh && !mesh) mesh = object;
   });
-  if (!mesh) throw new Error(`${url}: the glTF holds no mesh`);
+  if (!mesh) throw new Error(`${what} holds no mesh`);
   const geometry = mesh.geometry;
   return {
     mesh,

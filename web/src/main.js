@@ -1,5 +1,5 @@
 // The tracemesh web viewer: upload a molecule, follow its job, show the certified mesh and its report.
-import { createTracemeshGltfLoader, loadTracemeshGlb } from '../snippets/glb_atom_index.js';
+import { createTracemeshGltfLoader, readTracemeshGltf } from '../snippets/glb_atom_index.js';
 import { colourVertices, outerComponent, unavailableModes } from './colouring.js';
 import { cancelJob, followJob, submitJob } from './job_client.js';
 import { readAtoms } from './molecule_atoms.js';
@@ -59,7 +59,7 @@ function showProgress(job) {
   $('progress-bar').value = job.status === 'done' ? 1 : job.progress ?? 0;
   const waiting = job.status === 'queued' && job.queue_position != null ? ` (position ${job.queue_position})` : '';
   $('status-text').textContent = job.status + waiting;
-  $('stage-text').textContent = job.stage ?? '—';
+  $('stage-text').textContent = job.status === 'running' ? job.stage ?? '—' : '—';
   $('eta-text').textContent = job.status === 'done' ? '—' : formatEta(job.eta_s);
 }
 
@@ -129,7 +129,14 @@ function applyColours() {
 
 async function showMesh(id, report) {
   setPictureState('loading');
-  const { geometry, atomIndex, component } = await loadTracemeshGlb(gltfLoader, `/jobs/${id}/mesh?format=glb`);
+  // Fetched here rather than by the loader so that download (the server encodes a format on its first request)
+  // and decoding are timed apart.
+  const url = `/jobs/${id}/mesh?format=glb`;
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(`${url}: HTTP ${response.status}`);
+  const bytes = await response.arrayBuffer();
+  viewer.times.meshDownloaded = performance.now();
+  const { geometry, atomIndex, component } = readTracemeshGltf(await gltfLoader.parseAsync(bytes, ''), url);
   viewer.times.meshDecoded = performance.now();
   const atoms = await atomsPending;
   viewer.atomCount = atoms.count;
