@@ -33,7 +33,9 @@ using clock = std::chrono::steady_clock;
 
 // ---- routing ------------------------------------------------------------------------------------------------
 
-enum class route_id { healthz, readyz, metrics, openapi, web_page, favicon, web_asset, mesh, jobs, job, job_mesh, unknown };
+enum class route_id {
+  healthz, readyz, metrics, openapi, web_page, favicon, web_asset, mesh, jobs, job, job_mesh, unknown
+};
 
 struct route_match {
   route_id id = route_id::unknown;

@@ -36,7 +36,8 @@ TEST(WebAssets, TheTableHoldsThePageTheIconAndTheBundle) {
   ASSERT_NE(find_web_asset("/"), nullptr);
   ASSERT_NE(find_web_asset("/favicon.ico"), nullptr);
   EXPECT_EQ(find_web_asset("/nope"), nullptr);
-  const std::regex bundle_file(R"(/assets/[0-9a-f]{16}/(viewer\.js|viewer\.css|draco_wasm_wrapper\.js|draco_decoder\.wasm))");
+  const std::regex bundle_file(
+      R"(/assets/[0-9a-f]{16}/(viewer\.js|viewer\.css|draco_wasm_wrapper\.js|draco_decoder\.wasm))");
   std::size_t bundle_files = 0;
   for (const std::string& path : paths) bundle_files += std::regex_match(path, bundle_file) ? 1 : 0;
   EXPECT_EQ(bundle_files, 4U) << "paths: " << ::testing::PrintToString(paths);
@@ -67,7 +68,8 @@ TEST_F(WebAssetsTest, ThePageAndEveryFileItLoadsAreServedWithTheirTypes) {
       EXPECT_EQ(file.header("cache-control"), "public, max-age=31536000, immutable") << url;
     }
   }
-  EXPECT_EQ(types, (std::set<std::string>{"image/x-icon", "text/css; charset=utf-8", "text/javascript; charset=utf-8"}));
+  EXPECT_EQ(types,
+            (std::set<std::string>{"image/x-icon", "text/css; charset=utf-8", "text/javascript; charset=utf-8"}));
 
   // The Draco decoder sits next to the script (DRACOLoader's decoder path), the wasm typed for streaming compilation.
   std::string script;
