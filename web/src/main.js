@@ -123,11 +123,12 @@ function showReport(id, report) {
 
 function applyColours() {
   const mode = $('colour-mode').value;
-  $('colour-note').textContent = colourVertices(shown.colours, mode, shown);
+  const legend = colourVertices(shown.colours, mode, shown);
+  $('colour-note').textContent = shown.atomNote ? `${legend}. ${shown.atomNote}.` : legend;
   view.coloursChanged();
 }
 
-async function showMesh(id, report) {
+async function showMesh(id, report, atomsPromise) {
   setPictureState('loading');
   // Fetched here rather than by the loader so that download (the server encodes a format on its first request)
   // and decoding are timed apart.
@@ -138,12 +139,13 @@ async function showMesh(id, report) {
   viewer.times.meshDownloaded = performance.now();
   const { geometry, atomIndex, component } = readTracemeshGltf(await gltfLoader.parseAsync(bytes, ''), url);
   viewer.times.meshDecoded = performance.now();
-  const atoms = await atomsPending;
+  const atoms = await atomsPromise;
   viewer.atomCount = atoms.count;
   const components = report.components;
   view.show(geometry, component, outerComponent(components));
-  shown = { geometry, colours: geometry.getAttribute('color').array, atomIndex, component, components, atoms };
   const unavailable = unavailableModes(atoms, atomIndex);
+  shown = { geometry, colours: geometry.getAttribute('color').array, atomIndex, component, components, atoms,
+    atomNote: unavailable.charge };
   for (const option of $('colour-mode').options) {
     option.disabled = unavailable[option.value] !== null;
     option.title = unavailable[option.value] ?? '';
@@ -174,6 +176,7 @@ async function runJob() {
   $('submit').disabled = true;
   setMessage('');
   setPictureState('working');
+  const atomsPromise = atomsPending;  // of the file submitted, whatever is chosen while the job runs
   viewer.times = { submitted: performance.now() };
   try {
     const accepted = await submitJob(chosenFile, formParameters());
@@ -190,7 +193,7 @@ async function runJob() {
       return;
     }
     showReport(job.id, job.report);
-    await showMesh(job.id, job.report);
+    await showMesh(job.id, job.report, atomsPromise);
   } catch (error) {
     setMessage(error.message);
     setPictureState('error');
