@@ -142,13 +142,15 @@ function compareAtomIndices(what, decoded, reference, tolerance = 0.02) {
   return mismatches;
 }
 
-/// A snippet bundled as it is (imports resolved from node_modules), for the page to import from /test-snippets/
-/// (answered by the test itself through page.route: the snippets are documentation, not part of the server).
-async function bundleSnippet(name) {
+/// The snippets bundled as they are (imports resolved from node_modules; one esbuild run parses three.js once), for
+/// the page to import from /test-snippets/ (answered by the test itself through page.route: the snippets are
+/// documentation, not part of the server). Resolves to { file name: code }.
+async function bundleSnippets(names) {
   const result = await esbuild.build({
-    entryPoints: [join(repo, 'web', 'snippets', name)], bundle: true, format: 'esm', write: false, logLevel: 'error',
+    entryPoints: names.map((name) => join(repo, 'web', 'snippets', name)),
+    bundle: true, format: 'esm', write: false, outdir: 'snippets', logLevel: 'error',
   });
-  return result.outputFiles[0].text;
+  return Object.fromEntries(result.outputFiles.map((file) => [file.path.split('/').pop(), file.text]));
 }
 
 /// Share of the canvas's pixels that differ clearly from the background colour (#f4f5f7).
@@ -298,9 +300,7 @@ try {
     // The snippets, as documented, in this page (served by tracemeshd, under its Content-Security-Policy).
     const reference = readPly(Buffer.from(await (await fetch(`${server.url}/jobs/${id}/mesh?format=ply`)).arrayBuffer()));
     check(reference.atomIndex.length === job.report.vertices, `the PLY has ${reference.atomIndex.length} vertices`);
-    const glbSnippet = await bundleSnippet('glb_atom_index.js');
-    const drcSnippet = await bundleSnippet('drc_atom_index.js');
-    const snippets = { 'glb_atom_index.js': glbSnippet, 'drc_atom_index.js': drcSnippet };
+    const snippets = await bundleSnippets(['glb_atom_index.js', 'drc_atom_index.js']);
     await page.route('**/test-snippets/*.js', (route) => route.fulfill({
       contentType: 'text/javascript', body: snippets[new URL(route.request().url()).pathname.split('/').pop()],
     }));
