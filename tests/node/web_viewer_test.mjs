@@ -320,6 +320,19 @@ try {
     compareAtomIndices('.drc atom_index (DRACOLoader)', decoded.drc, reference);
     const distinctAtoms = new Set(decoded.drc.atomIndex).size;
     check(distinctAtoms > 100, `only ${distinctAtoms} distinct atoms in the .drc's atom_index`);
+
+    // Cancel withdraws the submission with its owner token (X-Job-Token): a larger job, cancelled as soon as it
+    // is accepted, ends cancelled and the page says so.
+    await page.setInputFiles('#file', join(options.molecules, 'mache.pqr'));
+    await page.fill('input[name=density]', '4');
+    await page.click('#submit');
+    await page.waitForSelector('#cancel:not([disabled])', { timeout: 10000 });
+    const cancelledId = await page.evaluate(() => window.tracemeshViewer.jobId);
+    await page.click('#cancel');
+    await page.waitForSelector('#picture-status[data-state=cancelled]', { state: 'attached', timeout: 20000 });
+    check((await page.textContent('#message')).includes('cancelled'), `after Cancel the page says "${await page.textContent('#message')}"`);
+    const cancelled = await (await fetch(`${server.url}/jobs/${cancelledId}`)).json();
+    check(cancelled.status === 'cancelled', `after Cancel GET /jobs/{id} says ${cancelled.status}`);
   }
   for (const problem of problems) failures.push(problem);
 } catch (error) {
