@@ -57,9 +57,13 @@ function byCharge(colours, count, atomIndex, charge) {
 
 /// Which colour modes the loaded mesh and atoms support: mode → reason it is unavailable, or null.
 export function unavailableModes(atoms, atomIndex) {
-  const pqrOnly = atoms.format === 'xyzr' ? 'an xyzr file has no chains, residues or charges'
-    : atoms.format === 'pqr' ? null
-      : `${atoms.format === 'pdb' ? 'PDB' : 'mmCIF'} files are coloured by component only in this viewer`;
+  const reasons = {
+    pqr: null,
+    xyzr: 'an xyzr file has no chains, residues or charges',
+    pdb: 'PDB files are coloured by component only in this viewer',
+    mmcif: 'mmCIF files are coloured by component only in this viewer',
+  };
+  const pqrOnly = atoms.format in reasons ? reasons[atoms.format] : 'the page could not read the atoms of this file';
   const noIndex = !atomIndex ? 'the mesh has no atom indices' : null;
   return {
     component: null,

@@ -39,7 +39,9 @@ function setPictureState(state) {
 function chooseFile(file) {
   if (!file) return;
   chosenFile = file;
-  atomsPending = readAtoms(file);
+  // The server decides whether the file is valid; the page only loses its atom colours when it cannot read it.
+  atomsPending = readAtoms(file).catch(() => ({ format: 'unreadable', count: null, charge: null, chain: null,
+    residueName: null }));
   $('file-name').textContent = `${file.name} (${(file.size / 1024).toFixed(1)} KiB)`;
   $('submit').disabled = false;
   setMessage('');
