@@ -9,6 +9,9 @@ find_package(TinyGLTF CONFIG REQUIRED)  # Debian libtinygltf-dev: the glTF write
 find_package(spdlog CONFIG REQUIRED)
 find_package(CLI11 CONFIG REQUIRED)
 find_package(OpenSSL REQUIRED)
+# node bundles the web viewer that tracemeshd embeds (web/build.mjs, esbuild) and runs the npm checkers of the
+# suite (glTF validator, OpenAPI lint, JSON-schema checks, the browser test): package.json.
+find_program(NODE_EXECUTABLE node REQUIRED)
 # gemmi (Debian gemmi-dev 0.5.7) is header-only and ships neither a CMake package nor a .pc file: find its
 # header and wrap it in an imported target. Its CIF parser includes PEGTL, which Debian ships separately
 # (tao-pegtl-dev, CMake package `pegtl`, target taocpp::pegtl); its gzip helpers use zlib.
@@ -23,8 +26,6 @@ if(TRACEMESH_BUILD_TESTS)
   find_package(CGAL CONFIG QUIET)
   find_program(DRACO_DECODER draco_decoder)
   find_program(CURL_EXECUTABLE curl)
-  # node runs the npm checkers of the suite (glTF validator, OpenAPI lint, JSON-schema checks): package.json.
-  find_program(NODE_EXECUTABLE node REQUIRED)
 endif()
 if(TRACEMESH_BUILD_BENCH)
   find_package(benchmark CONFIG REQUIRED)

@@ -8,6 +8,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev libssl-dev libcli11-dev zlib1g-dev
   libcgal-dev libgmp-dev libmpfr-dev gemmi-dev tao-pegtl-dev
   clang-14 libclang-rt-14-dev wrk nginx-light procps
+  chromium  # the web viewer's browser test (tests/node/web_viewer_test.mjs): headless, WebGL on SwiftShader
 )
 # `make bench-paper` only: the plots of bench/bench_report.py.
 if [[ ${1:-} == --bench-paper ]]; then packages+=(python3 python3-matplotlib python3-numpy); fi

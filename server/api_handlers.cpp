@@ -23,6 +23,7 @@
 #include "server/job_id.hpp"
 #include "server/logging.hpp"
 #include "server/mesh_job.hpp"
+#include "server/web_assets.hpp"
 
 namespace tracemesh::server {
 
@@ -32,7 +33,9 @@ using clock = std::chrono::steady_clock;
 
 // ---- routing ------------------------------------------------------------------------------------------------
 
-enum class route_id { healthz, readyz, metrics, openapi, mesh, jobs, job, job_mesh, unknown };
+enum class route_id {
+  healthz, readyz, metrics, openapi, web_page, favicon, web_asset, mesh, jobs, job, job_mesh, unknown
+};
 
 struct route_match {
   route_id id = route_id::unknown;
@@ -50,6 +53,9 @@ route_info info(route_id id) {
     case route_id::readyz: return {"/readyz", "GET, HEAD, OPTIONS"};
     case route_id::metrics: return {"/metrics", "GET, HEAD, OPTIONS"};
     case route_id::openapi: return {"/openapi.json", "GET, HEAD, OPTIONS"};
+    case route_id::web_page: return {"/", "GET, HEAD, OPTIONS"};
+    case route_id::favicon: return {"/favicon.ico", "GET, HEAD, OPTIONS"};
+    case route_id::web_asset: return {"/assets/{build}/{file}", "GET, HEAD, OPTIONS"};
     case route_id::mesh: return {"/mesh", "POST, OPTIONS"};
     case route_id::jobs: return {"/jobs", "POST, OPTIONS"};
     case route_id::job: return {"/jobs/{id}", "GET, HEAD, DELETE, OPTIONS"};
@@ -66,6 +72,9 @@ bool method_allowed(route_id id, http::verb method) {
     case route_id::readyz:
     case route_id::metrics:
     case route_id::openapi:
+    case route_id::web_page:
+    case route_id::favicon:
+    case route_id::web_asset:
     case route_id::job_mesh: return method == http::verb::get || method == http::verb::head;
     case route_id::mesh:
     case route_id::jobs: return method == http::verb::post;
@@ -81,6 +90,9 @@ route_match match_route(std::string_view path) {
   if (path == "/readyz") return {route_id::readyz, {}};
   if (path == "/metrics") return {route_id::metrics, {}};
   if (path == "/openapi.json") return {route_id::openapi, {}};
+  if (path == "/") return {route_id::web_page, {}};
+  if (path == "/favicon.ico") return {route_id::favicon, {}};
+  if (path.substr(0, 8) == "/assets/") return {route_id::web_asset, {}};
   if (path == "/mesh") return {route_id::mesh, {}};
   if (path == "/jobs") return {route_id::jobs, {}};
   constexpr std::string_view jobs_prefix = "/jobs/";
@@ -225,6 +237,31 @@ bool etag_matches(const request_head& head, const std::string& etag) {
   if (wanted == "*") return true;
   // A list of entity tags: "a", W/"b", ...
   return wanted.find(etag) != std::string_view::npos;
+}
+
+/// The page may load only what this server serves: its bundle, the Draco decoder's worker (a blob: URL made by
+/// DRACOLoader) and WebAssembly compiled from the decoder's bytes.
+constexpr const char* web_page_security_policy =
+    "default-src 'self'; script-src 'self' 'wasm-unsafe-eval' blob:; worker-src 'self' blob:; "
+    "img-src 'self' data: blob:; object-src 'none'; base-uri 'none'; frame-ancestors 'none'";
+
+/// A file of the web viewer (server/web_assets.hpp), 304 on a matching If-None-Match.
+reply web_asset_reply(const request_head& head, std::string_view path, const char* route) {
+  const web_asset* asset = find_web_asset(path);
+  if (!asset) return error_reply(404, "not_found", "the web viewer has no such file", route);
+  reply r;
+  r.route = route;
+  if (etag_matches(head, asset->etag)) {
+    r.status = 304;
+  } else {
+    r.content_type = std::string(asset->content_type);
+    r.body = asset->body;
+  }
+  r.headers.emplace_back("ETag", asset->etag);
+  r.headers.emplace_back("Cache-Control", std::string(asset->cache_control));
+  r.headers.emplace_back("X-Content-Type-Options", "nosniff");
+  if (path == "/") r.headers.emplace_back("Content-Security-Policy", web_page_security_policy);
+  return r;
 }
 
 /// The job's URLs; the mesh link names the format explicitly, so following it never depends on what the server
@@ -465,6 +502,9 @@ void api_handlers::handle(const request_head& head, const body_plan&, std::strin
       reply r = json_reply(200, std::string(proto::openapi_document()), route);
       return done(std::move(r));
     }
+    case route_id::web_page:
+    case route_id::favicon:
+    case route_id::web_asset: return done(web_asset_reply(head, target->path, route));
     case route_id::job:
     case route_id::job_mesh: break;
     default: return done(error_reply(404, "not_found", "no such resource", route));

@@ -56,13 +56,15 @@ TEST(OpenApi, IsValidJsonOfVersion303) {
 TEST(OpenApi, ListsEveryPathWithItsMethods) {
   const nlohmann::json paths = document().at("paths");
   EXPECT_EQ(keys_of(paths), (std::set<std::string>{"/mesh", "/jobs", "/jobs/{id}", "/jobs/{id}/mesh", "/healthz",
-                                                    "/readyz", "/metrics", "/openapi.json"}));
+                                                    "/readyz", "/metrics", "/openapi.json", "/", "/favicon.ico",
+                                                    "/assets/{build}/{file}"}));
   EXPECT_TRUE(paths.at("/mesh").contains("post"));
   EXPECT_TRUE(paths.at("/jobs").contains("post"));
   EXPECT_TRUE(paths.at("/jobs/{id}").contains("get"));
   EXPECT_TRUE(paths.at("/jobs/{id}").contains("delete"));
   EXPECT_TRUE(paths.at("/jobs/{id}/mesh").contains("get"));
-  for (const char* path : {"/healthz", "/readyz", "/metrics", "/openapi.json"}) {
+  for (const char* path : {"/healthz", "/readyz", "/metrics", "/openapi.json", "/", "/favicon.ico",
+                           "/assets/{build}/{file}"}) {
     EXPECT_TRUE(paths.at(path).contains("get")) << path;
   }
 }
