@@ -1,19 +1,37 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages tracemesh builds, tests and benchmarks with; does nothing when all are present.
-# Usage: scripts/install-deps.sh [--bench-paper]   (--bench-paper adds python3-matplotlib and python3-numpy for `make bench-paper`)
+# Usage: scripts/install-deps.sh [--bench-paper | --build-only | --image]
+#   --bench-paper adds python3-matplotlib and python3-numpy for `make bench-paper`;
+#   --build-only installs just what compiles tracemesh and tracemeshd without tests and benchmarks
+#   (-DTRACEMESH_BUILD_TESTS=OFF -DTRACEMESH_BUILD_BENCH=OFF): the build stage of docker/Dockerfile;
+#   --image installs what `make image` and `make test-image` need: podman and debootstrap when no docker daemon
+#   answers (scripts/container-engine.sh), curl and jq for tests/image/smoke_test.sh.
 set -euo pipefail
-packages=(
-  cmake g++ make pkg-config git curl ca-certificates
-  libboost-dev nlohmann-json3-dev libdraco-dev draco libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libssl-dev libcli11-dev zlib1g-dev
-  libcgal-dev libgmp-dev libmpfr-dev gemmi-dev tao-pegtl-dev
+# What compiling the libraries, tracemesh and tracemeshd needs (cmake/dependencies.cmake).
+build_packages=(
+  cmake g++ make pkg-config ca-certificates
+  libboost-dev nlohmann-json3-dev libdraco-dev libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
+  libssl-dev libcli11-dev zlib1g-dev gemmi-dev tao-pegtl-dev
+)
+# The suite, the benchmarks, the fuzzers and the tools the tests call (draco_decoder, curl, wrk, nginx).
+test_packages=(
+  git curl draco libgtest-dev libgmock-dev libbenchmark-dev libcgal-dev libgmp-dev libmpfr-dev
   clang-14 libclang-rt-14-dev wrk nginx-light procps
 )
-# `make bench-paper` only: the plots of bench/bench_report.py.
-if [[ ${1:-} == --bench-paper ]]; then packages+=(python3 python3-matplotlib python3-numpy); fi
+build_only=false
+packages=("${build_packages[@]}" "${test_packages[@]}")
+case ${1:-} in
+  --bench-paper) packages+=(python3 python3-matplotlib python3-numpy) ;;  # the plots of bench/bench_report.py
+  --build-only) build_only=true; packages=("${build_packages[@]}") ;;
+  --image)
+    build_only=true; packages=(curl jq)
+    if ! docker info >/dev/null 2>&1; then packages+=(podman debootstrap); fi ;;
+  "") ;;
+  *) echo "install-deps: unknown option '$1' (--bench-paper, --build-only or --image)" >&2; exit 2 ;;
+esac
 missing=()
 # node and npm (≥ 18): these machines have node 20 with its npm; a bare Debian 12 gets Debian's nodejs and npm.
-if ! command -v node >/dev/null || ! command -v npm >/dev/null; then missing+=(nodejs npm); fi
+if ! $build_only && { ! command -v node >/dev/null || ! command -v npm >/dev/null; }; then missing+=(nodejs npm); fi
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
@@ -26,6 +44,7 @@ fi
 
 # The npm packages of the suite's checkers (glTF validator, OpenAPI lint, JSON-schema checks) and later the web
 # viewer's build: exactly package-lock.json, re-installed only when the lock file changed since the last install.
+$build_only && exit 0
 repo=$(cd "$(dirname "$0")/.." && pwd)
 stamp="$repo/node_modules/.package-lock.json"
 if [[ ! -f $stamp || "$repo/package-lock.json" -nt $stamp ]]; then
