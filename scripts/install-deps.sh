@@ -5,7 +5,7 @@
 #   --build-only installs just what compiles tracemesh and tracemeshd without tests and benchmarks
 #   (-DTRACEMESH_BUILD_TESTS=OFF -DTRACEMESH_BUILD_BENCH=OFF): the build stage of docker/Dockerfile;
 #   --image installs what `make image` and `make test-image` need: podman and debootstrap when no docker daemon
-#   answers (scripts/container-engine.sh), curl and jq for tests/image/smoke_test.sh.
+#   answers (scripts/container-engine.sh); curl, jq, nginx-light and openssl for tests/image/smoke_test.sh.
 set -euo pipefail
 # What compiling the libraries, tracemesh and tracemeshd needs (cmake/dependencies.cmake).
 build_packages=(
@@ -24,7 +24,7 @@ case ${1:-} in
   --bench-paper) packages+=(python3 python3-matplotlib python3-numpy) ;;  # the plots of bench/bench_report.py
   --build-only) build_only=true; packages=("${build_packages[@]}") ;;
   --image)
-    build_only=true; packages=(curl jq)
+    build_only=true; packages=(curl jq nginx-light openssl)
     if ! docker info >/dev/null 2>&1; then packages+=(podman debootstrap); fi ;;
   "") ;;
   *) echo "install-deps: unknown option '$1' (--bench-paper, --build-only or --image)" >&2; exit 2 ;;
