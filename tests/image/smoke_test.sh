@@ -27,7 +27,6 @@ root=$work/root
 pid=""
 cleanup() {
   [[ -n $pid ]] && kill -KILL "$pid" 2>/dev/null || true
-  [[ -n ${nginx_pid:-} ]] && kill -TERM "$nginx_pid" 2>/dev/null || true  # TERM: the master stops its workers
   mountpoint -q "$root/proc" && umount "$root/proc" || true
   mountpoint -q "$root/dev" && umount "$root/dev" || true
   rm -rf "$work"
@@ -36,7 +35,8 @@ trap cleanup EXIT
 
 # ---- the image's configuration ----
 "$ENGINE" image inspect "$image" >/dev/null 2>&1 || fail "image $image not found (run make image)"
-config=$("$ENGINE" image inspect --format '{{json .Config}}' "$image")
+# docker keeps HEALTHCHECK in .Config.Healthcheck, podman beside it in .Healthcheck: one object with both.
+config=$("$ENGINE" image inspect "$image" | jq '.[0] | .Config + {Healthcheck: (.Config.Healthcheck // .Healthcheck)}')
 [[ $(jq -r .User <<<"$config") == "$uid:$gid" ]] || fail "image user is '$(jq -r .User <<<"$config")', expected $uid:$gid"
 jq -e --arg v "$volume" '.Volumes | has($v)' <<<"$config" >/dev/null || fail "image declares no VOLUME $volume"
 [[ $(jq -r .StopSignal <<<"$config") == SIGTERM ]] || fail "image STOPSIGNAL is not SIGTERM"
@@ -106,7 +106,7 @@ job=$(tr -d '\r' <"$work/headers" | awk -F': ' 'tolower($1) == "x-job-id" {print
 [[ -n $job ]] || fail "POST /mesh answered without X-Job-Id"
 curl -s "$base/jobs/$job" >"$work/job.json" || fail "GET /jobs/$job: no answer"
 jq -e '.status == "done"' "$work/job.json" >/dev/null || fail "job $job is not done: $(head -c 300 "$work/job.json")"
-jq -e '.report.certified == true' "$work/job.json" >/dev/null || fail "fas2's mesh report is not certified"
+jq -e '.report.certificate.certified == true' "$work/job.json" >/dev/null || fail "fas2's mesh report is not certified"
 step "POST /mesh fas2: 200, $(sed -n 2p "$work/fas2.off" | cut -d' ' -f1-2) (vertices faces), report certified"
 
 # ---- the volume holds the cache and the job store, written by the image's user ----
@@ -117,72 +117,14 @@ foreign=$(find "$root$volume" ! -user "$uid" | head -3)
 [[ -d $root$volume/jobs ]] || fail "no job store ($volume/jobs) in the volume"
 step "$volume: $written files, all owned by $uid"
 
-# ---- nginx in front: docker/nginx's files (the compose profile) with the upstream and ports made local ----
-nginx_pid=""
-# start_nginx NAME SERVER_CONF: runs nginx with that server file; sets nginx_port (the TLS or plain listener) and
-# redirect_port (the TLS file's plain-HTTP listener).
-start_nginx() {
-  local dir=$work/nginx-$1 conf=$2
-  mkdir -p "$dir"
-  for _ in 1 2 3 4 5; do
-    nginx_port=$((20000 + RANDOM % 40000)); redirect_port=$((nginx_port + 1))
-    sed -e "s|server tracemesh:8080;|server 127.0.0.1:$port;|" \
-        -e "s|listen 80;|listen 127.0.0.1:$redirect_port;|" -e "s|listen 443 |listen 127.0.0.1:$nginx_port |" \
-        -e "s|/etc/nginx/tracemesh/proxy.conf|$repo/docker/nginx/proxy.conf|" -e "s|/etc/nginx/certs/|$work/|" \
-        "$conf" >"$dir/server.conf"
-    # The plain file has only the port-80 server: it is the one to test.
-    grep -q "listen 127.0.0.1:$nginx_port " "$dir/server.conf" || nginx_port=$redirect_port
-    cat >"$dir/nginx.conf" <<CONF
-user root root;
-worker_processes 1;
-pid $dir/nginx.pid;
-error_log $dir/error.log;
-events { worker_connections 64; }
-http {
-  access_log $dir/access.log;
-  client_body_temp_path $dir/body; proxy_temp_path $dir/proxy;
-  fastcgi_temp_path $dir/fastcgi; uwsgi_temp_path $dir/uwsgi; scgi_temp_path $dir/scgi;
-  include $dir/server.conf;
-}
-CONF
-    nginx -t -q -p "$dir" -c "$dir/nginx.conf" 2>"$dir/test.log" || fail "nginx rejects $conf: $(cat "$dir/test.log")"
-    nginx -p "$dir" -c "$dir/nginx.conf" -g 'daemon off;' 2>>"$dir/error.log" &
-    nginx_pid=$!
-    for _ in $(seq 50); do
-      curl -sk -o /dev/null "http://127.0.0.1:$redirect_port/" 2>/dev/null && return 0
-      kill -0 "$nginx_pid" 2>/dev/null || break
-      sleep 0.1
-    done
-    kill "$nginx_pid" 2>/dev/null || true; wait "$nginx_pid" 2>/dev/null || true; nginx_pid=""
-  done
-  fail "nginx with $conf did not start: $(tail -3 "$dir/error.log")"
-}
-stop_nginx() { kill -QUIT "$nginx_pid"; wait "$nginx_pid" 2>/dev/null || true; nginx_pid=""; }
-# through_nginx URL: /healthz 200 and fas2's mesh byte for byte as tracemeshd gave it.
-through_nginx() {
-  local url=$1 code
-  code=$(curl -sk -o /dev/null -w '%{http_code}' "$url/healthz") || fail "GET $url/healthz: no answer"
-  [[ $code == 200 ]] || fail "GET $url/healthz through nginx answered $code"
-  code=$(curl -sk -o "$work/via-nginx.off" -w '%{http_code}' -F pqr=@"$molecules/fas2.pqr" "$url/mesh") \
-    || fail "POST $url/mesh: no answer"
-  [[ $code == 200 ]] || fail "POST /mesh through nginx ($url) answered $code"
-  cmp -s "$work/fas2.off" "$work/via-nginx.off" || fail "the mesh through nginx ($url) differs from tracemeshd's"
-}
-if command -v nginx >/dev/null; then
-  start_nginx plain "$repo/docker/nginx/tracemesh.conf"
-  through_nginx "http://127.0.0.1:$nginx_port"
-  stop_nginx
-  openssl req -x509 -newkey rsa:2048 -nodes -subj /CN=localhost -days 1 \
-    -keyout "$work/tls.key" -out "$work/tls.crt" 2>/dev/null || fail "openssl could not make a test certificate"
-  start_nginx tls "$repo/docker/nginx/tracemesh-tls.conf"
-  through_nginx "https://127.0.0.1:$nginx_port"
-  code=$(curl -s -o /dev/null -w '%{http_code}' "http://127.0.0.1:$redirect_port/healthz")
-  [[ $code == 301 ]] || fail "plain HTTP on the TLS configuration answered $code, expected a 301 to https"
-  stop_nginx
-  step "nginx (docker/nginx): plain and TLS configurations proxy /healthz and POST /mesh; HTTP redirects to HTTPS"
-else
-  step "nginx not installed: docker/nginx configurations not checked (scripts/install-deps.sh --image installs it)"
-fi
+# ---- nginx in front: docker/nginx's plain and TLS configurations (tests/image/nginx_check.sh) ----
+nginx_status=0
+bash "$repo/tests/image/nginx_check.sh" --port "$port" || nginx_status=$?
+case $nginx_status in
+  0) ;;
+  77) step "nginx or openssl missing: docker/nginx not checked (scripts/install-deps.sh --image installs them)" ;;
+  *) fail "docker/nginx's configuration does not proxy tracemeshd (above)" ;;
+esac
 
 # ---- SIGTERM with a job running: a clean exit within the grace ----
 curl -s -o /dev/null -F pqr=@"$molecules/villin_1vii.pqr" "$base/jobs?density=8" || fail "POST /jobs: no answer"
