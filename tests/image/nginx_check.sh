@@ -98,7 +98,7 @@ through_nginx() {
 start_nginx plain "$repo/docker/nginx/tracemesh.conf"
 through_nginx "http://127.0.0.1:$nginx_port"
 stop_nginx
-openssl req -x509 -newkey rsa:2048 -nodes -subj /CN=localhost -days 1 \
+openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes -subj /CN=localhost -days 1 \
   -keyout "$work/tls.key" -out "$work/tls.crt" 2>/dev/null || fail "openssl could not make a test certificate"
 start_nginx tls "$repo/docker/nginx/tracemesh-tls.conf"
 through_nginx "https://127.0.0.1:$nginx_port"
