@@ -32,7 +32,7 @@ ensure_base_image() {
   debootstrap --variant=minbase bookworm "$rootfs" http://deb.debian.org/debian >"$rootfs.log" 2>&1 \
     || { echo "image: debootstrap failed, see $rootfs.log" >&2; exit 1; }
   # Like the published slim image: no downloaded .debs, no package lists.
-  rm -rf "$rootfs"/var/cache/apt/archives/*.deb "$rootfs"/var/lib/apt/lists/*
+  rm -rf "$rootfs"/var/cache/apt/archives/*.deb "$rootfs"/var/cache/apt/*.bin "$rootfs"/var/lib/apt/lists/*
   tar -C "$rootfs" -c . | "$ENGINE" import - "$BASE_IMAGE" >/dev/null
   rm -rf "$rootfs" "$rootfs.log"
 }
