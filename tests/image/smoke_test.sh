@@ -56,7 +56,7 @@ if [[ $ENGINE == podman ]]; then
 else
   container=$(docker create "$image")
   docker export "$container" | tar -x -C "$root"
-  docker rm "$container" >/dev/null
+  docker rm -v "$container" >/dev/null  # -v: and the anonymous volume create made
 fi
 [[ $(stat -c %u:%g "$root$volume") == "$uid:$gid" ]] \
   || fail "$volume is owned by $(stat -c %u:%g "$root$volume"), not $uid:$gid: a fresh volume would not be writable"
