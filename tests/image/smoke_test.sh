@@ -27,9 +27,15 @@ work=$(mktemp -d /tmp/tracemesh-smoke.XXXXXX)
 root=$work/root
 pid=""
 cleanup() {
-  [[ -n $pid ]] && kill -KILL "$pid" 2>/dev/null || true
-  mountpoint -q "$root/proc" && umount "$root/proc" || true
-  mountpoint -q "$root/dev" && umount "$root/dev" || true
+  [[ -n $pid ]] && { kill -KILL "$pid" 2>/dev/null; wait "$pid" 2>/dev/null; } || true
+  local mounted_dir
+  for mounted_dir in "$root/proc" "$root/dev"; do
+    if mountpoint -q "$mounted_dir" && ! umount "$mounted_dir"; then
+      # Never rm -rf through a bind mount of the host's /dev.
+      echo "smoke: could not unmount $mounted_dir; $work left in place" >&2
+      return
+    fi
+  done
   rm -rf "$work"
 }
 trap cleanup EXIT
