@@ -9,7 +9,7 @@
 set -euo pipefail
 # What compiling the libraries, tracemesh and tracemeshd needs (cmake/dependencies.cmake).
 build_packages=(
-  cmake g++ make pkg-config ca-certificates
+  cmake g++ make pkg-config ca-certificates ccache
   libboost-dev nlohmann-json3-dev libdraco-dev libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
   libssl-dev libcli11-dev zlib1g-dev gemmi-dev tao-pegtl-dev
 )
