@@ -6,7 +6,7 @@ LISTEN           ?= 127.0.0.1:8080
 CACHE_DIR        ?= $(CURDIR)/cache
 CMAKE_FLAGS      ?=
 
-.PHONY: deps build test test-sanitize run bench bench-paper fuzz clean
+.PHONY: deps build test test-sanitize run bench bench-paper fuzz image test-image clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -44,6 +44,16 @@ bench-paper: build
 fuzz: deps
 	CXX=clang++-14 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=CI -DTRACEMESH_BUILD_FUZZERS=ON -DTRACEMESH_SANITIZE="address;undefined" -DTRACEMESH_BUILD_BENCH=OFF
 	cmake --build build-fuzz -j $(JOBS)
+
+# The container image (docker/Dockerfile) with docker or podman, and its smoke test (tests/image/smoke_test.sh).
+# Not part of `make test`: the image build compiles the whole project inside (minutes).
+IMAGE            ?= localhost/tracemesh:latest
+image:
+	@bash scripts/install-deps.sh --image
+	BUILD_JOBS=$(JOBS) bash scripts/build-image.sh $(IMAGE)
+
+test-image: image
+	bash tests/image/smoke_test.sh $(IMAGE)
 
 clean:
 	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) build-fuzz

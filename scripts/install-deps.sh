@@ -1,20 +1,39 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages tracemesh builds, tests and benchmarks with; does nothing when all are present.
-# Usage: scripts/install-deps.sh [--bench-paper]   (--bench-paper adds python3-matplotlib and python3-numpy for `make bench-paper`)
+# Usage: scripts/install-deps.sh [--bench-paper | --build-only | --image]
+#   --bench-paper adds python3-matplotlib and python3-numpy for `make bench-paper`;
+#   --build-only installs just what compiles tracemesh and tracemeshd without tests and benchmarks
+#   (-DTRACEMESH_BUILD_TESTS=OFF -DTRACEMESH_BUILD_BENCH=OFF), node and the npm packages included (the web viewer
+#   is bundled at build time): the build stage of docker/Dockerfile;
+#   --image installs what `make image` and `make test-image` need: podman and debootstrap when no docker daemon
+#   answers (scripts/container-engine.sh); curl, jq, nginx-light and openssl for tests/image/smoke_test.sh.
 set -euo pipefail
-packages=(
-  cmake g++ make pkg-config git curl ca-certificates
-  libboost-dev nlohmann-json3-dev libdraco-dev draco libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libssl-dev libcli11-dev zlib1g-dev
-  libcgal-dev libgmp-dev libmpfr-dev gemmi-dev tao-pegtl-dev
+# What compiling the libraries, tracemesh and tracemeshd needs (cmake/dependencies.cmake).
+build_packages=(
+  cmake g++ make pkg-config ca-certificates ccache
+  libboost-dev nlohmann-json3-dev libdraco-dev libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
+  libssl-dev libcli11-dev zlib1g-dev gemmi-dev tao-pegtl-dev
+)
+# The suite, the benchmarks, the fuzzers and the tools the tests call (draco_decoder, curl, wrk, nginx).
+test_packages=(
+  git curl draco libgtest-dev libgmock-dev libbenchmark-dev libcgal-dev libgmp-dev libmpfr-dev
   clang-14 libclang-rt-14-dev wrk nginx-light procps
   chromium  # the web viewer's browser test (tests/node/web_viewer_test.mjs): headless, WebGL on SwiftShader
 )
-# `make bench-paper` only: the plots of bench/bench_report.py.
-if [[ ${1:-} == --bench-paper ]]; then packages+=(python3 python3-matplotlib python3-numpy); fi
+needs_node=true  # node, npm and `npm ci`: the viewer's bundle (every build) and the suite's checkers
+packages=("${build_packages[@]}" "${test_packages[@]}")
+case ${1:-} in
+  --bench-paper) packages+=(python3 python3-matplotlib python3-numpy) ;;  # the plots of bench/bench_report.py
+  --build-only) packages=("${build_packages[@]}") ;;
+  --image)
+    needs_node=false; packages=(curl jq nginx-light openssl)
+    if ! docker info >/dev/null 2>&1; then packages+=(podman debootstrap); fi ;;
+  "") ;;
+  *) echo "install-deps: unknown option '$1' (--bench-paper, --build-only or --image)" >&2; exit 2 ;;
+esac
 missing=()
 # node and npm (≥ 18): these machines have node 20 with its npm; a bare Debian 12 gets Debian's nodejs and npm.
-if ! command -v node >/dev/null || ! command -v npm >/dev/null; then missing+=(nodejs npm); fi
+if $needs_node && { ! command -v node >/dev/null || ! command -v npm >/dev/null; }; then missing+=(nodejs npm); fi
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
@@ -27,6 +46,7 @@ fi
 
 # The npm packages of the suite's checkers (glTF validator, OpenAPI lint, JSON-schema checks) and later the web
 # viewer's build: exactly package-lock.json, re-installed only when the lock file changed since the last install.
+$needs_node || exit 0
 repo=$(cd "$(dirname "$0")/.." && pwd)
 stamp="$repo/node_modules/.package-lock.json"
 if [[ ! -f $stamp || "$repo/package-lock.json" -nt $stamp ]]; then
