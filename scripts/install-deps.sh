@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(
   cmake g++ make pkg-config git curl ca-certificates
   libboost-dev nlohmann-json3-dev libdraco-dev draco libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
-  libgtest-dev libgmock-dev libbenchmark-dev libssl-dev libcli11-dev zlib1g-dev
+  libgtest-dev libgmock-dev libbenchmark-dev libssl-dev libcli11-dev zlib1g-dev libbrotli-dev
   libcgal-dev libgmp-dev libmpfr-dev gemmi-dev tao-pegtl-dev
   clang-14 libclang-rt-14-dev wrk nginx-light procps
 )

@@ -139,6 +139,13 @@ void remove_if_orphan(const fs::path& temp) {
 
 bool is_valid_cache_key(std::string_view key) {
   constexpr std::size_t hash_length = 2 * sha256::digest_size;
+  // A compressed representation: the key of its bytes plus ".gz" or ".br".
+  for (const std::string_view coding : {std::string_view(".gz"), std::string_view(".br")}) {
+    if (key.ends_with(coding)) {
+      key.remove_suffix(coding.size());
+      break;
+    }
+  }
   if (key.size() < hash_length + 2 || key.size() > hash_length + 1 + max_suffix_length) return false;
   if (!is_valid_job_id(key.substr(0, hash_length)) || key[hash_length] != '.') return false;
   for (const char c : key.substr(hash_length + 1)) {
