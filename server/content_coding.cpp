@@ -1,5 +1,6 @@
 #include "server/content_coding.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 
@@ -10,7 +11,7 @@ namespace tracemesh::server {
 namespace {
 
 constexpr int gzip_level = 6;
-constexpr int brotli_quality = 5;
+constexpr int brotli_quality = 4;
 constexpr int brotli_window_bits = 22;
 
 /// Weights in thousandths (q=0.5 → 500), so comparisons are exact.
@@ -179,13 +180,11 @@ std::string content_coding_etag_tag(content_coding coding) {
   return {};
 }
 
-std::string_view coding_cache_suffix(content_coding coding) noexcept {
-  switch (coding) {
-    case content_coding::identity: return "";
-    case content_coding::gzip: return ".gz";
-    case content_coding::br: return ".br";
-  }
-  return "";
+std::string coding_cache_suffix(content_coding coding) {
+  std::string tag = content_coding_etag_tag(coding);
+  if (tag.empty()) return tag;
+  std::replace_if(tag.begin(), tag.end(), [](char c) { return c == '.' || c == '-'; }, '_');
+  return "." + tag;
 }
 
 }  // namespace tracemesh::server

@@ -13,7 +13,7 @@
 /// ignored, as if absent.
 ///
 /// Compression levels were chosen by measurement on the OFF of 2buk_capsid (notes/helper-i.md): gzip level 6
-/// (zlib's default) and brotli quality 5 with a 4 MiB window (lgwin 22). Both go into the representation's ETag
+/// (zlib's default) and brotli quality 4 with a 4 MiB window (lgwin 22). Both go into the representation's ETag
 /// (content_coding_etag_tag) together with the library version, so that a strong ETag always names the same bytes
 /// even when a level or a library changes.
 
@@ -46,10 +46,12 @@ std::optional<content_coding> negotiate_coding(std::optional<std::string_view> a
 result<std::string> compress(std::string_view bytes, content_coding coding);
 
 /// The short text identifying the compressed bytes' producer, for ETags: "gz6-z1.2.13" (level and zlib version),
-/// "br5w22-b1.0.9" (quality, window and brotli version); empty for identity.
+/// "br4w22-b1.0.9" (quality, window and brotli version); empty for identity.
 std::string content_coding_etag_tag(content_coding coding);
 
-/// The file-name suffix of a compressed representation in the result cache: ".gz", ".br"; empty for identity.
-std::string_view coding_cache_suffix(content_coding coding) noexcept;
+/// The cache key suffix of a compressed representation: "." + content_coding_etag_tag with '.' and '-' as '_'
+/// (".gz6_z1_2_13", ".br4w22_b1_0_9"); empty for identity. Like the ETag it names level and library version, so a
+/// new level or library never serves bytes cached by the old one under the new tag.
+std::string coding_cache_suffix(content_coding coding);
 
 }  // namespace tracemesh::server

@@ -155,7 +155,7 @@ result<encoded_mesh> encoded_result(const mesh_job_context& context, const std::
 }
 
 std::string coded_mesh_key(const std::string& id, proto::mesh_format format, content_coding coding) {
-  return mesh_key(id, format) + std::string(coding_cache_suffix(coding));
+  return mesh_key(id, format) + coding_cache_suffix(coding);
 }
 
 result<encoded_mesh> coded_result(const mesh_job_context& context, const std::string& id, proto::mesh_format format,

@@ -62,8 +62,8 @@ struct encoded_mesh {
 result<encoded_mesh> encoded_result(const mesh_job_context& context, const std::string& id,
                                     proto::mesh_format format, std::shared_ptr<const surface_mesh> mesh = nullptr);
 
-/// The cache key of a done job's mesh in `format` compressed with `coding`: mesh_key(id, format) + ".gz" / ".br"
-/// (identity: mesh_key itself).
+/// The cache key of a done job's mesh in `format` compressed with `coding`: mesh_key(id, format) +
+/// coding_cache_suffix ("<id>.off.br4w22_b1_0_9"; identity: mesh_key itself).
 std::string coded_mesh_key(const std::string& id, proto::mesh_format format, content_coding coding);
 
 /// encoded_result's bytes as sent with Content-Encoding `coding`: for gzip and br, the cached compressed bytes, else

@@ -524,10 +524,17 @@ TEST_F(TracemeshdTest, CompressedAndRangedMeshDownloadsDecodeToTheIdentityBytes)
   EXPECT_NE(curl("-H 'Accept-Encoding: br'", url).headers.at("etag"),
             curl("-H 'Accept-Encoding: gzip'", url).headers.at("etag"));
 
-  // Compressed once: the cache holds <id>.off.br and .gz, and later requests are hits with the same bytes.
-  for (const std::string suffix : {".off.br", ".off.gz"}) {
-    EXPECT_TRUE(fs::exists(cache_.path() / id.substr(0, 2) / (id + suffix))) << suffix;
+  // Compressed once: the cache holds <id>.off.br<level, version> and .gz<...> next to <id>.off, and later requests
+  // are hits with the same bytes.
+  std::vector<std::string> stored;
+  for (const auto& entry : fs::directory_iterator(cache_.path() / id.substr(0, 2))) {
+    stored.push_back(entry.path().filename().string().substr(id.size()));
   }
+  std::sort(stored.begin(), stored.end());
+  ASSERT_EQ(stored.size(), 3u) << ::testing::PrintToString(stored);
+  EXPECT_EQ(stored[0], ".off");
+  EXPECT_EQ(stored[1].rfind(".off.br4w22_b", 0), 0u) << stored[1];
+  EXPECT_EQ(stored[2].rfind(".off.gz6_z", 0), 0u) << stored[2];
   const curl_reply again = curl("-H 'Accept-Encoding: gzip;q=0.5, br;q=0.9, identity;q=0.1'", url);
   EXPECT_EQ(again.headers.at("content-encoding"), "br");
   EXPECT_EQ(again.headers.at("x-cache"), "hit");
