@@ -18,7 +18,9 @@
 ///    decodes it off the I/O thread;
 /// 4. the handler answers through a reply_sink, possibly much later from another thread: the reply is posted
 ///    back to the session's strand, so no I/O thread ever waits for a job;
-/// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection.
+/// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection. A
+///    reply marked compressible (JSON) of at least min_compressed_json_bytes is compressed here with the coding the
+///    request's Accept-Encoding prefers; a reply's body_slice (a 206) is sent without a copy.
 /// Every request gets a request id (a sane incoming X-Request-Id, else a generated one), echoed in X-Request-Id,
 /// and one "access" log line when its response is written (error level for 5xx); its duration runs from the
 /// request's first byte. Connections over max_connections first make the oldest idle keep-alive connection close;
