@@ -12,6 +12,15 @@ find_package(OpenSSL REQUIRED)
 # node bundles the web viewer that tracemeshd embeds (web/build.mjs, esbuild) and runs the npm checkers of the
 # suite (glTF validator, OpenAPI lint, JSON-schema checks, the browser test): package.json.
 find_program(NODE_EXECUTABLE node REQUIRED)
+# Brotli (Debian libbrotli-dev 1.0.9) ships pkg-config files but no CMake package: wrap its encoder and decoder in
+# imported targets brotli::enc (the service's br response coding) and brotli::dec (the tests' round trips).
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(BROTLIENC REQUIRED IMPORTED_TARGET libbrotlienc)
+pkg_check_modules(BROTLIDEC REQUIRED IMPORTED_TARGET libbrotlidec)
+add_library(brotli::enc INTERFACE IMPORTED)
+set_target_properties(brotli::enc PROPERTIES INTERFACE_LINK_LIBRARIES PkgConfig::BROTLIENC)
+add_library(brotli::dec INTERFACE IMPORTED)
+set_target_properties(brotli::dec PROPERTIES INTERFACE_LINK_LIBRARIES PkgConfig::BROTLIDEC)
 # gemmi (Debian gemmi-dev 0.5.7) is header-only and ships neither a CMake package nor a .pc file: find its
 # header and wrap it in an imported target. Its CIF parser includes PEGTL, which Debian ships separately
 # (tao-pegtl-dev, CMake package `pegtl`, target taocpp::pegtl); its gzip helpers use zlib.

@@ -12,7 +12,7 @@ set -euo pipefail
 build_packages=(
   cmake g++ make pkg-config ca-certificates ccache
   libboost-dev nlohmann-json3-dev libdraco-dev libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
-  libssl-dev libcli11-dev zlib1g-dev gemmi-dev tao-pegtl-dev
+  libssl-dev libcli11-dev zlib1g-dev libbrotli-dev gemmi-dev tao-pegtl-dev
 )
 # The suite, the benchmarks, the fuzzers and the tools the tests call (draco_decoder, curl, wrk, nginx).
 test_packages=(

@@ -19,6 +19,8 @@
 #include "core/io/structure/molecule_reader.hpp"
 #include "proto/api_types.hpp"
 #include "proto/openapi.hpp"
+#include "server/byte_range.hpp"
+#include "server/content_coding.hpp"
 #include "server/content_hash.hpp"
 #include "server/job_id.hpp"
 #include "server/logging.hpp"
@@ -198,21 +200,55 @@ reply status_error_reply(const status& error, std::string route) {
                      error.message(), std::move(route));
 }
 
-std::string etag_for(const std::string& id, proto::mesh_format format) {
-  // The job id is the content hash of everything that determines the mesh (engine version included) and the
-  // encoders are deterministic, so id + format names the bytes exactly.
-  return "\"" + id + "-" + std::string(proto::format_name(format)) + "\"";
+/// The value of a request field, nullopt when absent.
+std::optional<std::string_view> field_value(const request_head& head, http::field name) {
+  const auto it = head.find(name);
+  if (it == head.end()) return std::nullopt;
+  return to_std(it->value());
 }
 
-/// The mesh bytes with their headers. `immutable`: the URL always names these bytes (a long Cache-Control);
-/// otherwise caches must revalidate with the ETag.
-reply mesh_reply(const std::string& id, proto::mesh_format format, std::shared_ptr<const std::string> bytes,
-                 bool cache_hit, std::string route, bool immutable = true) {
+/// The response coding of a mesh in `format` for this request (nullopt: 406).
+std::optional<content_coding> mesh_coding(const std::optional<std::string>& accept, proto::mesh_format format) {
+  return negotiate_coding(accept ? std::optional<std::string_view>(*accept) : std::nullopt,
+                          proto::format_info(format).compressible);
+}
+
+std::string etag_for(const std::string& id, proto::mesh_format format, content_coding coding) {
+  // The job id is the content hash of everything that determines the mesh (engine version included) and the
+  // encoders are deterministic, so id + format names the bytes exactly; a compressed representation adds its
+  // compressor, level and library version (content_coding_etag_tag), so each strong tag names one byte sequence.
+  std::string tag = "\"" + id + "-" + std::string(proto::format_name(format));
+  if (coding != content_coding::identity) tag += "." + content_coding_etag_tag(coding);
+  return tag + "\"";
+}
+
+/// Responses whose bytes depend on Accept-Encoding say so to caches.
+void add_vary(reply& r, proto::mesh_format format) {
+  if (proto::format_info(format).compressible) r.headers.emplace_back("Vary", "Accept-Encoding");
+}
+
+/// 406: the request refuses identity and the format has no other coding.
+reply not_acceptable_reply(proto::mesh_format format, std::string route) {
+  reply r = error_reply(406, "not_acceptable",
+                        "Accept-Encoding refuses every coding this response can have (" +
+                            std::string(proto::format_name(format)) + " is sent as " +
+                            (proto::format_info(format).compressible ? "identity, gzip or br" : "identity only") + ")",
+                        std::move(route));
+  add_vary(r, format);
+  return r;
+}
+
+/// The mesh bytes (encoded in `format`, compressed with `coding`) with their headers. `immutable`: the URL always
+/// names these bytes (a long Cache-Control); otherwise caches must revalidate with the ETag.
+reply mesh_reply(const std::string& id, proto::mesh_format format, content_coding coding,
+                 std::shared_ptr<const std::string> bytes, bool cache_hit, std::string route, bool immutable = true) {
   reply r;
   r.route = std::move(route);
   r.content_type = std::string(proto::content_type(format));
   r.body = std::move(bytes);
-  r.headers.emplace_back("ETag", etag_for(id, format));
+  r.headers.emplace_back("ETag", etag_for(id, format, coding));
+  if (coding != content_coding::identity) r.headers.emplace_back("Content-Encoding", std::string(coding_name(coding)));
+  add_vary(r, format);
   r.headers.emplace_back("X-Cache", cache_hit ? "hit" : "miss");
   r.headers.emplace_back("X-Job-Id", id);
   // A generated name: the upload's filename is never echoed.
@@ -222,13 +258,43 @@ reply mesh_reply(const std::string& id, proto::mesh_format format, std::shared_p
   return r;
 }
 
-reply not_modified(const std::string& id, proto::mesh_format format, std::string route) {
+reply not_modified(const std::string& id, proto::mesh_format format, content_coding coding, std::string route) {
   reply r;
   r.status = 304;
   r.route = std::move(route);
-  r.headers.emplace_back("ETag", etag_for(id, format));
+  r.headers.emplace_back("ETag", etag_for(id, format, coding));
+  add_vary(r, format);
   r.headers.emplace_back("X-Job-Id", id);
   return r;
+}
+
+/// GET /jobs/{id}/mesh: the Range decision (with If-Range against `etag`) on the bytes selected, compressed ones
+/// included (as nginx serves ranges of a gzip_static file): 206 with one slice of the body, 416, or `r` whole.
+/// Ranges are answered for GET only (RFC 9110 §14.2): a HEAD gets the 200 headers.
+reply with_range(reply r, const request_head& head, const std::string& etag) {
+  r.headers.emplace_back("Accept-Ranges", "bytes");
+  if (head.method() != http::verb::get) return r;
+  const std::uint64_t size = r.body->size();
+  const range_decision decision =
+      decide_range(field_value(head, http::field::range), field_value(head, http::field::if_range), etag, size);
+  switch (decision.outcome) {
+    case range_outcome::full: return r;
+    case range_outcome::partial:
+      r.status = 206;
+      r.body_slice = std::pair<std::size_t, std::size_t>(decision.range.first, decision.range.length);
+      r.headers.emplace_back("Content-Range", content_range(decision, size));
+      return r;
+    case range_outcome::unsatisfiable: break;
+  }
+  reply refused = error_reply(416, "range_not_satisfiable",
+                              "the range starts at or past the end of the " + std::to_string(size) + " bytes",
+                              std::move(r.route));
+  refused.headers.emplace_back("Content-Range", content_range(decision, size));
+  refused.headers.emplace_back("Accept-Ranges", "bytes");
+  for (const auto& [name, value] : r.headers) {
+    if (name == "ETag" || name == "Vary" || name == "X-Job-Id") refused.headers.emplace_back(name, value);
+  }
+  return refused;
 }
 
 bool etag_matches(const request_head& head, const std::string& etag) {
@@ -391,6 +457,7 @@ struct api_handlers::upload_request {
   proto::mesh_request request;
   structure_options options;
   std::string pqr;  // the uploaded file (field 'pqr' or 'structure'), any input format
+  content_coding coding = content_coding::identity;  // POST /mesh: the mesh bytes' negotiated coding
   std::shared_ptr<upload_ticket> ticket;  // released as soon as the upload has been parsed
   reply_sink done;
   clock::time_point received;
@@ -579,11 +646,16 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   result<structure_options> options = parse_structure_options(lookup);
   if (!options.ok()) return done(status_error_reply(options.error(), route));
 
+  // POST /mesh answers with mesh bytes: their coding is negotiated before any work is done.
+  const std::optional<content_coding> coding =
+      match.id == route_id::mesh ? mesh_coding(accept_encoding(head), request->format) : content_coding::identity;
+  if (!coding) return done(not_acceptable_reply(request->format, route));
   auto upload = std::make_shared<upload_request>();
   upload->route = match.id;
   upload->request = *request;
   upload->options = *options;
   upload->pqr = std::move(file->body);
+  upload->coding = *coding;
   upload->ticket = std::move(plan.ticket);
   upload->done = std::move(done);
   upload->received = clock::now();
@@ -661,10 +733,11 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
 
   // A result already made (cached encoding, or the job store's mesh) is answered without a job.
   if (upload->route == route_id::mesh) {
-    auto encoded = encoded_result(deps_.results, id, upload->request.format);
+    auto encoded = coded_result(deps_.results, id, upload->request.format, upload->coding);
     if (encoded.ok()) {
       deps_.stats.count_cache_response();
-      return upload->done(mesh_reply(id, upload->request.format, std::move(encoded->bytes), true, route));
+      return upload->done(
+          mesh_reply(id, upload->request.format, upload->coding, std::move(encoded->bytes), true, route));
     }
     // A lost result is logged and made again by the job below; a refusal is the answer.
     if (encoded.error().code() == errc::io_error) {
@@ -689,13 +762,14 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   std::string owner_token;
   if (upload->route == route_id::mesh) {
     how.holder = job_holder{};  // the waiter holds the job until it ends
-    listener = [done = upload->done, id, format = upload->request.format, results = &deps_.results,
+    listener = [done = upload->done, id, format = upload->request.format, coding = upload->coding,
+                results = &deps_.results,
                 retry = deps_.config.limits.retry_after_seconds](const job_snapshot& final_state,
                                                                  const job_output* output) {
       if (!output) return done(job_failure_reply(final_state, "/mesh", retry));
-      auto encoded = encoded_result(*results, id, format, output->mesh);
+      auto encoded = coded_result(*results, id, format, coding, output->mesh);
       if (!encoded.ok()) return done(status_error_reply(encoded.error(), "/mesh"));
-      done(mesh_reply(id, format, std::move(encoded->bytes), output->from_cache, "/mesh"));
+      done(mesh_reply(id, format, coding, std::move(encoded->bytes), output->from_cache, "/mesh"));
     };
   } else {
     owner_token = new_owner_token();
@@ -842,13 +916,20 @@ void api_handlers::job_mesh(const request_head& head, const std::string& id,
   const proto::mesh_format format = requested ? *requested : job ? job->format : proto::mesh_format::off;
   // Only a URL naming its format always names the same bytes.
   const bool immutable = requested.has_value();
-  const std::string key = mesh_key(id, format);
-  const bool if_none_match = etag_matches(head, etag_for(id, format));
+  const std::optional<content_coding> coding = mesh_coding(accept_encoding(head), format);
+  if (!coding) return done(not_acceptable_reply(format, route));
+  const std::string etag = etag_for(id, format, *coding);
+  const bool if_none_match = etag_matches(head, etag);
+  // The whole answer once the bytes are known: 304, or the bytes (a range of them, 416) with their headers.
+  auto answer = [id, format, coding = *coding, etag, if_none_match, immutable, route, head_copy = head](
+                    std::shared_ptr<const std::string> bytes, bool cache_hit) {
+    if (if_none_match) return not_modified(id, format, coding, route);
+    return with_range(mesh_reply(id, format, coding, std::move(bytes), cache_hit, route, immutable), head_copy, etag);
+  };
   // The hot path: a memory hit is answered from the I/O thread, no hop.
-  if (auto bytes = deps_.cache.get_from_memory(key)) {
+  if (auto bytes = deps_.cache.get_from_memory(coded_mesh_key(id, format, *coding))) {
     deps_.stats.count_cache_response();
-    return done(if_none_match ? not_modified(id, format, route)
-                              : mesh_reply(id, format, std::move(bytes), true, route, immutable));
+    return done(answer(std::move(bytes), true));
   }
   if (requested) job = deps_.jobs.find(id);
   if (job && job->state != job_state::done) {
@@ -861,13 +942,12 @@ void api_handlers::job_mesh(const request_head& head, const std::string& id,
   // The cached encoding, else the job store's mesh encoded now (and cached): a done job within retention always
   // has every format, whatever the cache evicted or lost. A format the report says refused this mesh gets that
   // reason (413 for that format only; the others are served).
-  boost::asio::post(deps_.prep, [this, id, format, if_none_match, immutable, route, done = std::move(done)] {
-    auto encoded = encoded_result(deps_.results, id, format);
+  boost::asio::post(deps_.prep, [this, id, format, coding = *coding, route, answer = std::move(answer),
+                                  done = std::move(done)] {
+    auto encoded = coded_result(deps_.results, id, format, coding);
     if (encoded.ok()) {
       if (encoded->cache_hit) deps_.stats.count_cache_response();
-      return done(if_none_match ? not_modified(id, format, route)
-                                : mesh_reply(id, format, std::move(encoded->bytes), encoded->cache_hit, route,
-                                             immutable));
+      return done(answer(std::move(encoded->bytes), encoded->cache_hit));
     }
     if (encoded.error().code() == errc::io_error) {
       log_result_lost(id, format, encoded.error().message());

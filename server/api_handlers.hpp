@@ -7,7 +7,9 @@
 ///                              withdraw the owner of X-Job-Token (401 without it, 403 for a stranger's; the job is
 ///                              cancelled when its last holder withdrew; 409 when it already finished)
 ///   GET|HEAD /jobs/{id}/mesh   ?format=off|draco (default: the job's submitted format, else off), ETag /
-///                              If-None-Match → 304, 409 while the job has no mesh
+///                              If-None-Match → 304, 409 while the job has no mesh; Accept-Encoding → br/gzip for
+///                              compressible formats (compressed once, cached; 406 when identity is refused and
+///                              nothing else fits); one Range (If-Range) of the selected bytes → 206 / 416
 ///   GET|HEAD /healthz /readyz /metrics /openapi.json; OPTIONS on every route (CORS preflight)
 /// Threads: plan() and the cheap handlers run on I/O threads; PQR decompression and parsing, job-id hashing and
 /// every disk cache read run on the prep pool; meshing runs on the job queue's workers.

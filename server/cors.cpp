@@ -7,8 +7,10 @@ namespace tracemesh::server {
 namespace {
 
 // What a front-end needs to read besides the simple response headers.
-constexpr const char* exposed_headers = "ETag, X-Cache, X-Job-Id, X-Request-Id, Content-Disposition, Retry-After, Location";
-constexpr const char* allowed_request_headers = "Content-Type, Content-Encoding, If-None-Match, X-Request-Id";
+constexpr const char* exposed_headers =
+    "ETag, X-Cache, X-Job-Id, X-Request-Id, Content-Disposition, Retry-After, Location, Content-Range, Accept-Ranges";
+constexpr const char* allowed_request_headers =
+    "Content-Type, Content-Encoding, If-None-Match, X-Request-Id, Range, If-Range";
 constexpr const char* preflight_max_age_seconds = "600";
 
 }  // namespace

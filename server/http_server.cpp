@@ -9,6 +9,7 @@
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/beast/core.hpp>
+#include <boost/range/iterator_range.hpp>
 
 #include "proto/api_types.hpp"
 #include "server/detail/http_session.hpp"
@@ -28,11 +29,25 @@ reply error_reply(unsigned status, std::string_view code, std::string_view messa
   return json_reply(status, body, std::move(route));
 }
 
+std::optional<std::string> accept_encoding(const request_head& head) {
+  std::optional<std::string> joined;
+  for (const auto& field : boost::make_iterator_range(head.equal_range(http::field::accept_encoding))) {
+    if (joined) {
+      joined->push_back(',');
+    } else {
+      joined.emplace();
+    }
+    joined->append(to_std(field.value()));
+  }
+  return joined;
+}
+
 reply json_reply(unsigned status, std::string body, std::string route) {
   reply out;
   out.status = status;
   out.route = std::move(route);
   out.body = std::make_shared<const std::string>(std::move(body));
+  out.compressible = true;
   return out;
 }
 

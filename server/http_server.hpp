@@ -18,7 +18,9 @@
 ///    decodes it off the I/O thread;
 /// 4. the handler answers through a reply_sink, possibly much later from another thread: the reply is posted
 ///    back to the session's strand, so no I/O thread ever waits for a job;
-/// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection.
+/// 5. the response is written under write_timeout; errors that leave body bytes unread close the connection. A
+///    reply marked compressible (JSON) of at least min_compressed_json_bytes is compressed here with the coding the
+///    request's Accept-Encoding prefers; a reply's body_slice (a 206) is sent without a copy.
 /// Every request gets a request id (a sane incoming X-Request-Id, else a generated one), echoed in X-Request-Id,
 /// and one "access" log line when its response is written (error level for 5xx); its duration runs from the
 /// request's first byte. Connections over max_connections first make the oldest idle keep-alive connection close;
@@ -33,8 +35,10 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -62,14 +66,25 @@ using request_head = http::request_header<>;
 /// Beast 1.74 hands out boost::string_view; the rest of the code uses std::string_view.
 inline std::string_view to_std(boost::beast::string_view text) { return {text.data(), text.size()}; }
 
+/// Every Accept-Encoding field of the request as one comma-separated list (RFC 9110 §5.3); nullopt when it has none
+/// (which negotiate_coding tells apart from an empty field).
+std::optional<std::string> accept_encoding(const request_head& head);
+
 /// A response as the application produces it; the session adds framing, keep-alive, Server and CORS headers.
 struct reply {
   unsigned status = 200;
   std::string route;  ///< route template for metrics and logs ("/jobs/{id}"), never the raw target
   std::string content_type = "application/json";
   std::shared_ptr<const std::string> body;  ///< shared with caches: sent without a copy
+  /// A 206's byte range: only body[offset, offset + length) is sent (and counted in Content-Length), still
+  /// without a copy; nullopt sends the whole body.
+  std::optional<std::pair<std::size_t, std::size_t>> body_slice;
   header_list headers;
   bool close = false;  ///< close the connection after this response
+  /// JSON text (json_reply, error_reply): the session compresses it with gzip or br when the request's
+  /// Accept-Encoding asks for one and it has at least min_compressed_json_bytes (content_coding.hpp), adding
+  /// Content-Encoding and Vary. Mesh replies carry their (cached) coding themselves and leave this false.
+  bool compressible = false;
 };
 
 /// The JSON error reply {"error": {"code", "message"}} (proto::error_body) with `status`.

@@ -154,4 +154,27 @@ result<encoded_mesh> encoded_result(const mesh_job_context& context, const std::
   return encoded_mesh{std::move(bytes), false};
 }
 
+std::string coded_mesh_key(const std::string& id, proto::mesh_format format, content_coding coding) {
+  return mesh_key(id, format) + coding_cache_suffix(coding);
+}
+
+result<encoded_mesh> coded_result(const mesh_job_context& context, const std::string& id, proto::mesh_format format,
+                                  content_coding coding, std::shared_ptr<const surface_mesh> mesh) {
+  if (coding == content_coding::identity) return encoded_result(context, id, format, std::move(mesh));
+  const std::string key = coded_mesh_key(id, format, coding);
+  if (auto cached = context.cache.get(key)) return encoded_mesh{std::move(cached), true};
+  result<encoded_mesh> plain = encoded_result(context, id, format, std::move(mesh));
+  if (!plain.ok()) return plain.error();
+  result<std::string> compressed = compress(*plain->bytes, coding);
+  if (!compressed.ok()) return compressed.error();
+  context.stats.count_mesh_compression(coding == content_coding::br);
+  auto bytes = std::make_shared<const std::string>(std::move(*compressed));
+  // Like the encodings themselves: the cache only saves work, a failed write loses nothing.
+  if (const status put = context.cache.put(key, *bytes); !put.ok()) {
+    log_event(context.log, spdlog::level::warn, "cache_write_failed",
+              {{"job", id}, {"key", key}, {"bytes", bytes->size()}, {"error", put.message()}});
+  }
+  return encoded_mesh{std::move(bytes), false};
+}
+
 }  // namespace tracemesh::server

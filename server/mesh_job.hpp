@@ -17,6 +17,7 @@
 
 #include "core/limits.hpp"
 #include "core/mesher.hpp"
+#include "server/content_coding.hpp"
 #include "server/job_queue.hpp"
 #include "server/job_store.hpp"
 #include "server/metrics.hpp"
@@ -60,6 +61,17 @@ struct encoded_mesh {
 /// the encoder or the report; the encoder's other errors.
 result<encoded_mesh> encoded_result(const mesh_job_context& context, const std::string& id,
                                     proto::mesh_format format, std::shared_ptr<const surface_mesh> mesh = nullptr);
+
+/// The cache key of a done job's mesh in `format` compressed with `coding`: mesh_key(id, format) +
+/// coding_cache_suffix ("<id>.off.br4w22_b1_0_9"; identity: mesh_key itself).
+std::string coded_mesh_key(const std::string& id, proto::mesh_format format, content_coding coding);
+
+/// encoded_result's bytes as sent with Content-Encoding `coding`: for gzip and br, the cached compressed bytes, else
+/// encoded_result's bytes compressed now (counted in metrics), cached under coded_mesh_key and returned (cache_hit
+/// says whether the compressed bytes came from the cache). identity: encoded_result itself. Errors: encoded_result's;
+/// the compressor's (errc::internal_error).
+result<encoded_mesh> coded_result(const mesh_job_context& context, const std::string& id, proto::mesh_format format,
+                                  content_coding coding, std::shared_ptr<const surface_mesh> mesh = nullptr);
 
 /// Why the job's report says `format` was not encoded (its "encodings" entry has an error), or nullopt when it was
 /// encoded or not tried yet (or the report does not parse).

@@ -128,6 +128,10 @@ std::string metrics::render(const metrics_gauges& gauges) const {
 
   family(out, "tracemesh_cache_responses_total", "counter", "Responses served from the cache without a job.");
   sample(out, "tracemesh_cache_responses_total", cache_responses_.load(std::memory_order_relaxed));
+  family(out, "tracemesh_mesh_compressions_total", "counter",
+         "Mesh encodings compressed for a response (once per job, format and coding; then cached), by coding.");
+  sample(out, "tracemesh_mesh_compressions_total{coding=\"gzip\"}", gzip_compressions_.load(std::memory_order_relaxed));
+  sample(out, "tracemesh_mesh_compressions_total{coding=\"br\"}", br_compressions_.load(std::memory_order_relaxed));
   family(out, "tracemesh_cache_hits_total", "counter", "Result cache lookups that found an entry.");
   sample(out, "tracemesh_cache_hits_total", gauges.cache_hits);
   family(out, "tracemesh_cache_misses_total", "counter", "Result cache lookups that found nothing.");

@@ -43,6 +43,10 @@ class metrics {
   void count_job_finished(std::string_view state, double seconds);
   /// A response served from the result cache without running or waiting for a job.
   void count_cache_response() { cache_responses_.fetch_add(1, std::memory_order_relaxed); }
+  /// A mesh encoding compressed for a response, with gzip (`brotli` false) or br.
+  void count_mesh_compression(bool brotli) {
+    (brotli ? br_compressions_ : gzip_compressions_).fetch_add(1, std::memory_order_relaxed);
+  }
 
   std::uint64_t mesher_runs() const { return mesher_runs_.load(std::memory_order_relaxed); }
   std::uint64_t requests(std::string_view route, unsigned status) const;
@@ -59,6 +63,8 @@ class metrics {
   double job_seconds_sum_ = 0;
   std::atomic<std::uint64_t> mesher_runs_{0};
   std::atomic<std::uint64_t> cache_responses_{0};
+  std::atomic<std::uint64_t> gzip_compressions_{0};
+  std::atomic<std::uint64_t> br_compressions_{0};
 };
 
 }  // namespace tracemesh::server

@@ -29,6 +29,7 @@ using detail::write_all;
 constexpr std::string_view entry_magic = "tmcache1";
 constexpr std::size_t fixed_header_bytes = 8 + 8 + sha256::digest_size + 4;
 constexpr std::size_t max_suffix_length = 16;
+constexpr std::size_t max_coding_length = 24;
 constexpr std::string_view temp_prefix = ".tmp-";
 
 std::uint64_t entry_file_bytes(const std::string& key, std::size_t payload_bytes) {
@@ -137,15 +138,28 @@ void remove_if_orphan(const fs::path& temp) {
 
 }  // namespace
 
-bool is_valid_cache_key(std::string_view key) {
-  constexpr std::size_t hash_length = 2 * sha256::digest_size;
-  if (key.size() < hash_length + 2 || key.size() > hash_length + 1 + max_suffix_length) return false;
-  if (!is_valid_job_id(key.substr(0, hash_length)) || key[hash_length] != '.') return false;
-  for (const char c : key.substr(hash_length + 1)) {
+namespace {
+
+bool is_key_word(std::string_view text, std::size_t max_length) {
+  if (text.empty() || text.size() > max_length) return false;
+  for (const char c : text) {
     const bool allowed = (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
     if (!allowed) return false;
   }
   return true;
+}
+
+}  // namespace
+
+bool is_valid_cache_key(std::string_view key) {
+  constexpr std::size_t hash_length = 2 * sha256::digest_size;
+  if (key.size() < hash_length + 2) return false;
+  if (!is_valid_job_id(key.substr(0, hash_length)) || key[hash_length] != '.') return false;
+  const std::string_view rest = key.substr(hash_length + 1);
+  const auto dot = rest.find('.');
+  if (dot == std::string_view::npos) return is_key_word(rest, max_suffix_length);
+  // A compressed representation: the key of its bytes plus its coding tag.
+  return is_key_word(rest.substr(0, dot), max_suffix_length) && is_key_word(rest.substr(dot + 1), max_coding_length);
 }
 
 result_cache::result_cache(std::filesystem::path dir, cache_limits limits) : dir_(std::move(dir)), limits_(limits) {}

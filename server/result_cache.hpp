@@ -2,7 +2,9 @@
 /// @file result_cache.hpp
 /// Content-addressed result cache: a bounded in-memory LRU in front of a bounded on-disk store.
 ///
-/// Keys are "<64 lower-case hex>.<suffix>" (suffix [a-z0-9_]{1,16}: "off", "drc", "report"...). Because keys name
+/// Keys are "<64 lower-case hex>.<suffix>" (suffix [a-z0-9_]{1,16}: "off", "drc", "report"...), optionally followed
+/// by ".<coding>" ([a-z0-9_]{1,24}): a compressed representation of the entry without it ("<id>.off.br4w22_b1_0_9",
+/// see content_coding.hpp). Because keys name
 /// content, two writers of one key write the same bytes, and a put of a key already stored on disk is skipped.
 ///
 /// Disk layout: <dir>/<first two hex digits>/<key>. Each file holds a header (magic, payload length, SHA-256 of
@@ -54,7 +56,8 @@ struct cache_stats {
   std::uint64_t write_failures;   ///< put() calls that failed on disk I/O
 };
 
-/// True iff `key` is "<64 lower-case hex>.<suffix>" with suffix [a-z0-9_]{1,16}.
+/// True iff `key` is "<64 lower-case hex>.<suffix>" with suffix [a-z0-9_]{1,16}, optionally followed by
+/// ".<coding>" with coding [a-z0-9_]{1,24}.
 bool is_valid_cache_key(std::string_view key);
 
 class result_cache {

@@ -21,6 +21,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/range/iterator_range.hpp>
 
+#include "server/content_coding.hpp"
 #include "server/http_server.hpp"
 #include "server/logging.hpp"
 
@@ -416,6 +417,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
         !force_close && !r.close && keep_alive_ && !health_only_ &&
         !context_.state.draining.load(std::memory_order_relaxed);
     response_body_ = r.body ? r.body : std::make_shared<const std::string>();
+    if (r.compressible && !(r.status == 204 || r.status == 304)) compress_json(r);
     response_.emplace(static_cast<http::status>(r.status), head_.version() == 10 ? 10 : 11);
     response_->set(http::field::server, "tracemeshd");
     const bool bodiless_status = r.status == 204 || r.status == 304;
@@ -424,13 +426,14 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     context_.cors.add_response_headers(origin, r.headers);
     for (const auto& [name, value] : r.headers) response_->insert(name, value);
     response_->set(request_id_field, request_id_);
+    const auto [offset, length] = r.body_slice.value_or(std::pair<std::size_t, std::size_t>{0, response_body_->size()});
     if (head_request || bodiless_status) {
       response_->body() = {};
     } else {
-      response_->body() = http::span_body<const char>::value_type(response_body_->data(), response_body_->size());
+      response_->body() = http::span_body<const char>::value_type(response_body_->data() + offset, length);
     }
     response_->keep_alive(keep_alive);
-    if (!bodiless_status) response_->content_length(response_body_->size());
+    if (!bodiless_status) response_->content_length(length);
     context_.stats.count_request(r.route, r.status);
     transport::expire_after(stream_, context_.limits.write_timeout);
     http::async_write(stream_, *response_,
@@ -439,6 +442,22 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
                         self->log_access(route, status, bytes, ec);
                         self->on_write(ec, keep_alive);
                       });
+  }
+
+  /// A JSON reply compressed on the fly (they are small: job documents, errors, the OpenAPI document) with the
+  /// coding the request prefers; identity when it asks for none, is too short or refuses every coding (then
+  /// identity is sent all the same: a 406 for a JSON document would help nobody, RFC 9110 §12.5.3 allows it).
+  void compress_json(reply& r) {
+    if (response_body_->size() < min_compressed_json_bytes) return;
+    r.headers.emplace_back("Vary", "Accept-Encoding");
+    const std::optional<std::string> accept = accept_encoding(head_);
+    const std::optional<content_coding> coding =
+        negotiate_coding(accept ? std::optional<std::string_view>(*accept) : std::nullopt, true);
+    if (!coding || *coding == content_coding::identity) return;
+    result<std::string> compressed = compress(*response_body_, *coding);
+    if (!compressed.ok()) return;  // out of memory: the plain text still answers
+    response_body_ = std::make_shared<const std::string>(std::move(*compressed));
+    r.headers.emplace_back("Content-Encoding", std::string(coding_name(*coding)));
   }
 
   /// The access line of the request just answered; error level for 5xx. `bytes`: what reached the socket

@@ -487,6 +487,122 @@ TEST_F(TracemeshdTest, CacheHitsOnTheSecondRequestAndAfterARestart) {
   EXPECT_EQ(metric(restarted, "tracemesh_mesher_runs_total"), 0);
 }
 
+// Issue 11 item 6, the wire: negotiated gzip/br (compressed once, cached as <id>.<format>.gz/.br), byte ranges of the
+// selected representation, If-Range, 416, 406, HEAD, a resumed download (curl -C -), compressed JSON.
+TEST_F(TracemeshdTest, CompressedAndRangedMeshDownloadsDecodeToTheIdentityBytes) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  const nlohmann::json job = run_job(server, molecule_path("fas2.pqr"), "-F density=1");
+  ASSERT_EQ(job.value("status", ""), "done") << job;
+  const std::string id = job.at("id");
+  const std::string url = server.url("/jobs/" + id + "/mesh?format=off");
+  const curl_reply identity = curl("", url);
+  ASSERT_EQ(identity.status, 200);
+  EXPECT_EQ(identity.headers.count("content-encoding"), 0u);
+  EXPECT_EQ(identity.headers.at("vary"), "Accept-Encoding");
+  EXPECT_EQ(identity.headers.at("accept-ranges"), "bytes");
+  EXPECT_EQ(std::stoul(identity.headers.at("content-length")), identity.body.size());
+
+  // br and gzip: raw bytes with their own Content-Length and ETag; decoded (by curl, and by gzip -dc) they are the
+  // identity bytes exactly.
+  std::map<std::string, std::string> raw;
+  for (const std::string coding : {"br", "gzip"}) {
+    const curl_reply coded = curl("-H 'Accept-Encoding: " + coding + "'", url);
+    ASSERT_EQ(coded.status, 200) << coding;
+    EXPECT_EQ(coded.headers.at("content-encoding"), coding);
+    EXPECT_EQ(coded.headers.at("vary"), "Accept-Encoding");
+    EXPECT_EQ(coded.headers.at("x-cache"), "miss") << coding << ": compressed on first request";
+    EXPECT_EQ(std::stoul(coded.headers.at("content-length")), coded.body.size());
+    EXPECT_LT(coded.body.size(), identity.body.size() / 2) << coding;
+    EXPECT_NE(coded.headers.at("etag"), identity.headers.at("etag"));
+    raw[coding] = coded.body;
+    const curl_reply decoded = curl("--compressed -H 'Accept-Encoding: " + coding + "'", url);
+    EXPECT_EQ(decoded.headers.at("content-encoding"), coding);
+    EXPECT_TRUE(decoded.body == identity.body) << coding << " does not decode to the identity bytes";
+  }
+  const fs::path gz = write("mesh.off.gz", raw.at("gzip"));
+  EXPECT_TRUE(run("gzip -dc " + gz.string()) == identity.body);
+  EXPECT_NE(curl("-H 'Accept-Encoding: br'", url).headers.at("etag"),
+            curl("-H 'Accept-Encoding: gzip'", url).headers.at("etag"));
+
+  // Compressed once: the cache holds <id>.off.br<level, version> and .gz<...> next to <id>.off, and later requests
+  // are hits with the same bytes.
+  std::vector<std::string> stored;
+  for (const auto& entry : fs::directory_iterator(cache_.path() / id.substr(0, 2))) {
+    stored.push_back(entry.path().filename().string().substr(id.size()));
+  }
+  std::sort(stored.begin(), stored.end());
+  ASSERT_EQ(stored.size(), 3u) << ::testing::PrintToString(stored);
+  EXPECT_EQ(stored[0], ".off");
+  EXPECT_EQ(stored[1].rfind(".off.br4w22_b", 0), 0u) << stored[1];
+  EXPECT_EQ(stored[2].rfind(".off.gz6_z", 0), 0u) << stored[2];
+  const curl_reply again = curl("-H 'Accept-Encoding: gzip;q=0.5, br;q=0.9, identity;q=0.1'", url);
+  EXPECT_EQ(again.headers.at("content-encoding"), "br");
+  EXPECT_EQ(again.headers.at("x-cache"), "hit");
+  EXPECT_TRUE(again.body == raw.at("br"));
+  EXPECT_EQ(metric(server, "tracemesh_mesh_compressions_total{coding=\"br\"}"), 1);
+  EXPECT_EQ(metric(server, "tracemesh_mesh_compressions_total{coding=\"gzip\"}"), 1);
+
+  // HEAD: the GET's headers, the selected representation's length.
+  const curl_reply head = curl("-I -H 'Accept-Encoding: br'", url);
+  EXPECT_EQ(head.status, 200);
+  EXPECT_EQ(head.headers.at("content-encoding"), "br");
+  EXPECT_EQ(std::stoul(head.headers.at("content-length")), raw.at("br").size());
+
+  // Ranges apply to the selected (compressed) bytes; the parts concatenate to the whole.
+  const std::string& br = raw.at("br");
+  const std::size_t cut = br.size() / 3;
+  const curl_reply first = curl("-H 'Accept-Encoding: br' -r 0-" + std::to_string(cut - 1), url);
+  const curl_reply rest = curl("-H 'Accept-Encoding: br' -r " + std::to_string(cut) + "-", url);
+  ASSERT_EQ(first.status, 206);
+  ASSERT_EQ(rest.status, 206);
+  EXPECT_EQ(first.headers.at("content-range"), "bytes 0-" + std::to_string(cut - 1) + "/" + std::to_string(br.size()));
+  EXPECT_EQ(std::stoul(first.headers.at("content-length")), cut);
+  EXPECT_EQ(first.headers.at("content-encoding"), "br");
+  EXPECT_TRUE(first.body + rest.body == br);
+  const curl_reply suffix = curl("-r -100", url);
+  EXPECT_EQ(suffix.status, 206);
+  EXPECT_TRUE(suffix.body == identity.body.substr(identity.body.size() - 100));
+
+  const std::string size = std::to_string(identity.body.size());
+  const curl_reply past_end = curl("-r " + size + "-", url);
+  EXPECT_EQ(past_end.status, 416);
+  EXPECT_EQ(past_end.headers.at("content-range"), "bytes */" + size);
+  // If-Range: the same ETag gives the range, another (or a weak one) the whole 200; several ranges: the whole.
+  const std::string etag = identity.headers.at("etag");
+  EXPECT_EQ(curl("-r 0-9 -H 'If-Range: " + etag + "'", url).status, 206);
+  const curl_reply changed = curl("-r 0-9 -H 'If-Range: \"0-off\"'", url);
+  EXPECT_EQ(changed.status, 200);
+  EXPECT_TRUE(changed.body == identity.body);
+  EXPECT_EQ(curl("-r 0-9 -H 'If-Range: W/" + etag + "'", url).status, 200);
+  const curl_reply several = curl("-r 0-9,20-29", url);
+  EXPECT_EQ(several.status, 200);
+  EXPECT_TRUE(several.body == identity.body);
+
+  // A download cut short is resumed with curl -C -: the file ends up whole.
+  const fs::path partial = write("resumed.off", identity.body.substr(0, identity.body.size() / 2));
+  run(std::string(TRACEMESH_CURL) + " -s -S -C - -o " + partial.string() + " '" + url + "'");
+  EXPECT_TRUE(read_file(partial) == identity.body);
+
+  // Draco is never compressed; refusing identity for it is 406.
+  const curl_reply draco = curl("-H 'Accept-Encoding: br, gzip'", server.url("/jobs/" + id + "/mesh?format=draco"));
+  EXPECT_EQ(draco.status, 200);
+  EXPECT_EQ(draco.headers.count("content-encoding"), 0u);
+  expect_error(curl("-H 'Accept-Encoding: identity;q=0'", server.url("/jobs/" + id + "/mesh?format=draco")), 406,
+               "not_acceptable", "identity refused for draco");
+  expect_error(curl("-H 'Accept-Encoding: *;q=0'", url), 406, "not_acceptable", "everything refused");
+  EXPECT_EQ(curl("-H 'Accept-Encoding: identity;q=0, gzip'", url).headers.at("content-encoding"), "gzip");
+
+  // POST /mesh negotiates too; JSON bodies of 1 KiB or more are compressed on the fly.
+  const curl_reply posted = curl("--compressed -H 'Accept-Encoding: gzip' -F pqr=@" +
+                                     molecule_path("fas2.pqr").string() + " -F density=1",
+                                 server.url("/mesh"));
+  EXPECT_EQ(posted.headers.at("content-encoding"), "gzip");
+  EXPECT_TRUE(posted.body == identity.body);
+  const curl_reply document = curl("--compressed -H 'Accept-Encoding: br'", server.url("/jobs/" + id));
+  EXPECT_EQ(document.headers.at("content-encoding"), "br");
+  EXPECT_EQ(nlohmann::json::parse(document.body).at("id"), id);
+}
+
 TEST_F(TracemeshdTest, TwentyConcurrentDistinctUploadsAllSucceed) {
   server_process server(work_.path(), {"--workers", "2", "--max-queue", "32"});
   std::string script;

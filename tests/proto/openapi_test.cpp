@@ -72,7 +72,8 @@ TEST(OpenApi, ListsEveryPathWithItsMethods) {
 TEST(OpenApi, MeshResponsesCarryTheDocumentedHeadersAndErrors) {
   const nlohmann::json post = document().at("paths").at("/mesh").at("post");
   const nlohmann::json ok = post.at("responses").at("200");
-  EXPECT_EQ(keys_of(ok.at("headers")), (std::set<std::string>{"ETag", "X-Cache", "X-Job-Id", "Content-Disposition"}));
+  EXPECT_EQ(keys_of(ok.at("headers")), (std::set<std::string>{"ETag", "X-Cache", "X-Job-Id", "Content-Disposition",
+                                                              "Content-Encoding", "Vary"}));
   std::set<std::string> content_types;
   for (const mesh_format_info& row : mesh_formats()) content_types.insert(std::string(row.content_type));
   EXPECT_EQ(keys_of(ok.at("content")), content_types);
@@ -80,6 +81,15 @@ TEST(OpenApi, MeshResponsesCarryTheDocumentedHeadersAndErrors) {
     EXPECT_TRUE(post.at("responses").contains(code)) << code;
   }
   EXPECT_TRUE(document().at("paths").at("/jobs").at("post").at("responses").contains("202"));
+  EXPECT_TRUE(post.at("responses").contains("406"));
+  // The wire of GET /jobs/{id}/mesh: codings, ranges (issue 11 item 6).
+  const nlohmann::json get = document().at("paths").at("/jobs/{id}/mesh").at("get").at("responses");
+  for (const char* code : {"200", "206", "304", "406", "416"}) EXPECT_TRUE(get.contains(code)) << code;
+  for (const char* header : {"Content-Encoding", "Vary", "Accept-Ranges", "ETag"}) {
+    EXPECT_TRUE(get.at("200").at("headers").contains(header)) << header;
+  }
+  EXPECT_TRUE(get.at("206").at("headers").contains("Content-Range"));
+  EXPECT_TRUE(get.at("416").at("headers").contains("Content-Range"));
 }
 
 TEST(OpenApi, EveryReferenceResolves) {

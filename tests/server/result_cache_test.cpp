@@ -99,9 +99,14 @@ TEST(CacheKey, AcceptsHexDigestDotSuffix) {
   EXPECT_TRUE(is_valid_cache_key(hash + ".drc"));
   EXPECT_TRUE(is_valid_cache_key(hash + ".report_v2"));
   EXPECT_TRUE(is_valid_cache_key(hash + "." + std::string(16, 'a')));
+  EXPECT_TRUE(is_valid_cache_key(hash + ".off.gz6_z1_2_13"));  // compressed representations
+  EXPECT_TRUE(is_valid_cache_key(hash + ".glb_raw.br4w22_b1_0_9"));
+  EXPECT_TRUE(is_valid_cache_key(hash + "." + std::string(16, 'a') + "." + std::string(24, 'b')));
   for (const std::string& bad : {hash, hash + ".", hash + "." + std::string(17, 'a'), hash + ".OFF",
                                  hash + "./off", hash + ".of-f", hash.substr(1) + ".off", "../" + hash + ".off",
-                                 hash + std::string(".o\0f", 4), hash + "off"}) {
+                                 hash + std::string(".o\0f", 4), hash + "off", hash + ".gz.", hash + "..gz",
+                                 hash + ".off.gz.gz", hash + ".off.GZ", hash + ".off.gz-6",
+                                 hash + "." + std::string(17, 'a') + ".br", hash + ".off." + std::string(25, 'b')}) {
     EXPECT_FALSE(is_valid_cache_key(bad)) << bad;
   }
 }

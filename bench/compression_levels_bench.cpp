@@ -1,0 +1,84 @@
+// Time and size of gzip (zlib levels 1–9) and br (brotli qualities 1–11) on one mesh file, to choose the service's
+// response compression levels (server/content_coding.hpp). Usage: compression_levels_bench <file> [repeats=3]
+// Prints one line per setting: output bytes, ratio to the input, median milliseconds to compress. Deterministic
+// sizes; times need a quiet machine.
+#include <brotli/encode.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+std::string gzip(const std::string& in, int level) {
+  z_stream stream{};
+  deflateInit2(&stream, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);
+  std::string out(deflateBound(&stream, static_cast<uLong>(in.size())), '\0');
+  stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
+  stream.avail_in = static_cast<uInt>(in.size());
+  stream.next_out = reinterpret_cast<Bytef*>(out.data());
+  stream.avail_out = static_cast<uInt>(out.size());
+  deflate(&stream, Z_FINISH);
+  out.resize(stream.total_out);
+  deflateEnd(&stream);
+  return out;
+}
+
+std::string brotli(const std::string& in, int quality, int window) {
+  std::size_t size = BrotliEncoderMaxCompressedSize(in.size());
+  std::string out(size, '\0');
+  BrotliEncoderCompress(quality, window, BROTLI_MODE_GENERIC, in.size(), reinterpret_cast<const uint8_t*>(in.data()),
+                        &size, reinterpret_cast<uint8_t*>(out.data()));
+  out.resize(size);
+  return out;
+}
+
+void measure(const char* name, int level, const std::string& in, int repeats,
+             const std::function<std::string(const std::string&)>& compress) {
+  std::vector<double> ms;
+  std::size_t bytes = 0;
+  for (int i = 0; i < repeats; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    bytes = compress(in).size();
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+  }
+  std::sort(ms.begin(), ms.end());
+  std::printf("%-6s %2d  %12zu bytes  ratio %.4f  %10.1f ms  %7.1f MB/s\n", name, level, bytes,
+              static_cast<double>(bytes) / static_cast<double>(in.size()), ms[ms.size() / 2],
+              static_cast<double>(in.size()) / 1e3 / ms[ms.size() / 2]);
+  std::fflush(stdout);  // one line at a time: a long run cut short still shows what it measured
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: compression_levels_bench <file> [repeats=3]\n");
+    return 2;
+  }
+  std::ifstream file(argv[1], std::ios::binary);
+  std::stringstream text;
+  text << file.rdbuf();
+  const std::string in = text.str();
+  if (in.empty()) {
+    std::fprintf(stderr, "compression_levels_bench: cannot read %s\n", argv[1]);
+    return 1;
+  }
+  const int repeats = argc > 2 ? std::max(1, std::atoi(argv[2])) : 3;
+  std::printf("input %zu bytes, median of %d\n", in.size(), repeats);
+  for (int level : {1, 3, 5, 6, 7, 9}) {
+    measure("gzip", level, in, repeats, [level](const std::string& s) { return gzip(s, level); });
+  }
+  for (int quality : {1, 3, 4, 5, 6, 7, 9, 11}) {
+    if (quality >= 9 && in.size() > (8u << 20)) continue;  // minutes per run on a large mesh
+    measure("br w22", quality, in, quality >= 9 ? 1 : repeats,
+            [quality](const std::string& s) { return brotli(s, quality, 22); });
+  }
+  return 0;
+}
