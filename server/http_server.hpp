@@ -62,6 +62,21 @@ using request_head = http::request_header<>;
 /// Beast 1.74 hands out boost::string_view; the rest of the code uses std::string_view.
 inline std::string_view to_std(boost::beast::string_view text) { return {text.data(), text.size()}; }
 
+/// The events of one Server-Sent Events response (GET /jobs/{id}/events), pulled by the session: it asks next()
+/// once the response header is written, then again after each write and every limits.event_interval while nothing
+/// is pending (so a stream costs a timer, never a thread), until a batch says `last`; then it ends the body and
+/// closes the connection. It stops asking when the client goes away.
+class event_source {
+ public:
+  struct batch {
+    std::string text;   ///< zero or more complete events ("event: …\ndata: …\n\n"), written as they are
+    bool last = false;  ///< the stream ends after this text
+  };
+  virtual ~event_source() = default;
+  /// Calls `deliver` exactly once, from any thread (the session posts it back to its strand). Must not block.
+  virtual void next(std::function<void(batch)> deliver) = 0;
+};
+
 /// A response as the application produces it; the session adds framing, keep-alive, Server and CORS headers.
 struct reply {
   unsigned status = 200;
@@ -70,6 +85,8 @@ struct reply {
   std::shared_ptr<const std::string> body;  ///< shared with caches: sent without a copy
   header_list headers;
   bool close = false;  ///< close the connection after this response
+  /// Set (status 200): the body is this event stream, sent chunked as it comes; the connection closes after it.
+  std::shared_ptr<event_source> events;
 };
 
 /// The JSON error reply {"error": {"code", "message"}} (proto::error_body) with `status`.
@@ -146,6 +163,7 @@ struct http_server_state {
   std::atomic<std::size_t> open_connections{0};
   std::atomic<std::size_t> busy_requests{0};  ///< header read, response not yet written
   std::atomic<bool> draining{false};          ///< SIGTERM received: answer with Connection: close
+  std::atomic<std::size_t> event_streams{0};  ///< open event streams (bounded by limits.max_event_streams)
   idle_connections idle;
   request_id_source request_ids;
 };
