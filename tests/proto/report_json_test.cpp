@@ -66,7 +66,8 @@ std::set<std::string> keys_of(const nlohmann::json& object) {
 
 TEST(ReportJson, HasExactlyTheDocumentedTopLevelFields) {
   const nlohmann::json json = report_to_json(sample_output(), sample_params());
-  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "method", "refine", "trace",
+  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "method", "refine", "cavity_mode",
+                                                  "dropped_components", "trace",
                                                   "atoms_meshed", "zero_radius_atoms", "vertices", "triangles",
                                                   "area", "volume", "components", "cavities", "genus",
                                                   "euler_characteristic", "certificate", "quality",
