@@ -766,7 +766,8 @@ TEST_F(TracemeshdTest, AnEventStreamFollowsARealJobToItsDoneEvent) {
   const auto again = expect_event_stream(curl("-N --max-time 20", server.url("/jobs/" + id + "/events")));
   ASSERT_EQ(again.size(), 2u);
   EXPECT_EQ(again[1].name, "done");
-  EXPECT_EQ(nlohmann::json::parse(again[1].data), final_doc);
+  // (The report has gained the OFF encoding fetched above: the events carry the document as GET has it now.)
+  EXPECT_EQ(nlohmann::json::parse(again[1].data), nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body));
   expect_error(curl("-N --max-time 20", server.url("/jobs/" + std::string(64, '0') + "/events")), 404,
                "not_found", "events of an unknown job");
 }
