@@ -79,7 +79,8 @@ TEST_F(JobEventsTest, StreamsProgressThenOneDoneEventEqualToGetJobAndCloses) {
   ASSERT_EQ(so_far.events.size(), 1u) << stream.unread();
   EXPECT_EQ(so_far.events[0].name, "progress");
   EXPECT_EQ(nlohmann::json::parse(so_far.events[0].data).at("status"), "running");
-  EXPECT_EQ(so_far.headers["transfer-encoding"], "chunked");
+  ASSERT_EQ(so_far.headers.count("transfer-encoding"), 1u);
+  EXPECT_EQ(so_far.headers.at("transfer-encoding"), "chunked");
   // Nothing changes while the mesher is held: no further event (progress is sent on change only).
   EXPECT_FALSE(stream.closed_by_peer(700ms));
   EXPECT_EQ(parse_raw_event_stream(stream.unread()).events.size(), 1u) << stream.unread();
@@ -106,6 +107,20 @@ TEST_F(JobEventsTest, AJobAlreadyDoneGetsItsDoneEventAtOnce) {
   EXPECT_TRUE(stream.closed_by_peer(2s));
   const raw_event_stream events = parse_raw_event_stream(stream.unread());
   EXPECT_EQ(events.events.size(), 2u) << stream.unread();
+  EXPECT_EQ(expect_contract(events, "done"), nlohmann::json::parse(get("/jobs/" + id).body));
+}
+
+TEST_F(JobEventsTest, AnHttp10ClientGetsTheEventsCloseDelimited) {
+  start();
+  mesher_.set_open(true);
+  const std::string id = nlohmann::json::parse(post("/jobs", gly_).body).at("id");
+  ASSERT_EQ(wait_job(id).at("status"), "done");
+  raw_connection stream(port_);
+  ASSERT_TRUE(stream.send("GET /jobs/" + id + "/events HTTP/1.0\r\n\r\n"));
+  EXPECT_TRUE(stream.closed_by_peer(2s));
+  const raw_event_stream events = parse_raw_event_stream(stream.unread());
+  EXPECT_EQ(events.headers.count("transfer-encoding"), 0u) << "HTTP/1.0 has no chunked coding";
+  ASSERT_EQ(events.events.size(), 2u) << stream.unread();
   EXPECT_EQ(expect_contract(events, "done"), nlohmann::json::parse(get("/jobs/" + id).body));
 }
 

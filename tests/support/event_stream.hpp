@@ -88,7 +88,8 @@ inline raw_event_stream parse_raw_event_stream(std::string_view raw) {
     out.headers[name] = std::string(value);
   }
   const std::string_view body = raw.substr(header_end + 4);
-  const bool chunked = out.headers["transfer-encoding"] == "chunked";
+  const auto coding = out.headers.find("transfer-encoding");
+  const bool chunked = coding != out.headers.end() && coding->second == "chunked";
   out.events = parse_sse(chunked ? std::string_view(dechunk(body)) : body);
   return out;
 }
