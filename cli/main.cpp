@@ -45,7 +45,8 @@ int exit_code_for(tracemesh::errc code) {
 }
 
 int run_and_report(const tracemesh::cli::cli_options& options) {
-  tracemesh::cli::progress_bar bar(stderr, ::isatty(STDERR_FILENO) == 1);
+  tracemesh::cli::progress_bar bar(stderr, ::isatty(STDERR_FILENO) == 1, options.params.method,
+                                   options.params.refine);
   tracemesh::progress_token token([&bar](tracemesh::mesh_stage stage, double fraction) { bar.update(stage, fraction); });
   running_job.store(&token);
   std::signal(SIGINT, cancel_on_interrupt);

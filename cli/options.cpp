@@ -86,6 +86,10 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
                  std::string("full (quality pass) | none (the polygons' triangles as they are); default ") +
                      refine_name(defaults.refine))
       ->type_name("none|full");
+  app.add_option("--cavities", texts["cavities"],
+                 std::string("keep | drop (remove components enclosed by another: inner cavities); default ") +
+                     cavity_mode_name(defaults.cavities))
+      ->type_name("keep|drop");
   app.add_option("--trace-degree", texts["trace_degree"],
                  "Trace: Legendre degree M along each line, an integer in [" +
                      std::to_string(r::min_legendre_degree) + ", " + std::to_string(r::max_legendre_degree) +

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/analysis/enclosure.hpp"
 #include "core/atom_resolution.hpp"
 #include "core/field/band_culling.hpp"
 #include "core/field/gaussian_field.hpp"
@@ -72,11 +73,34 @@ std::string certificate_failure(const mesh_output& out) {
   return why.str();
 }
 
+/// Sets component_report::enclosed from the report's vertex labels, which are dropped afterwards (the encoders
+/// label their own).
+void flag_enclosed_components(mesh_output& out) {
+  const std::vector<bool> enclosed = enclosed_components(out.mesh, out.report);
+  for (std::size_t c = 0; c < enclosed.size(); ++c) out.report.components[c].enclosed = enclosed[c];
+  std::vector<std::uint32_t>().swap(out.report.vertex_component);
+}
+
+/// cavities=drop: removes the components enclosed by another one, before the vertices are finished and the mesh
+/// certified (the certificate is the result's). Components are found without the self-intersection test.
+void drop_enclosed_components(mesh_output& out) {
+  analysis_options labels_only;
+  labels_only.check_self_intersections = false;
+  labels_only.label_vertices = true;
+  const mesh_report labelled = analyze_mesh(out.mesh, labels_only);
+  const std::vector<bool> enclosed = enclosed_components(out.mesh, labelled);
+  out.dropped_components = static_cast<std::size_t>(std::count(enclosed.begin(), enclosed.end(), true));
+  if (out.dropped_components > 0) {
+    out.dropped_triangles = remove_components(out.mesh, labelled.vertex_component, enclosed);
+  }
+}
+
 result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
                                  progress_token& progress) {
   mesh_output out;
   out.method = params.method;
   out.refine = params.refine;
+  out.cavities = params.cavities;
   stage_clock clock(out.timings);
   out.zero_radius_atoms = static_cast<std::size_t>(
       std::count_if(mol.atoms.begin(), mol.atoms.end(), [](const atom& a) { return a.radius == 0; }));
@@ -120,8 +144,12 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   }
   if (!progress.report(mesh_stage::certifying, 0)) return cancelled_status();
 
+  if (params.cavities == cavity_mode::drop) drop_enclosed_components(out);
   out.max_surface_distance = finish_vertices(field, out.mesh);
-  out.report = analyze_mesh(out.mesh);
+  analysis_options labelled;
+  labelled.label_vertices = true;
+  out.report = analyze_mesh(out.mesh, labelled);
+  flag_enclosed_components(out);
   out.certified = out.report.topologically_certified() && out.max_surface_distance <= surface_distance_tolerance;
   clock.finish(mesh_stage::certifying);
   if (!out.certified) return status{errc::internal_error, certificate_failure(out)};
@@ -136,6 +164,16 @@ const char* method_name(mesh_method method) noexcept {
 }
 
 const char* refine_name(refine_mode refine) noexcept { return refine == refine_mode::full ? "full" : "none"; }
+
+const char* cavity_mode_name(cavity_mode cavities) noexcept {
+  return cavities == cavity_mode::drop ? "drop" : "keep";
+}
+
+bool parse_cavity_mode(std::string_view name, cavity_mode& out) noexcept {
+  if (name == "keep") return out = cavity_mode::keep, true;
+  if (name == "drop") return out = cavity_mode::drop, true;
+  return false;
+}
 
 bool parse_method(std::string_view name, mesh_method& out) noexcept {
   if (name == "trace") return out = mesh_method::trace, true;

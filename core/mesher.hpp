@@ -28,12 +28,20 @@ enum class refine_mode {
   none,  ///< the triangulated polygons as they are (trace), or the marching-tetrahedra triangles (lattice)
   full,  ///< the quality pass (remesh.hpp)
 };
-/// Stable names ("trace", "lattice"; "none", "full") used by the CLI, the service and the report.
+/// What happens to components enclosed by another component (inner cavities, and anything inside them; see
+/// analysis/enclosure.hpp).
+enum class cavity_mode {
+  keep,  ///< every component is delivered (the report flags the enclosed ones)
+  drop,  ///< enclosed components are removed before the certificate: only the outer surfaces are delivered
+};
+/// Stable names ("trace", "lattice"; "none", "full"; "keep", "drop") used by the CLI, the service and the report.
 const char* method_name(mesh_method method) noexcept;
 const char* refine_name(refine_mode refine) noexcept;
+const char* cavity_mode_name(cavity_mode cavities) noexcept;
 /// Parses those names; false (and `out` unchanged) for anything else.
 bool parse_method(std::string_view name, mesh_method& out) noexcept;
 bool parse_refine(std::string_view name, refine_mode& out) noexcept;
+bool parse_cavity_mode(std::string_view name, cavity_mode& out) noexcept;
 
 /// Per-job parameters (ranges in parameter_ranges).
 struct mesh_params {
@@ -42,6 +50,7 @@ struct mesh_params {
   double t0 = 1.0;       ///< isovalue, > 0
   mesh_method method = mesh_method::lattice;
   refine_mode refine = refine_mode::full;
+  cavity_mode cavities = cavity_mode::keep;
   trace_parameters trace;  ///< used by mesh_method::trace only
   unsigned threads = 0;  ///< worker threads; 0 = all cores. Never changes the output.
 };
@@ -60,6 +69,10 @@ struct mesh_output {
   bool certified = false;              ///< report.topologically_certified() and max_surface_distance ≤ 1e-3 Å
   mesh_method method = mesh_method::lattice;  ///< as requested
   refine_mode refine = refine_mode::full;     ///< as requested
+  cavity_mode cavities = cavity_mode::keep;   ///< as requested
+  /// cavity_mode::drop: the enclosed components removed (before the certificate), and their triangles.
+  std::size_t dropped_components = 0;
+  std::size_t dropped_triangles = 0;
   trace_stats trace;                   ///< filled by mesh_method::trace
 };
 
@@ -72,6 +85,6 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
                                   progress_token& progress);
 
 /// Version of the engine's output; part of every cache key. Bump when the mesh for a given input changes.
-inline constexpr const char* engine_version = "tracemesh-engine-3";
+inline constexpr const char* engine_version = "tracemesh-engine-4";
 
 }  // namespace tracemesh

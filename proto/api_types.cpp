@@ -87,6 +87,10 @@ result<mesh_params> parse_mesh_params(const field_lookup& lookup) {
   if (const status read = read_name_field(lookup, "refine", parse_refine, "none or full", params.refine); !read) {
     return read;
   }
+  if (const status read = read_name_field(lookup, "cavities", parse_cavity_mode, "keep or drop", params.cavities);
+      !read) {
+    return read;
+  }
   using r = parameter_ranges;
   if (const status read = read_integer_field(lookup, "trace_degree", r::min_legendre_degree, r::max_legendre_degree,
                                              trace.legendre_degree);
@@ -126,6 +130,7 @@ std::string canonical_parameters(const mesh_params& params) {
   std::string text = "density=" + canonical_number(params.density) + ";d=" + canonical_number(params.d) +
                      ";t0=" + canonical_number(params.t0) + ";method=" + method_name(params.method) +
                      ";refine=" + refine_name(params.refine);
+  if (params.cavities == cavity_mode::drop) text += std::string(";cavities=") + cavity_mode_name(params.cavities);
   if (params.method == mesh_method::trace) {
     const trace_parameters& trace = params.trace;
     text += ";trace_degree=" + std::to_string(trace.legendre_degree) +

@@ -26,17 +26,18 @@ using field_lookup = std::function<std::optional<std::string>(std::string_view)>
 ///   density, d, t0            numbers (parse_parameter_number)
 ///   method                    "trace" | "lattice" (parse_method)
 ///   refine                    "none" | "full" (parse_refine)
+///   cavities                  "keep" | "drop" (parse_cavity_mode)
 ///   trace_degree              an integer: trace_parameters::legendre_degree (M)
 ///   trace_step                a number: trace_parameters::step_fraction (h₁ / h̃)
 ///   trace_cos_bound           a number: trace_parameters::cos_bound (δ)
 ///   trace_extreme_tolerance   a number: trace_parameters::extreme_tolerance (ε)
-inline constexpr std::array<std::string_view, 9> mesh_parameter_fields = {
-    "density", "d", "t0", "method", "refine", "trace_degree", "trace_step", "trace_cos_bound",
+inline constexpr std::array<std::string_view, 10> mesh_parameter_fields = {
+    "density", "d", "t0", "method", "refine", "cavities", "trace_degree", "trace_step", "trace_cos_bound",
     "trace_extreme_tolerance"};
 
 /// mesh_parameter_fields plus "format": every field a POST /mesh or POST /jobs request may carry besides "pqr".
-inline constexpr std::array<std::string_view, 10> mesh_request_fields = {
-    "density", "d", "t0", "method", "refine", "trace_degree", "trace_step", "trace_cos_bound",
+inline constexpr std::array<std::string_view, 11> mesh_request_fields = {
+    "density", "d", "t0", "method", "refine", "cavities", "trace_degree", "trace_step", "trace_cos_bound",
     "trace_extreme_tolerance", "format"};
 
 /// Parses a parameter value: a finite decimal number in C syntax ("1", "1.0", "-0.5", "2e-3"), locale-free
@@ -73,7 +74,8 @@ std::string canonical_number(double value);
 ///   "density=<n>;d=<n>;t0=<n>;method=<name>;refine=<name>"
 /// followed, when the method is trace, by ";trace_degree=<n>;trace_step=<n>;trace_cos_bound=<n>;
 /// trace_extreme_tolerance=<n>", numbers with canonical_number. The trace fields are left out for the lattice method
-/// because they do not change its mesh (or its report); threads is excluded because it never changes the output.
+/// because they do not change its mesh (or its report); ";cavities=drop" follows when params.cavities is drop (keep,
+/// the default, is left out); threads is excluded because it never changes the output.
 /// An omitted request field and its default spelled out give the same string.
 std::string canonical_parameters(const mesh_params& params);
 

@@ -52,6 +52,7 @@ nlohmann::json component_to_json(const component_report& component) {
       {"genus", component.genus},
       {"euler_characteristic", component.euler_characteristic},
       {"cavity", component.cavity},
+      {"enclosed", component.enclosed},
   };
 }
 
@@ -106,6 +107,8 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
       {"parameters", parameters_to_json(params)},
       {"method", method_name(params.method)},
       {"refine", refine_name(params.refine)},
+      {"cavity_mode", cavity_mode_name(params.cavities)},
+      {"dropped_components", output.dropped_components},
       {"trace", params.method == mesh_method::trace ? trace_to_json(params.trace, output.trace) : nlohmann::json()},
       {"atoms_meshed", output.atoms_meshed},
       {"zero_radius_atoms", output.zero_radius_atoms},

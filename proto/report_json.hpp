@@ -12,8 +12,10 @@
 namespace tracemesh::proto {
 
 /// Report of one meshing run: engine_version, parameters {density, d, t0}, method ("trace" | "lattice"), refine
-/// ("none" | "full"), trace (trace_to_json when params.method is trace, else null), atoms_meshed, zero_radius_atoms,
-/// vertices, triangles, area, volume, components [...], cavities, genus, euler_characteristic, certificate {...},
+/// ("none" | "full"), cavity_mode ("keep" | "drop", params.cavities), dropped_components (enclosed components
+/// removed by cavities=drop), trace (trace_to_json when params.method is trace, else null), atoms_meshed,
+/// zero_radius_atoms, vertices, triangles, area, volume, components [{vertices, triangles, area, volume, genus,
+/// euler_characteristic, cavity, enclosed}, ...], cavities, genus, euler_characteristic, certificate {...},
 /// quality {...}, achieved_density and timings {<stage name>: seconds, ..., total}.
 /// Everything but `timings` is a function of the input and parameters only (params.threads is not reported).
 /// method, refine and the trace parameters are echoed from `params` (what was asked), the trace counters come from

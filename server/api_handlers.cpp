@@ -36,7 +36,7 @@ using clock = std::chrono::steady_clock;
 // ---- routing ------------------------------------------------------------------------------------------------
 
 enum class route_id {
-  healthz, readyz, metrics, openapi, web_page, favicon, web_asset, mesh, jobs, job, job_mesh, unknown
+  healthz, readyz, metrics, openapi, web_page, favicon, web_asset, mesh, jobs, job, job_mesh, job_events, unknown
 };
 
 struct route_match {
@@ -62,6 +62,7 @@ route_info info(route_id id) {
     case route_id::jobs: return {"/jobs", "POST, OPTIONS"};
     case route_id::job: return {"/jobs/{id}", "GET, HEAD, DELETE, OPTIONS"};
     case route_id::job_mesh: return {"/jobs/{id}/mesh", "GET, HEAD, OPTIONS"};
+    case route_id::job_events: return {"/jobs/{id}/events", "GET, OPTIONS"};
     case route_id::unknown: break;
   }
   return {"(unknown)", ""};
@@ -82,6 +83,7 @@ bool method_allowed(route_id id, http::verb method) {
     case route_id::jobs: return method == http::verb::post;
     case route_id::job:
       return method == http::verb::get || method == http::verb::head || method == http::verb::delete_;
+    case route_id::job_events: return method == http::verb::get;
     case route_id::unknown: break;
   }
   return false;
@@ -100,11 +102,13 @@ route_match match_route(std::string_view path) {
   constexpr std::string_view jobs_prefix = "/jobs/";
   if (path.substr(0, jobs_prefix.size()) != jobs_prefix) return {};
   std::string_view rest = path.substr(jobs_prefix.size());
-  constexpr std::string_view mesh_suffix = "/mesh";
-  if (rest.size() > mesh_suffix.size() && rest.substr(rest.size() - mesh_suffix.size()) == mesh_suffix) {
-    rest.remove_suffix(mesh_suffix.size());
-    if (rest.find('/') != std::string_view::npos) return {};
-    return {route_id::job_mesh, std::string(rest)};
+  for (const auto& [suffix, id] : {std::pair<std::string_view, route_id>{"/mesh", route_id::job_mesh},
+                                   std::pair<std::string_view, route_id>{"/events", route_id::job_events}}) {
+    if (rest.size() > suffix.size() && rest.substr(rest.size() - suffix.size()) == suffix) {
+      rest.remove_suffix(suffix.size());
+      if (rest.find('/') != std::string_view::npos) return {};
+      return {id, std::string(rest)};
+    }
   }
   if (rest.empty() || rest.find('/') != std::string_view::npos) return {};
   return {route_id::job, std::string(rest)};
@@ -346,6 +350,7 @@ std::string job_document(const job_snapshot& job) {
   doc["stage"] = job.state == job_state::queued ? nlohmann::json(nullptr) : nlohmann::json(stage_name(job.stage));
   doc["queue_position"] = job.state == job_state::queued ? nlohmann::json(job.queue_position) : nullptr;
   doc["seconds"] = job.seconds;
+  doc["eta_s"] = job.eta_seconds ? nlohmann::json(*job.eta_seconds) : nlohmann::json(nullptr);
   doc["error"] = job.error_code.empty()
                      ? nlohmann::json(nullptr)
                      : nlohmann::json{{"code", job.error_code}, {"message", job.error.message()}};
@@ -366,11 +371,113 @@ job_snapshot snapshot_from_store(const stored_job& record) {
   job.format = record.format;
   job.progress = record.state == job_state::done ? 1.0 : 0.0;
   job.stage = record.state == job_state::done ? mesh_stage::done : mesh_stage::reading;
+  if (record.state == job_state::done) job.eta_seconds = 0.0;
   job.error_code = record.error_code;
   if (!record.error_code.empty()) job.error = status(errc::cancelled, record.error_message);
   job.report = record.report;
   return job;
 }
+
+/// The job as GET /jobs/{id} shows it: the queue's record (a done job with the stored report, which has the
+/// encodings made since it ended), else the job store's for finished jobs the queue forgot; nullopt when unknown.
+/// May read the job store (disk).
+std::optional<job_snapshot> current_job(job_queue& jobs, job_store& store, const std::string& id) {
+  if (std::optional<job_snapshot> job = jobs.find(id)) {
+    if (job->state == job_state::done) {
+      if (const std::optional<stored_job> stored = store.find(id); stored && stored->report) {
+        job->report = stored->report;
+      }
+    }
+    return job;
+  }
+  if (std::optional<stored_job> stored = store.find(id)) return snapshot_from_store(*stored);
+  return std::nullopt;
+}
+
+/// One Server-Sent Event; every line of `data` gets its own "data:" field (the JSON documents are one line).
+std::string sse_event(std::string_view name, std::string_view data) {
+  std::string text = "event: " + std::string(name) + "\n";
+  for (;;) {
+    const auto newline = data.find('\n');
+    text += "data: ";
+    text += data.substr(0, newline);
+    text += '\n';
+    if (newline == std::string_view::npos) break;
+    data.remove_prefix(newline + 1);
+  }
+  return text + '\n';
+}
+
+/// Holds one of limits.max_event_streams while it lives.
+class event_stream_slot {
+ public:
+  explicit event_stream_slot(std::atomic<std::size_t>& open) : open_(open) {}
+  ~event_stream_slot() { open_.fetch_sub(1, std::memory_order_relaxed); }
+  event_stream_slot(const event_stream_slot&) = delete;
+  event_stream_slot& operator=(const event_stream_slot&) = delete;
+
+ private:
+  std::atomic<std::size_t>& open_;
+};
+
+/// The events of GET /jobs/{id}/events: a progress event at the first call and whenever the job's status, stage
+/// or progress changed since the last one sent (the session calls at most every limits.event_interval); once the
+/// job is final, its document from the job store's side (as GET /jobs/{id}) as the last event, done or error,
+/// built on the prep pool (it may read the disk).
+class job_event_source final : public event_source, public std::enable_shared_from_this<job_event_source> {
+ public:
+  job_event_source(job_queue& jobs, job_store& store, boost::asio::thread_pool& prep, std::string id,
+                   std::unique_ptr<event_stream_slot> slot)
+      : jobs_(jobs), store_(store), prep_(prep), id_(std::move(id)), slot_(std::move(slot)) {}
+
+  void next(std::function<void(batch)> deliver) override {
+    const std::optional<job_snapshot> job = jobs_.find(id_);
+    std::string text;
+    if (job && (first_ || job->state != last_state_ || job->stage != last_stage_ || job->progress != last_progress_)) {
+      text = sse_event("progress", job_document(*job));
+      first_ = false;
+      last_state_ = job->state;
+      last_stage_ = job->stage;
+      last_progress_ = job->progress;
+    }
+    if (job && !proto::is_final(job->state)) return deliver({std::move(text), false});
+    // Final, or only in the job store: the last event (reads the store).
+    boost::asio::post(prep_, [this, text = std::move(text), deliver = std::move(deliver),
+                              keep = shared_from_this()]() mutable {
+      deliver(final_events(std::move(text)));
+    });
+  }
+
+ private:
+  batch final_events(std::string text) {
+    const std::optional<job_snapshot> job = current_job(jobs_, store_, id_);
+    if (!job) {
+      text += sse_event("error", proto::error_body("not_found", "the job is no longer known").dump());
+      return {std::move(text), true};
+    }
+    if (!proto::is_final(job->state)) {  // a stored record not (yet) queued again: keep watching
+      if (first_) text += sse_event("progress", job_document(*job));
+      first_ = false;
+      return {std::move(text), false};
+    }
+    const std::string document = job_document(*job);
+    if (first_) text += sse_event("progress", document);  // the connect event, for a job already final
+    first_ = false;
+    text += sse_event(job->state == job_state::done ? "done" : "error", document);
+    return {std::move(text), true};
+  }
+
+  job_queue& jobs_;
+  job_store& store_;
+  boost::asio::thread_pool& prep_;
+  const std::string id_;
+  const std::unique_ptr<event_stream_slot> slot_;
+  // The session calls next() once at a time (the next call waits for the previous delivery).
+  bool first_ = true;
+  job_state last_state_ = job_state::queued;
+  mesh_stage last_stage_ = mesh_stage::reading;
+  double last_progress_ = 0;
+};
 
 /// The owner token header of POST /jobs replies and DELETE /jobs/{id} requests.
 constexpr const char* job_token_header = "X-Job-Token";
@@ -573,7 +680,8 @@ void api_handlers::handle(const request_head& head, const body_plan&, std::strin
     case route_id::favicon:
     case route_id::web_asset: return done(web_asset_reply(head, target->path, route));
     case route_id::job:
-    case route_id::job_mesh: break;
+    case route_id::job_mesh:
+    case route_id::job_events: break;
     default: return done(error_reply(404, "not_found", "no such resource", route));
   }
 
@@ -588,6 +696,12 @@ void api_handlers::handle(const request_head& head, const body_plan&, std::strin
       return cancel_job(match.job_id, std::string(to_std(head[job_token_header])), std::move(done));
     }
     return job_status(match.job_id, std::move(done));
+  }
+  if (match.id == route_id::job_events) {
+    if (const status known = only_known(*query, {}, "query parameter"); !known.ok()) {
+      return done(error_reply(400, "invalid_argument", known.message(), route));
+    }
+    return job_events(match.job_id, std::move(done));
   }
   if (const status known = only_known(*query, {"format"}, "query parameter"); !known.ok()) {
     return done(error_reply(400, "invalid_argument", known.message(), route));
@@ -848,20 +962,31 @@ void api_handlers::log_result_lost(const std::string& id, proto::mesh_format for
 }
 
 void api_handlers::job_status(const std::string& id, reply_sink done) {
-  if (auto job = deps_.jobs.find(id)) {
-    // The stored report has the encodings made since the job ended; the queue's copy was taken at its end.
-    if (job->state == job_state::done) {
-      if (const std::optional<stored_job> stored = deps_.store.find(id); stored && stored->report) {
-        job->report = stored->report;
-      }
-    }
+  if (auto job = current_job(deps_.jobs, deps_.store, id)) {
     return done(json_reply(200, job_document(*job), "/jobs/{id}"));
   }
-  // Finished jobs the queue no longer remembers: the job store keeps them for the retention period.
-  if (auto stored = deps_.store.find(id)) {
-    return done(json_reply(200, job_document(snapshot_from_store(*stored)), "/jobs/{id}"));
-  }
   done(error_reply(404, "not_found", "no such job", "/jobs/{id}"));
+}
+
+void api_handlers::job_events(const std::string& id, reply_sink done) {
+  const std::string route = "/jobs/{id}/events";
+  if (!deps_.jobs.find(id) && !deps_.store.find(id)) return done(error_reply(404, "not_found", "no such job", route));
+  const server_limits& limits = deps_.config.limits;
+  if (deps_.state.event_streams.fetch_add(1, std::memory_order_relaxed) >= limits.max_event_streams) {
+    deps_.state.event_streams.fetch_sub(1, std::memory_order_relaxed);
+    return done(with_retry_after(error_reply(503, "unavailable",
+                                             "too many event streams (" + std::to_string(limits.max_event_streams) +
+                                                 "); poll GET /jobs/" + id + " instead",
+                                             route),
+                                 limits.retry_after_seconds));
+  }
+  auto source = std::make_shared<job_event_source>(deps_.jobs, deps_.store, deps_.prep, id,
+                                                   std::make_unique<event_stream_slot>(deps_.state.event_streams));
+  reply r;
+  r.route = route;
+  r.content_type = "text/event-stream";
+  r.events = std::move(source);
+  done(std::move(r));
 }
 
 void api_handlers::cancel_job(const std::string& id, const std::string& owner_token, reply_sink done) {

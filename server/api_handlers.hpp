@@ -6,6 +6,8 @@
 ///   GET|HEAD|DELETE /jobs/{id} job status JSON (the job store answers for finished jobs within retention) /
 ///                              withdraw the owner of X-Job-Token (401 without it, 403 for a stranger's; the job is
 ///                              cancelled when its last holder withdrew; 409 when it already finished)
+///   GET /jobs/{id}/events      Server-Sent Events: progress (at connect and on change, ≤ ~4/s), then one done or
+///                              error event with the job document, then the stream closes
 ///   GET|HEAD /jobs/{id}/mesh   ?format=off|draco (default: the job's submitted format, else off), ETag /
 ///                              If-None-Match → 304, 409 while the job has no mesh; Accept-Encoding → br/gzip for
 ///                              compressible formats (compressed once, cached; 406 when identity is refused and
@@ -76,6 +78,8 @@ class api_handlers final : public request_handler {
   reply metrics_reply() const;
   reply readiness_reply() const;
   void job_status(const std::string& id, reply_sink done);
+  /// GET /jobs/{id}/events: 404 for an unknown job, 503 past limits.max_event_streams, else the event stream.
+  void job_events(const std::string& id, reply_sink done);
   void cancel_job(const std::string& id, const std::string& owner_token, reply_sink done);
   std::optional<reply> authorization_failure(const request_head& head, const char* route) const;
   /// The error line of a done job whose stored mesh the job store cannot give back any more.

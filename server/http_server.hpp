@@ -70,6 +70,21 @@ inline std::string_view to_std(boost::beast::string_view text) { return {text.da
 /// (which negotiate_coding tells apart from an empty field).
 std::optional<std::string> accept_encoding(const request_head& head);
 
+/// The events of one Server-Sent Events response (GET /jobs/{id}/events), pulled by the session: it asks next()
+/// once the response header is written, then again after each write and every limits.event_interval while nothing
+/// is pending (so a stream costs a timer, never a thread), until a batch says `last`; then it ends the body and
+/// closes the connection. It stops asking when the client goes away.
+class event_source {
+ public:
+  struct batch {
+    std::string text;   ///< zero or more complete events ("event: …\ndata: …\n\n"), written as they are
+    bool last = false;  ///< the stream ends after this text
+  };
+  virtual ~event_source() = default;
+  /// Calls `deliver` exactly once, from any thread (the session posts it back to its strand). Must not block.
+  virtual void next(std::function<void(batch)> deliver) = 0;
+};
+
 /// A response as the application produces it; the session adds framing, keep-alive, Server and CORS headers.
 struct reply {
   unsigned status = 200;
@@ -85,6 +100,8 @@ struct reply {
   /// Accept-Encoding asks for one and it has at least min_compressed_json_bytes (content_coding.hpp), adding
   /// Content-Encoding and Vary. Mesh replies carry their (cached) coding themselves and leave this false.
   bool compressible = false;
+  /// Set (status 200): the body is this event stream, sent chunked as it comes; the connection closes after it.
+  std::shared_ptr<event_source> events;
 };
 
 /// The JSON error reply {"error": {"code", "message"}} (proto::error_body) with `status`.
@@ -161,6 +178,7 @@ struct http_server_state {
   std::atomic<std::size_t> open_connections{0};
   std::atomic<std::size_t> busy_requests{0};  ///< header read, response not yet written
   std::atomic<bool> draining{false};          ///< SIGTERM received: answer with Connection: close
+  std::atomic<std::size_t> event_streams{0};  ///< open event streams (bounded by limits.max_event_streams)
   idle_connections idle;
   request_id_source request_ids;
 };

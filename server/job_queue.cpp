@@ -5,22 +5,13 @@
 #include <exception>
 #include <new>
 
+#include "core/stage_weights.hpp"
+
 namespace tracemesh::server {
 
 namespace {
 
 using clock = std::chrono::steady_clock;
-
-// Stages before done, in pipeline order; overall progress advances by one share per stage. A job skips the stages
-// its method does not run (the lattice method has no tracing, the trace method no sampling, refine none no
-// refining): progress then jumps over their shares, forward only.
-constexpr double stage_count = static_cast<double>(static_cast<int>(mesh_stage::done));
-
-double overall_progress(mesh_stage stage, double fraction) {
-  if (stage == mesh_stage::done) return 1.0;
-  const double within = std::clamp(fraction, 0.0, 1.0);
-  return (static_cast<int>(stage) + within) / stage_count;
-}
 
 double seconds_between(clock::time_point from, clock::time_point to) {
   return std::chrono::duration<double>(to - from).count();
@@ -36,9 +27,13 @@ struct job_queue::job {
           // done is the queue's to set (finish()): the mesher reports it before the job encodes its outputs.
           if (s == mesh_stage::done) return;
           stage.store(static_cast<int>(s), std::memory_order_relaxed);
-          // Never backwards, whatever order the work reports in (the token serialises these calls).
-          const double overall = overall_progress(s, f);
+          // Proportional to expected time (stage weights of the job's path). A job skips the stages its path does
+          // not run; progress then jumps over their (zero or small) shares. Never backwards, whatever order the work
+          // reports in (the token serialises these calls).
+          const mesh_params& params = input->params;
+          const double overall = overall_progress(params.method, params.refine, s, f);
           if (overall > progress.load(std::memory_order_relaxed)) progress.store(overall, std::memory_order_relaxed);
+          eta.observe(progress.load(std::memory_order_relaxed), clock::now());
         }) {}
 
   const std::string id;
@@ -46,6 +41,7 @@ struct job_queue::job {
   // Written by the pipeline through the token, read by snapshots: atomics, no lock.
   std::atomic<int> stage{0};
   std::atomic<double> progress{0};
+  eta_estimator eta;
   progress_token token;
   // Guarded by job_queue::mutex_.
   job_state state = job_state::queued;
@@ -220,6 +216,7 @@ void job_queue::worker_loop() {
       queue_.pop_front();
       next->state = job_state::running;
       next->started = clock::now();
+      next->eta.start(next->started);
       next->deadline = next->started + options_.job_timeout;
       running_.push_back(next);
     }
@@ -320,7 +317,10 @@ job_snapshot job_queue::snapshot_of(const job& j) const {
   snapshot.error_code = j.error_code;
   snapshot.error = j.error;
   snapshot.report = j.report;
-  snapshot.seconds = j.state == job_state::running ? seconds_between(j.started, clock::now()) : j.seconds;
+  const auto now = clock::now();
+  snapshot.seconds = j.state == job_state::running ? seconds_between(j.started, now) : j.seconds;
+  if (j.state == job_state::running) snapshot.eta_seconds = j.eta.remaining_seconds(now);
+  if (j.state == job_state::done) snapshot.eta_seconds = 0.0;
   return snapshot;
 }
 

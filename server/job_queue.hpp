@@ -31,6 +31,7 @@
 #include "core/progress.hpp"
 #include "core/status.hpp"
 #include "proto/api_types.hpp"
+#include "server/eta_estimator.hpp"
 #include "server/metrics.hpp"
 
 namespace tracemesh::server {
@@ -73,6 +74,9 @@ struct job_snapshot {
   status error;                           ///< failed/cancelled: the reason in words
   std::shared_ptr<const std::string> report;  ///< done jobs: the report JSON text
   double seconds = 0;                     ///< run time so far (running) or in total (final states)
+  /// Expected seconds left (eta_estimator): running jobs once progress is past eta_estimator::min_progress; 0
+  /// when done; nullopt otherwise (queued, failed, cancelled, or too early to tell).
+  std::optional<double> eta_seconds;
 };
 
 /// The work of one job. Must poll `token` (through report()/cancelled()) and return errc::cancelled once it is

@@ -84,6 +84,9 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   app.add_option("--health-connection-reserve", limits.health_connection_reserve,
                  "Connections beyond --max-connections that may still ask /healthz or /readyz")
       ->capture_default_str();
+  app.add_option("--max-event-streams", limits.max_event_streams,
+                 "GET /jobs/{id}/events streams open at once; more get 503")
+      ->capture_default_str();
   app.add_option("--max-concurrent-uploads", limits.max_concurrent_uploads,
                  "Uploads received or parsed at the same time; more get 429")
       ->capture_default_str();

@@ -46,6 +46,14 @@ struct server_limits {
   /// Connections beyond max_connections kept open to answer /healthz and /readyz when every connection is busy;
   /// past max_connections + this, a new connection is answered 503 and closed without being read.
   std::size_t health_connection_reserve = 16;
+  /// GET /jobs/{id}/events streams open at once (--max-event-streams); over it → 503 + Retry-After. Each stream
+  /// also holds one of max_connections (it is busy, never closed as idle), so this keeps room for other requests.
+  std::size_t max_event_streams = 64;
+  /// An event stream looks at its job this often: at most ~4 progress events per second.
+  std::chrono::milliseconds event_interval{250};
+  /// An event stream without events for this long sends a comment line (keeps proxies from closing it, and
+  /// finds a client that went away).
+  std::chrono::milliseconds event_keepalive{std::chrono::seconds(15)};
   /// Uploads being received or parsed at the same time (bounds upload memory); over it → 429 + Retry-After.
   /// A lab's burst of small uploads must pass: 20 concurrent clients are well within it.
   std::size_t max_concurrent_uploads = 64;

@@ -37,6 +37,9 @@ struct component_report {
   long euler_characteristic = 0;  ///< V − E + F of the component
   long genus = 0;         ///< (2 − χ − boundary_loops)/2: (2 − χ)/2 when closed; meaningful for manifold components
   bool cavity = false;    ///< true when volume < 0: an inner cavity of the molecule
+  /// Inside another component's closed surface (analysis/enclosure.hpp). Not set by analyze_mesh: the mesher
+  /// fills it (every cavity is enclosed; so is a component inside a cavity, whose volume is positive).
+  bool enclosed = false;
   std::size_t boundary_loops = 0;  ///< connected chains of boundary edges (0 for a closed component)
 };
 

@@ -17,6 +17,8 @@
 #include <vector>
 
 #include <boost/asio/dispatch.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/write.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/range/iterator_range.hpp>
@@ -409,6 +411,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   void send(reply r, bool force_close = false) {
+    if (r.events) return start_event_stream(std::move(r));
     // The request's resources (upload reservation, parsers) are no longer needed once its answer is known.
     plan_.ticket.reset();
     multipart_.reset();
@@ -458,6 +461,106 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     if (!compressed.ok()) return;  // out of memory: the plain text still answers
     response_body_ = std::make_shared<const std::string>(std::move(*compressed));
     r.headers.emplace_back("Content-Encoding", std::string(coding_name(*coding)));
+  }
+
+  // ---- Server-Sent Events ------------------------------------------------------------------------------------
+  // The response header, then the event source's batches as they come (chunked for HTTP/1.1, close-delimited for
+  // HTTP/1.0), then the connection is closed. Between writes a read waits on the socket to notice the client
+  // leaving (or sending anything, which ends the stream too); a timer paces the source. Only writes have a
+  // deadline (write_timeout): a stream may stay quiet for as long as its job runs, and it is busy, never idle, so
+  // the connection limit never closes it to make room.
+
+  void start_event_stream(reply r) {
+    plan_.ticket.reset();
+    events_ = std::move(r.events);
+    stream_route_ = std::move(r.route);
+    chunked_ = head_.version() >= 11;
+    stream_response_.emplace(http::status::ok, head_.version() == 10 ? 10 : 11);
+    stream_response_->set(http::field::server, "tracemeshd");
+    stream_response_->set(http::field::content_type, "text/event-stream");
+    stream_response_->set(http::field::cache_control, "no-store");
+    const std::string origin(head_[http::field::origin]);
+    context_.cors.add_response_headers(origin, r.headers);
+    for (const auto& [name, value] : r.headers) stream_response_->insert(name, value);
+    stream_response_->set(request_id_field, request_id_);
+    stream_response_->keep_alive(false);
+    if (chunked_) stream_response_->chunked(true);
+    context_.stats.count_request(stream_route_, 200);
+    stream_serializer_.emplace(*stream_response_);
+    event_timer_.emplace(stream_.get_executor());
+    last_event_write_ = clock::now();
+    transport::expire_after(stream_, context_.limits.write_timeout);
+    http::async_write_header(stream_, *stream_serializer_,
+                             [self = this->shared_from_this()](beast::error_code ec, std::size_t bytes) {
+                               self->stream_bytes_ += bytes;
+                               if (ec) return self->end_event_stream(ec);
+                               transport::expire_never(self->stream_);
+                               self->watch_event_client();
+                               self->pull_events();
+                             });
+  }
+
+  /// Any completion of this read ends the stream: the client closed, reset, or sent bytes it should not have.
+  void watch_event_client() {
+    stream_.async_read_some(buffer_.prepare(first_read_bytes),
+                            [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
+                              self->end_event_stream(ec ? ec : beast::error_code(net::error::connection_aborted));
+                            });
+  }
+
+  void pull_events() {
+    if (stream_ended_) return;
+    events_->next([self = this->shared_from_this()](event_source::batch next) {
+      net::dispatch(self->stream_.get_executor(),
+                    [self, next = std::move(next)]() mutable { self->on_events(std::move(next)); });
+    });
+  }
+
+  void on_events(event_source::batch next) {
+    if (stream_ended_) return;
+    const bool keepalive_due = clock::now() - last_event_write_ >= context_.limits.event_keepalive;
+    if (next.text.empty() && !next.last && !keepalive_due) return wait_for_events();
+    if (next.text.empty() && !next.last) next.text = ": keep-alive\n\n";
+    write_events(std::move(next.text), next.last);
+  }
+
+  void wait_for_events() {
+    event_timer_->expires_after(context_.limits.event_interval);
+    event_timer_->async_wait([self = this->shared_from_this()](beast::error_code ec) {
+      if (!ec) self->pull_events();
+    });
+  }
+
+  void write_events(std::string text, bool last) {
+    stream_text_ = std::move(text);
+    last_event_write_ = clock::now();
+    transport::expire_after(stream_, context_.limits.write_timeout);
+    const auto on_written = [self = this->shared_from_this(), last](beast::error_code ec, std::size_t bytes) {
+      self->stream_bytes_ += bytes;
+      if (ec) return self->end_event_stream(ec);
+      transport::expire_never(self->stream_);
+      if (last) return self->end_event_stream({});
+      self->wait_for_events();
+    };
+    if (!chunked_) return net::async_write(stream_, net::buffer(stream_text_), on_written);
+    if (!last) return net::async_write(stream_, http::make_chunk(net::buffer(stream_text_)), on_written);
+    // The last events and the terminating chunk in one write.
+    net::async_write(stream_, http::make_chunk(net::buffer(stream_text_)),
+                     [self = this->shared_from_this(), on_written](beast::error_code ec, std::size_t bytes) mutable {
+                       if (ec) return on_written(ec, bytes);
+                       self->stream_bytes_ += bytes;
+                       net::async_write(self->stream_, http::make_chunk_last(), on_written);
+                     });
+  }
+
+  /// Ends the stream once (`ec`: why, empty when the source said last) and closes the connection.
+  void end_event_stream(beast::error_code ec) {
+    if (stream_ended_) return;
+    stream_ended_ = true;
+    if (event_timer_) event_timer_->cancel();
+    log_access(stream_route_, 200, stream_bytes_, ec);
+    events_.reset();  // gives the stream's slot back
+    close();
   }
 
   /// The access line of the request just answered; error level for 5xx. `bytes`: what reached the socket
@@ -519,6 +622,17 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   http::response<http::empty_body> continue_;
   std::optional<http::response<http::span_body<const char>>> response_;
   std::shared_ptr<const std::string> response_body_;
+  // An event stream (start_event_stream).
+  std::shared_ptr<event_source> events_;
+  std::string stream_route_;
+  bool chunked_ = false;
+  bool stream_ended_ = false;
+  std::size_t stream_bytes_ = 0;
+  std::string stream_text_;  // the batch being written
+  clock::time_point last_event_write_{};
+  std::optional<http::response<http::empty_body>> stream_response_;
+  std::optional<http::response_serializer<http::empty_body>> stream_serializer_;
+  std::optional<net::steady_timer> event_timer_;
 };
 
 }  // namespace tracemesh::server::detail

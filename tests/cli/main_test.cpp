@@ -16,6 +16,7 @@
 #include "core/mesher.hpp"
 #include "support/pqr_edits.hpp"
 #include "support/structure_writers.hpp"
+#include "support/shell_xyzr.hpp"
 #include "support/test_paths.hpp"
 
 namespace {
@@ -279,6 +280,25 @@ TEST_F(TracemeshCli, FailedRunLeavesAnExistingOutputUntouched) {
 
 // ---------------------------------------------------------------------------------------------------------------
 // Success on real molecules (needs the mesher)
+
+TEST_F(TracemeshCli, CavitiesDropRemovesTheEnclosedComponentsAndKeepFlagsThem) {
+  const fs::path shell = write("shell.xyzr", tracemesh::testing::shell_with_island_xyzr());
+  for (const std::string mode : {"keep", "drop"}) {
+    const run_result result = run({shell.string(), "-o", path(mode + ".ply").string(), "--cavities", mode,
+                                   "--report", path(mode + ".json").string()});
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    const nlohmann::json report = nlohmann::json::parse(read_file(path(mode + ".json")));
+    EXPECT_EQ(report.at("certificate").at("certified"), true);
+    EXPECT_EQ(report.at("cavity_mode"), mode);
+    std::size_t enclosed = 0;
+    for (const auto& component : report.at("components")) enclosed += component.at("enclosed").get<bool>() ? 1 : 0;
+    EXPECT_EQ(report.at("components").size(), mode == "keep" ? 3U : 1U);
+    EXPECT_EQ(enclosed, mode == "keep" ? 2U : 0U);
+    EXPECT_EQ(report.at("dropped_components"), mode == "keep" ? 0 : 2);
+  }
+  expect_one_line_failure(run({shell.string(), "-o", path("x.off").string(), "--cavities", "remove"}), 2,
+                          "cavities");
+}
 
 TEST_F(TracemeshCli, MeshesGlycineToOffWithACertifiedReport) {
   const run_result result = run({tracemesh::testing::molecule_path("gly.pqr").string(), "-o",

@@ -23,7 +23,9 @@
 #include <nlohmann/json.hpp>
 
 #include "support/delivered_mesh.hpp"
+#include "support/event_stream.hpp"
 #include "support/pqr_edits.hpp"
+#include "support/shell_xyzr.hpp"
 #include "support/structure_writers.hpp"
 #include "support/test_http_client.hpp"
 #include "support/test_paths.hpp"
@@ -843,6 +845,91 @@ TEST_F(TracemeshdTest, SigtermCancelsWorkStillRunningAtTheGraceDeadline) {
   expect_error(waiting, 503, "shutdown", "job cancelled at the grace deadline");
   EXPECT_EQ(waiting.headers["retry-after"], "5");
   EXPECT_TRUE(temporary_files(cache_.path()).empty()) << temporary_files(cache_.path()).front();
+}
+
+/// The events of a complete GET /jobs/{id}/events response read by `curl -N`.
+std::vector<tracemesh::testing::sse_event> expect_event_stream(const curl_reply& reply) {
+  EXPECT_EQ(reply.status, 200) << reply.body;
+  EXPECT_EQ(reply.headers.count("content-type") ? reply.headers.at("content-type") : "", "text/event-stream");
+  EXPECT_EQ(reply.headers.count("cache-control") ? reply.headers.at("cache-control") : "", "no-store");
+  return tracemesh::testing::parse_sse(reply.body);
+}
+
+TEST_F(TracemeshdTest, AnEventStreamFollowsARealJobToItsDoneEvent) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  // The trace path at density 2: several stages and a few hundred milliseconds of work, so there is progress to see.
+  const curl_reply accepted = upload(server, molecule_path("fas2.pqr"), "-F method=trace -F density=2", "/jobs");
+  ASSERT_EQ(accepted.status, 202) << accepted.body;
+  const std::string id = nlohmann::json::parse(accepted.body).at("id");
+  const curl_reply stream = curl("-N --max-time 120", server.url("/jobs/" + id + "/events"));
+  const auto events = expect_event_stream(stream);
+  ASSERT_GE(events.size(), 2u) << stream.body;
+  double progress = 0;
+  for (std::size_t i = 0; i + 1 < events.size(); ++i) {
+    EXPECT_EQ(events[i].name, "progress") << i;
+    const auto doc = nlohmann::json::parse(events[i].data);
+    EXPECT_GE(doc.at("progress").get<double>(), progress) << "event " << i << " went backwards";
+    progress = doc.at("progress");
+    EXPECT_TRUE(doc.at("eta_s").is_null() || doc.at("eta_s").get<double>() >= 0) << doc;
+  }
+  EXPECT_EQ(events.back().name, "done");
+  const auto final_doc = nlohmann::json::parse(events.back().data);
+  const curl_reply polled = curl("", server.url("/jobs/" + id));
+  EXPECT_EQ(final_doc, nlohmann::json::parse(polled.body)) << "the done event carries GET /jobs/{id}";
+  expect_certified_job(server, final_doc);
+
+  // A finished job: its connect and done events at once; an unknown job: 404 JSON.
+  const auto again = expect_event_stream(curl("-N --max-time 20", server.url("/jobs/" + id + "/events")));
+  ASSERT_EQ(again.size(), 2u);
+  EXPECT_EQ(again[1].name, "done");
+  // (The report has gained the OFF encoding fetched above: the events carry the document as GET has it now.)
+  EXPECT_EQ(nlohmann::json::parse(again[1].data), nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body));
+  expect_error(curl("-N --max-time 20", server.url("/jobs/" + std::string(64, '0') + "/events")), 404,
+               "not_found", "events of an unknown job");
+}
+
+TEST_F(TracemeshdTest, AnEventStreamOfAFailingJobEndsWithAnErrorEvent) {
+  // Inputs the mesher would refuse are refused at upload (422), before any job exists; a job that fails is one
+  // past its deadline.
+  server_process server(work_.path(), {"--job-timeout", "0.01", "--cache-dir", cache_.path().string()});
+  const curl_reply accepted = upload(server, molecule_path("fas2.pqr"), "-F density=2", "/jobs");
+  ASSERT_EQ(accepted.status, 202) << accepted.body;
+  const std::string id = nlohmann::json::parse(accepted.body).at("id");
+  const auto events = expect_event_stream(curl("-N --max-time 60", server.url("/jobs/" + id + "/events")));
+  ASSERT_FALSE(events.empty());
+  EXPECT_EQ(events.back().name, "error");
+  const auto final_doc = nlohmann::json::parse(events.back().data);
+  EXPECT_EQ(final_doc.at("status"), "failed");
+  EXPECT_EQ(final_doc.at("error").at("code"), "timeout");
+  EXPECT_EQ(final_doc, nlohmann::json::parse(curl("", server.url("/jobs/" + id)).body));
+}
+
+TEST_F(TracemeshdTest, CavitiesDropIsItsOwnJobAndDeliversOnlyTheOuterSurface) {
+  server_process server(work_.path(), {"--cache-dir", cache_.path().string()});
+  const fs::path shell = write("shell.xyzr", tracemesh::testing::shell_with_island_xyzr());
+  const nlohmann::json kept = run_job(server, shell, "");
+  const nlohmann::json dropped = run_job(server, shell, "-F cavities=drop");
+  const nlohmann::json dropped_by_query = run_job(server, shell, "", "?cavities=drop");
+  ASSERT_EQ(kept.value("status", ""), "done") << kept;
+  ASSERT_EQ(dropped.value("status", ""), "done") << dropped;
+  EXPECT_NE(kept.at("id"), dropped.at("id")) << "the parameter is part of the job id";
+  EXPECT_EQ(dropped_by_query.at("id"), dropped.at("id")) << "form field and query parameter are one parameter";
+  EXPECT_EQ(run_job(server, shell, "-F cavities=keep").at("id"), kept.at("id")) << "keep is the default";
+
+  const nlohmann::json keep_report = expect_certified_job(server, kept);
+  const nlohmann::json drop_report = expect_certified_job(server, dropped);
+  EXPECT_EQ(keep_report.at("cavity_mode"), "keep");
+  EXPECT_EQ(drop_report.at("cavity_mode"), "drop");
+  ASSERT_EQ(keep_report.at("components").size(), 3u);
+  EXPECT_EQ(keep_report.at("components")[0].at("enclosed"), false);
+  EXPECT_EQ(keep_report.at("components")[1].at("enclosed"), true);
+  EXPECT_EQ(keep_report.at("components")[2].at("enclosed"), true);
+  ASSERT_EQ(drop_report.at("components").size(), 1u);
+  EXPECT_EQ(drop_report.at("dropped_components"), 2);
+  EXPECT_EQ(drop_report.at("components")[0].at("vertices"), keep_report.at("components")[0].at("vertices"));
+  const double outer_volume = keep_report.at("components")[0].at("volume");
+  EXPECT_NEAR(drop_report.at("volume").get<double>(), outer_volume, 1e-9 * outer_volume);
+  expect_error(upload(server, shell, "-F cavities=some"), 400, "invalid_argument", "a bad cavities value");
 }
 
 TEST_F(TracemeshdTest, AJobPastItsDeadlineAnswers504AndIsNotCached) {

@@ -173,6 +173,20 @@ TEST(ParseMeshParams, TheFieldListNamesEveryFieldRead) {
   EXPECT_EQ(std::vector<std::string>(mesh_request_fields.begin(), mesh_request_fields.end()), request);
 }
 
+TEST(ParseMeshParams, CavitiesIsKeepOrDropAndPartOfTheCanonicalSpellingOnlyWhenDropped) {
+  const result<mesh_params> defaults = parse_mesh_params(fields({}));
+  const result<mesh_params> keep = parse_mesh_params(fields({{"cavities", "keep"}}));
+  const result<mesh_params> drop = parse_mesh_params(fields({{"cavities", "drop"}}));
+  ASSERT_TRUE(defaults && keep && drop);
+  EXPECT_EQ(defaults->cavities, cavity_mode::keep);
+  EXPECT_EQ(drop->cavities, cavity_mode::drop);
+  EXPECT_EQ(canonical_parameters(*keep), canonical_parameters(*defaults)) << "keep is the default";
+  EXPECT_EQ(canonical_parameters(*drop), canonical_parameters(*defaults) + ";cavities=drop");
+  for (const char* text : {"Drop", "remove", "", "drop "}) {
+    expect_invalid_naming(parse_mesh_params(fields({{"cavities", text}})), "cavities");
+  }
+}
+
 TEST(ParseMeshParams, ReadsEveryField) {
   const result<mesh_params> parsed = parse_mesh_params(fields({{"density", "2.5"}, {"d", "-0.5"}, {"t0", "0.75"}}));
   ASSERT_TRUE(parsed) << parsed.error().message();

@@ -55,9 +55,10 @@ TEST(OpenApi, IsValidJsonOfVersion303) {
 
 TEST(OpenApi, ListsEveryPathWithItsMethods) {
   const nlohmann::json paths = document().at("paths");
-  EXPECT_EQ(keys_of(paths), (std::set<std::string>{"/mesh", "/jobs", "/jobs/{id}", "/jobs/{id}/mesh", "/healthz",
-                                                    "/readyz", "/metrics", "/openapi.json", "/", "/favicon.ico",
-                                                    "/assets/{build}/{file}"}));
+  EXPECT_EQ(keys_of(paths), (std::set<std::string>{"/mesh", "/jobs", "/jobs/{id}", "/jobs/{id}/mesh", "/jobs/{id}/events",
+                                                    "/healthz", "/readyz", "/metrics", "/openapi.json", "/",
+                                                    "/favicon.ico", "/assets/{build}/{file}"}));
+  EXPECT_TRUE(paths.at("/jobs/{id}/events").contains("get"));
   EXPECT_TRUE(paths.at("/mesh").contains("post"));
   EXPECT_TRUE(paths.at("/jobs").contains("post"));
   EXPECT_TRUE(paths.at("/jobs/{id}").contains("get"));

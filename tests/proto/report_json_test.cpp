@@ -22,7 +22,7 @@ mesh_output sample_output() {
   r.triangles = 9996;
   r.area = 4321.5;
   r.volume = 12345.25;
-  r.components = {{4900, 9796, 4300.0, 12400.0, 2, 0, false}, {100, 200, 21.5, -54.75, 2, 0, true}};
+  r.components = {{4900, 9796, 4300.0, 12400.0, 2, 0, false}, {100, 200, 21.5, -54.75, 2, 0, true, true}};
   r.cavities = 1;
   r.euler_characteristic = 4;
   r.genus = 0;
@@ -66,7 +66,8 @@ std::set<std::string> keys_of(const nlohmann::json& object) {
 
 TEST(ReportJson, HasExactlyTheDocumentedTopLevelFields) {
   const nlohmann::json json = report_to_json(sample_output(), sample_params());
-  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "method", "refine", "trace",
+  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "method", "refine", "cavity_mode",
+                                                  "dropped_components", "trace",
                                                   "atoms_meshed", "zero_radius_atoms", "vertices", "triangles",
                                                   "area", "volume", "components", "cavities", "genus",
                                                   "euler_characteristic", "certificate", "quality",
@@ -190,8 +191,12 @@ TEST(ReportJson, CopiesEveryValue) {
   ASSERT_EQ(json["components"].size(), 2U);
   const nlohmann::json& cavity = json["components"][1];
   EXPECT_EQ(cavity, (nlohmann::json{{"vertices", 100}, {"triangles", 200}, {"area", 21.5}, {"volume", -54.75},
-                                    {"genus", 0}, {"euler_characteristic", 2}, {"cavity", true}}));
+                                    {"genus", 0}, {"euler_characteristic", 2}, {"cavity", true},
+                                    {"enclosed", true}}));
   EXPECT_EQ(json["components"][0]["cavity"], false);
+  EXPECT_EQ(json["components"][0]["enclosed"], false);
+  EXPECT_EQ(json["cavity_mode"], "keep");
+  EXPECT_EQ(json["dropped_components"], 0);
   EXPECT_EQ(json["components"][0]["euler_characteristic"], 2);
 
   const nlohmann::json& certificate = json["certificate"];

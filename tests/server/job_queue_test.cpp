@@ -2,12 +2,15 @@
 // bounded queue, per-job timeout, cancellation, failures, shutdown (service-test-list items 31, 33–35, 57).
 #include "server/job_queue.hpp"
 
+#include "core/stage_weights.hpp"
+
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <latch>
+#include <map>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -241,7 +244,9 @@ TEST(JobQueue, ProgressFollowsEitherMethodsStagesAndNeverGoesBack) {
   };
   job_queue queue(options(1, 4), work, stats);
   queue_seen = &queue;
-  queue.submit("trace", any_input());
+  auto trace_input = std::make_shared<job_input>();
+  trace_input->params.method = mesh_method::trace;  // progress follows the trace path's stage weights
+  queue.submit("trace", trace_input);
   const job_snapshot done = wait_final(queue, "trace");
   ASSERT_EQ(seen.size(), 9u);
   EXPECT_EQ(seen[2].first, mesh_stage::tracing);
@@ -257,6 +262,33 @@ TEST(JobQueue, ProgressFollowsEitherMethodsStagesAndNeverGoesBack) {
   EXPECT_EQ(seen[7].first, mesh_stage::encoding);
   EXPECT_EQ(done.stage, mesh_stage::done);
   EXPECT_EQ(done.progress, 1.0);
+}
+
+TEST(JobQueue, ProgressIsProportionalToTheJobPathsStageWeights) {
+  // The same report (half of the refining stage) is further along for a lattice job than for a trace job: the
+  // quality pass is most of a lattice run but comes after tracing in a trace run, and weighs less there.
+  metrics stats;
+  job_queue* queue_seen = nullptr;
+  std::map<std::string, double> seen;
+  const job_work work = [&](const std::string& id, const job_input&, progress_token& token) -> result<job_output> {
+    token.report(mesh_stage::refining, 0.5);
+    seen[id] = queue_seen->find(id)->progress;
+    job_output output;
+    output.report = std::make_shared<const std::string>("{}");
+    return output;
+  };
+  job_queue queue(options(1, 4), work, stats);
+  queue_seen = &queue;
+  for (const mesh_method method : {mesh_method::lattice, mesh_method::trace}) {
+    auto input = std::make_shared<job_input>();
+    input->params.method = method;
+    queue.submit(method_name(method), input);
+    wait_final(queue, method_name(method));
+    EXPECT_DOUBLE_EQ(seen[method_name(method)],
+                     overall_progress(method, refine_mode::full, mesh_stage::refining, 0.5))
+        << method_name(method);
+  }
+  EXPECT_NE(seen["lattice"], seen["trace"]);
 }
 
 TEST(JobQueue, ShutdownLetsRunningJobsFinishWithinGraceThenFailsTheRest) {
