@@ -68,9 +68,10 @@ struct server_limits {
   /// Per client (its bearer token when --auth-token-file is used, else its IP address): open connections
   /// (--max-connections-per-client; past it the connection may ask /healthz and /readyz, anything else → 429),
   /// uploads in flight (--max-uploads-per-client) and jobs queued or running that it submitted
-  /// (--max-jobs-per-client); past a limit → 429 + Retry-After with a JSON body naming the limit.
-  std::size_t max_connections_per_client = 64;
-  std::size_t max_uploads_per_client = 16;
+  /// (--max-jobs-per-client); past a limit → 429 + Retry-After with a JSON body naming the limit. Each default is
+  /// half its global limit (max_connections, max_concurrent_uploads, max_queue): one client never holds all.
+  std::size_t max_connections_per_client = 128;
+  std::size_t max_uploads_per_client = 32;
   std::size_t max_jobs_per_client = 32;
   /// The small-job lane: jobs of at most this many atoms (--small-job-max-atoms) may also run on
   /// small_job_workers extra workers reserved for them, so a small molecule never waits behind big ones.
