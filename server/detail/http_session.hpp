@@ -137,7 +137,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   /// Keeps `lease` (this connection counted against its client) as long as the session lives.
-  void hold(std::shared_ptr<void> lease) { client_lease_ = std::move(lease); }
+  void hold(std::shared_ptr<client_lease> lease) { client_lease_ = std::move(lease); }
 
   /// Past the connection limit and its health reserve: answer 503 and close without reading.
   void refuse() {
@@ -545,7 +545,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   std::string request_id_;
   bool health_only_ = false;  // over the connection limit: one health request, then close
   reply health_only_refusal_;  // health_only_: the answer to anything but a health route
-  std::shared_ptr<void> client_lease_;  // this connection counted against its client's connection limit
+  std::shared_ptr<client_lease> client_lease_;  // this connection counted against its client's connection limit
   bool idle_ = false;         // waiting for the first bytes of a request
   std::optional<std::uint64_t> idle_key_;  // this connection's entry in context_.state.idle
   std::uint64_t idle_generation_ = 0;      // tells a stale close_if_idle from the current idle period
