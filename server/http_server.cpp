@@ -165,7 +165,7 @@ void http_listener::on_accept(boost::system::error_code ec, tcp::socket socket) 
       connection->hold(std::move(lease));
       connection->run();
     } else if (!lease && within_reserve) {
-      connection->run_health_only(client_connection_limit_reply(context_.limits));
+      connection->run_over_client_limit(client_connection_limit_reply(context_.limits));
     } else if (within_reserve) {
       connection->run_health_only();
     } else {

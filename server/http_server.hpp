@@ -25,7 +25,7 @@
 /// with none idle, up to health_connection_reserve more connections may still ask a health route (handler's
 /// is_health_route), anything else on them gets 503. A connection over its client's max_connections_per_client
 /// (by IP address) may likewise ask a health route; anything else gets 429 (client_limit) and the connection is
-/// closed. An upload body that falls behind min_upload_bytes_per_second after upload_rate_grace is answered 408
+/// closed; while it waits for its request it counts as idle, so it is closed first when the server is full. An upload body that falls behind min_upload_bytes_per_second after upload_rate_grace is answered 408
 /// and closed. CORS headers are added to every response.
 /// The session itself lives in detail/http_session.hpp, a template over its stream (the request fuzzer runs it
 /// over a Beast test stream).

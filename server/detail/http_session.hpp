@@ -127,11 +127,18 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
 
   /// Over the connection limit with every connection busy: one request is read; a health route is answered,
   /// anything else gets 503; then the connection is closed.
-  void run_health_only() { run_health_only(too_many_connections(context_.limits.retry_after_seconds)); }
-
-  /// As run_health_only(), answering `refusal` to anything but a health route (a client over its own limit).
-  void run_health_only(reply refusal) {
+  void run_health_only() {
     health_only_ = true;
+    health_only_refusal_ = too_many_connections(context_.limits.retry_after_seconds);
+    run();
+  }
+
+  /// A client over its own connection limit: as run_health_only(), answering `refusal` to anything but a health
+  /// route. While it waits for its request it counts as idle, so it is the first to close when the server's
+  /// connection limit is reached (one client's surplus connections never lock other clients out).
+  void run_over_client_limit(reply refusal) {
+    health_only_ = true;
+    over_client_limit_ = true;
     health_only_refusal_ = std::move(refusal);
     run();
   }
@@ -177,7 +184,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   /// Idle: waits for the first bytes of the next request (their arrival starts the request's clock). Meanwhile a
   /// new connection over the limit may make this one close (close_if_idle).
   void wait_for_request() {
-    if (health_only_) {  // over the limit already: closing it would make no room
+    if (health_only_ && !over_client_limit_) {  // over the limit already: closing it would make no room
       return stream_.async_read_some(buffer_.prepare(first_read_bytes), beast::bind_front_handler(
                                          &http_session::on_first_bytes, this->shared_from_this()));
     }
@@ -545,6 +552,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   std::string request_id_;
   bool health_only_ = false;  // over the connection limit: one health request, then close
   reply health_only_refusal_;  // health_only_: the answer to anything but a health route
+  bool over_client_limit_ = false;  // health_only_ because its client is over max_connections_per_client
   std::shared_ptr<client_lease> client_lease_;  // this connection counted against its client's connection limit
   bool idle_ = false;         // waiting for the first bytes of a request
   std::optional<std::uint64_t> idle_key_;  // this connection's entry in context_.state.idle

@@ -105,6 +105,28 @@ TEST_F(ClientIsolationTest, AClientOverItsConnectionLimitGets429ButHealthAnswers
   EXPECT_EQ(get("/jobs/" + std::string(64, '0')).status, 404) << "a freed connection slot serves again";
 }
 
+TEST_F(ClientIsolationTest, OneClientsSurplusConnectionsGiveWayToAnotherClient) {
+  start([](server_config& c) {
+    c.limits.max_connections = 4;
+    c.limits.max_connections_per_client = 2;
+  });
+  // Client A (127.0.0.1): two busy connections (a request header arriving), then two over its limit, idle.
+  raw_connection busy_1(port_);
+  raw_connection busy_2(port_);
+  ASSERT_TRUE(busy_1.send("GET /healthz HTTP/1.1\r\n"));
+  ASSERT_TRUE(busy_2.send("GET /healthz HTTP/1.1\r\n"));
+  raw_connection surplus_1(port_);
+  raw_connection surplus_2(port_);
+  ASSERT_TRUE(eventually([&] { return service_->http_state().open_connections.load() == 4; }));
+
+  // Client B (127.0.0.2) over the server's limit: one of A's surplus connections is closed for it.
+  raw_connection other(port_, 20s, 0, 0x7f000002);
+  ASSERT_TRUE(other.connected());
+  ASSERT_TRUE(other.send(tracemesh::testing::get_request("/jobs/" + std::string(64, '0'))));
+  EXPECT_EQ(other.read_reply().status, 404) << "served, not 503";
+  EXPECT_TRUE(surplus_1.closed_by_peer(2s) || surplus_2.closed_by_peer(2s));
+}
+
 TEST_F(ClientIsolationTest, UploadsAreLimitedPerBearerTokenNotAcrossClients) {
   const std::filesystem::path tokens =
       std::filesystem::temp_directory_path() / ("tracemesh-tokens-" + std::to_string(::getpid()));
