@@ -566,15 +566,28 @@ struct api_handlers::upload_request {
   std::string pqr;  // the uploaded file (field 'pqr' or 'structure'), any input format
   content_coding coding = content_coding::identity;  // POST /mesh: the mesh bytes' negotiated coding
   std::shared_ptr<upload_ticket> ticket;  // released as soon as the upload has been parsed
+  std::string client;                     // body_plan::client
   reply_sink done;
   clock::time_point received;
 };
 
 api_handlers::api_handlers(api_dependencies deps)
     : deps_(deps),
-      uploads_(deps.config.limits.max_concurrent_uploads, deps.config.limits.max_upload_bytes_in_flight) {}
+      uploads_(deps.config.limits.max_concurrent_uploads, deps.config.limits.max_upload_bytes_in_flight),
+      client_uploads_(deps.config.limits.max_uploads_per_client),
+      client_jobs_(deps.config.limits.max_jobs_per_client) {}
 
-std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
+std::string api_handlers::client_key(const request_head& head, const std::string& client_address) const {
+  const std::string_view authorization = to_std(head[http::field::authorization]);
+  if (deps_.auth.enabled() && !authorization.empty()) return "token:" + token_digest(authorization);
+  return "ip:" + client_address;
+}
+
+boost::asio::thread_pool& api_handlers::parsing_pool(std::size_t body_bytes, bool gzip_encoded) const {
+  return gzip_encoded || body_bytes > deps_.config.limits.large_upload_bytes ? deps_.large_uploads : deps_.prep;
+}
+
+std::variant<reply, body_plan> api_handlers::plan(const request_head& head, const std::string& client_address) {
   const auto target = split_target(to_std(head.target()));
   if (!target) return error_reply(400, "bad_request", "the request target must be an absolute path", "(bad target)");
   const route_match match = match_route(target->path);
@@ -643,11 +656,19 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
   result<std::string> boundary = multipart_boundary(content_type);
   if (!boundary.ok()) return error_reply(400, "invalid_input", boundary.error().message(), route.name);
 
-  std::shared_ptr<upload_ticket> ticket = uploads_.admit(has_length ? length : 0);
+  std::string client = client_key(head, client_address);
+  std::shared_ptr<client_lease> client_upload = client_uploads_.acquire(client);
+  if (!client_upload) {
+    return client_limit_reply("max_uploads_per_client", limits.max_uploads_per_client, "uploads in progress",
+                              limits.retry_after_seconds, route.name);
+  }
+  // Bytes are counted as they arrive (http_session), never from the declared Content-Length.
+  std::shared_ptr<upload_ticket> ticket = uploads_.admit(0);
   if (!ticket) {
     return with_retry_after(error_reply(429, "queue_full", "too many uploads in progress", route.name),
                             limits.retry_after_seconds);
   }
+  ticket->attach(std::move(client_upload));
   body_plan plan;
   plan.route = route.name;
   plan.upload = true;
@@ -658,6 +679,7 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head) {
   plan.part_limits.max_field_bytes = limits.max_form_field_bytes;
   plan.part_limits.max_file_bytes = limits.max_upload_bytes;
   plan.ticket = std::move(ticket);
+  plan.client = std::move(client);
   return plan;
 }
 
@@ -771,9 +793,10 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   upload->pqr = std::move(file->body);
   upload->coding = *coding;
   upload->ticket = std::move(plan.ticket);
+  upload->client = std::move(plan.client);
   upload->done = std::move(done);
   upload->received = clock::now();
-  boost::asio::post(deps_.prep, [this, upload] { prepare_upload(upload); });
+  boost::asio::post(parsing_pool(upload->pqr.size(), false), [this, upload] { prepare_upload(upload); });
 }
 
 void api_handlers::handle_encoded_upload(const request_head& head, body_plan plan, std::string compressed_body,
@@ -811,7 +834,7 @@ void api_handlers::handle_encoded_upload(const request_head& head, body_plan pla
     }
     handle_upload(head, std::move(plan), std::move(parser.parts()), std::move(done));
   };
-  boost::asio::post(deps_.prep, std::move(job));
+  boost::asio::post(parsing_pool(0, true), std::move(job));
 }
 
 bool api_handlers::is_health_route(std::string_view target) const {
@@ -867,6 +890,13 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
     return upload->done(std::move(r));
   }
 
+  // The job counts against its client until it ends (jobs it joined too: it holds them as well).
+  std::shared_ptr<client_lease> client_job = client_jobs_.acquire(upload->client);
+  if (!client_job) {
+    const server_limits& limits = deps_.config.limits;
+    return upload->done(client_limit_reply("max_jobs_per_client", limits.max_jobs_per_client,
+                                           "jobs queued or running", limits.retry_after_seconds, route));
+  }
   auto input = std::make_shared<job_input>();
   input->mol = std::move(*mol);
   input->params = upload->request.params;
@@ -877,7 +907,7 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   if (upload->route == route_id::mesh) {
     how.holder = job_holder{};  // the waiter holds the job until it ends
     listener = [done = upload->done, id, format = upload->request.format, coding = upload->coding,
-                results = &deps_.results,
+                results = &deps_.results, client_job,
                 retry = deps_.config.limits.retry_after_seconds](const job_snapshot& final_state,
                                                                  const job_output* output) {
       if (!output) return done(job_failure_reply(final_state, "/mesh", retry));
@@ -944,6 +974,7 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
     case submit_outcome::coalesced: break;
   }
   if (upload->route == route_id::mesh) return;  // the listener answers
+  deps_.jobs.subscribe(id, [client_job](const job_snapshot&, const job_output*) {});  // holds it until the end
   nlohmann::json accepted = {{"id", id},
                              {"status", std::string(proto::job_state_name(submitted.snapshot.state))},
                              {"token", owner_token},

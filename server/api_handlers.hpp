@@ -13,8 +13,11 @@
 ///                              compressible formats (compressed once, cached; 406 when identity is refused and
 ///                              nothing else fits); one Range (If-Range) of the selected bytes → 206 / 416
 ///   GET|HEAD /healthz /readyz /metrics /openapi.json; OPTIONS on every route (CORS preflight)
-/// Threads: plan() and the cheap handlers run on I/O threads; PQR decompression and parsing, job-id hashing and
-/// every disk cache read run on the prep pool; meshing runs on the job queue's workers.
+/// Threads: plan() and the cheap handlers run on I/O threads; small uploads' parsing, job-id hashing and every disk
+/// cache read run on the prep pool; decompression and parsing of large or gzip-encoded uploads on the
+/// large-upload pool (so a cache hit never waits behind them); meshing runs on the job queue's workers.
+/// Per client (bearer token, else IP address): uploads in flight and jobs queued or running are bounded
+/// (max_uploads_per_client, max_jobs_per_client → 429 client_limit).
 
 #include <cstddef>
 #include <mutex>
@@ -28,6 +31,7 @@
 
 #include "proto/mesh_format.hpp"
 #include "server/access_tokens.hpp"
+#include "server/client_quota.hpp"
 #include "server/http_server.hpp"
 #include "server/job_queue.hpp"
 #include "server/job_store.hpp"
@@ -51,14 +55,17 @@ struct api_dependencies {
   spdlog::logger& log;
   http_server_state& state;
   const cors_policy& cors;
-  boost::asio::thread_pool& prep;  ///< parsing, hashing, disk cache reads
+  boost::asio::thread_pool& prep;  ///< small uploads' parsing, hashing, disk cache reads
+  /// Decompression and parsing of uploads over limits.large_upload_bytes and of gzip-encoded ones, so that
+  /// small uploads and cache reads on `prep` never wait behind them.
+  boost::asio::thread_pool& large_uploads;
 };
 
 class api_handlers final : public request_handler {
  public:
   explicit api_handlers(api_dependencies deps);
 
-  std::variant<reply, body_plan> plan(const request_head& head) override;
+  std::variant<reply, body_plan> plan(const request_head& head, const std::string& client_address) override;
   void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) override;
   void handle_upload(const request_head& head, body_plan plan, std::vector<multipart_part> parts,
                      reply_sink done) override;
@@ -88,9 +95,15 @@ class api_handlers final : public request_handler {
                 reply_sink done);
   void prepare_upload(std::shared_ptr<upload_request> upload);  // on the prep pool
   void submit_job(std::shared_ptr<upload_request> upload, const std::string& id, std::size_t atoms);
+  /// The pool that parses an upload of `body_bytes` (gzip-encoded ones always take the large-upload pool).
+  boost::asio::thread_pool& parsing_pool(std::size_t body_bytes, bool gzip_encoded) const;
+  /// The per-client key of a request: its bearer token's digest when the server authenticates, else its IP.
+  std::string client_key(const request_head& head, const std::string& client_address) const;
 
   api_dependencies deps_;
   upload_admission uploads_;
+  client_quota client_uploads_;
+  client_quota client_jobs_;
   // Serialises the accept step of POST /jobs (job store record + queue submit), so concurrent submissions of one
   // job never overwrite each other's owners.
   std::mutex accept_mutex_;

@@ -80,7 +80,24 @@ std::size_t idle_connections::size() const {
   return idle_.size();
 }
 
+reply client_limit_reply(std::string_view limit_name, std::size_t limit, std::string_view what,
+                         unsigned retry_after_seconds, std::string route) {
+  reply r = error_reply(429, "client_limit",
+                        "this client already has " + std::to_string(limit) + " " + std::string(what) + " (" +
+                            std::string(limit_name) + "); retry later",
+                        std::move(route));
+  r.headers.emplace_back("Retry-After", std::to_string(retry_after_seconds));
+  return r;
+}
+
 namespace {
+
+reply client_connection_limit_reply(const server_limits& limits) {
+  reply r = client_limit_reply("max_connections_per_client", limits.max_connections_per_client, "open connections",
+                               limits.retry_after_seconds, detail::unrouted_route);
+  r.close = true;
+  return r;
+}
 
 /// splitmix64's finaliser: a bijection on 64-bit integers, so distinct counters give distinct ids.
 std::uint64_t mix(std::uint64_t x) {
@@ -147,14 +164,24 @@ void http_listener::do_accept() {
 void http_listener::on_accept(boost::system::error_code ec, tcp::socket socket) {
   if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
   if (!ec) {
+    beast::error_code address_error;
+    const tcp::endpoint peer = socket.remote_endpoint(address_error);
+    const std::string client = address_error ? std::string() : peer.address().to_string();
     auto connection = std::make_shared<tcp_session>(beast::tcp_stream(std::move(socket)), context_);
+    std::shared_ptr<client_lease> lease = context_.state.client_connections.acquire(client);
     // The new session already counts itself: more than the limit means this one is over it. An idle keep-alive
     // connection gives way first (it closes on its own strand, soon); without one, a few more connections may
-    // still ask the health routes, and past those the new connection is refused at once.
+    // still ask the health routes, and past those the new connection is refused at once. A client over its own
+    // connection limit may ask the health routes too, and hears 429 for anything else.
     const std::size_t open = context_.state.open_connections.load(std::memory_order_relaxed);
-    if (open <= context_.limits.max_connections || context_.state.idle.close_oldest()) {
+    const bool within_reserve =
+        open <= context_.limits.max_connections + context_.limits.health_connection_reserve;
+    if (lease && (open <= context_.limits.max_connections || context_.state.idle.close_oldest())) {
+      connection->hold(std::move(lease));
       connection->run();
-    } else if (open <= context_.limits.max_connections + context_.limits.health_connection_reserve) {
+    } else if (!lease && within_reserve) {
+      connection->run_over_client_limit(client_connection_limit_reply(context_.limits));
+    } else if (within_reserve) {
       connection->run_health_only();
     } else {
       connection->refuse();

@@ -25,13 +25,17 @@
 /// and one "access" log line when its response is written (error level for 5xx); its duration runs from the
 /// request's first byte. Connections over max_connections first make the oldest idle keep-alive connection close;
 /// with none idle, up to health_connection_reserve more connections may still ask a health route (handler's
-/// is_health_route), anything else on them gets 503. CORS headers are added to every response.
+/// is_health_route), anything else on them gets 503. A connection over its client's max_connections_per_client
+/// (by IP address) may likewise ask a health route; anything else gets 429 (client_limit) and the connection is
+/// closed; while it waits for its request it counts as idle, so it is closed first when the server is full. An upload body that falls behind min_upload_bytes_per_second after upload_rate_grace is answered 408
+/// and closed. CORS headers are added to every response.
 /// The session itself lives in detail/http_session.hpp, a template over its stream (the request fuzzer runs it
 /// over a Beast test stream).
 
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -50,6 +54,7 @@
 #include <spdlog/logger.h>
 
 #include "core/status.hpp"
+#include "server/client_quota.hpp"
 #include "server/cors.hpp"
 #include "server/metrics.hpp"
 #include "server/multipart_parser.hpp"
@@ -109,6 +114,10 @@ reply error_reply(unsigned status, std::string_view code, std::string_view messa
 /// A JSON reply of `status` with the given body text.
 reply json_reply(unsigned status, std::string body, std::string route);
 
+/// 429 + Retry-After, code client_limit, for a client holding `limit` `what` already (limit_name: the setting).
+reply client_limit_reply(std::string_view limit_name, std::size_t limit, std::string_view what,
+                         unsigned retry_after_seconds, std::string route);
+
 /// Delivers the reply to a request; callable from any thread, exactly once.
 using reply_sink = std::function<void(reply)>;
 
@@ -122,15 +131,20 @@ struct body_plan {
   std::uint64_t max_bytes = 0;    ///< body limit (Content-Length was already checked against it)
   std::string boundary;           ///< upload only
   multipart_limits part_limits;   ///< upload only
-  /// Upload only: the admission ticket (count and bytes in flight), released when the last owner drops it.
+  /// Upload only: the admission ticket (count and bytes in flight, and the client's upload lease), released when
+  /// the last owner drops it.
   std::shared_ptr<upload_ticket> ticket;
+  /// Who sent the request, for per-client limits: "token:<digest>" of its bearer token when the server
+  /// authenticates, else "ip:<address>".
+  std::string client;
 };
 
 /// The application: routes and handlers (api_handlers.hpp). plan() runs on an I/O thread and must be cheap.
 class request_handler {
  public:
   virtual ~request_handler() = default;
-  virtual std::variant<reply, body_plan> plan(const request_head& head) = 0;
+  /// `client_address`: the peer's IP address (per-client limits key on it when no bearer token names the client).
+  virtual std::variant<reply, body_plan> plan(const request_head& head, const std::string& client_address) = 0;
   /// A non-upload request whose (small) body has been read.
   virtual void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) = 0;
   /// An upload whose multipart body has been parsed completely.
@@ -175,12 +189,17 @@ class request_id_source {
 
 /// Counters shared by the listener, the sessions and the service.
 struct http_server_state {
+  explicit http_server_state(std::size_t max_connections_per_client = std::numeric_limits<std::size_t>::max())
+      : client_connections(max_connections_per_client) {}
+
   std::atomic<std::size_t> open_connections{0};
   std::atomic<std::size_t> busy_requests{0};  ///< header read, response not yet written
   std::atomic<bool> draining{false};          ///< SIGTERM received: answer with Connection: close
   std::atomic<std::size_t> event_streams{0};  ///< open event streams (bounded by limits.max_event_streams)
   idle_connections idle;
   request_id_source request_ids;
+  /// Open connections per client IP address (max_connections_per_client).
+  client_quota client_connections;
 };
 
 /// Everything a session needs, owned by the service and outliving every session.

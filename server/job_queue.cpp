@@ -69,8 +69,9 @@ struct job_queue::job {
 job_queue::job_queue(job_queue_options options, job_work work, metrics& stats, job_listener on_final)
     : options_(options), work_(std::move(work)), metrics_(stats), on_final_(std::move(on_final)) {
   const unsigned workers = std::max(1u, options_.workers);
-  workers_.reserve(workers);
-  for (unsigned i = 0; i < workers; ++i) workers_.emplace_back([this] { worker_loop(); });
+  workers_.reserve(workers + options_.small_job_workers);
+  for (unsigned i = 0; i < workers; ++i) workers_.emplace_back([this] { worker_loop(false); });
+  for (unsigned i = 0; i < options_.small_job_workers; ++i) workers_.emplace_back([this] { worker_loop(true); });
   watchdog_ = std::thread([this] { watchdog_loop(); });
 }
 
@@ -94,7 +95,8 @@ submit_result job_queue::submit(const std::string& id, std::shared_ptr<const job
   queue_.push_back(created);
   job_snapshot snapshot = snapshot_of(*created);
   lock.unlock();
-  work_available_.notify_one();
+  // All: a small-lane worker woken for a big job would go back to sleep while a general worker stays idle.
+  work_available_.notify_all();
   return {submit_outcome::accepted, std::move(snapshot)};
 }
 
@@ -205,15 +207,24 @@ std::size_t job_queue::running_jobs() const {
   return running_.size();
 }
 
-void job_queue::worker_loop() {
+std::deque<std::shared_ptr<job_queue::job>>::iterator job_queue::next_for(bool small_lane) {
+  if (!small_lane) return queue_.begin();
+  return std::find_if(queue_.begin(), queue_.end(), [this](const std::shared_ptr<job>& queued) {
+    const std::size_t atoms = queued->input ? queued->input->mol.atoms.size() : 0;
+    return atoms <= options_.small_job_max_atoms;
+  });
+}
+
+void job_queue::worker_loop(bool small_lane) {
   for (;;) {
     std::shared_ptr<job> next;
     {
       std::unique_lock lock(mutex_);
-      work_available_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) return;  // stopping and nothing left
-      next = queue_.front();
-      queue_.pop_front();
+      work_available_.wait(lock, [&] { return stopping_ || next_for(small_lane) != queue_.end(); });
+      const auto chosen = next_for(small_lane);
+      if (chosen == queue_.end()) return;  // stopping and nothing left for this worker
+      next = *chosen;
+      queue_.erase(chosen);
       next->state = job_state::running;
       next->started = clock::now();
       next->eta.start(next->started);

@@ -1,6 +1,7 @@
 #pragma once
 /// @file job_queue.hpp
-/// Bounded job queue with single-flight by job id and a pool of worker threads.
+/// Bounded job queue with single-flight by job id, a pool of worker threads and a lane of workers reserved for
+/// small jobs (job_queue_options::small_job_workers).
 ///
 /// A job is identified by its id (the content hash of its canonical input, see job_id.hpp). Submitting an id that
 /// is already queued or running attaches to that job instead of creating another ("coalesced"), so identical
@@ -91,6 +92,11 @@ struct job_queue_options {
   std::size_t max_queue = 64;         ///< queued (not running) jobs
   std::size_t max_records = 4096;     ///< finished jobs remembered for find()
   std::chrono::milliseconds job_timeout{std::chrono::minutes(10)};
+  /// The small-job lane: this many extra workers take only queued jobs of at most small_job_max_atoms atoms
+  /// (oldest first), so a small job never waits behind big ones that hold every general worker. General workers
+  /// take every job, oldest first. 0 = no lane.
+  unsigned small_job_workers = 0;
+  std::size_t small_job_max_atoms = 20000;
 };
 
 enum class submit_outcome { accepted, coalesced, queue_full, shutting_down };
@@ -154,7 +160,10 @@ class job_queue {
   struct job;
   enum class stop_reason { none, user, timeout, shutdown };
 
-  void worker_loop();
+  void worker_loop(bool small_lane);
+  /// The job a worker takes next: the oldest queued one, or for the small lane the oldest small one (end() when
+  /// there is none). Needs mutex_.
+  std::deque<std::shared_ptr<job>>::iterator next_for(bool small_lane);
   void watchdog_loop();
   void run(const std::shared_ptr<job>& j);
   void finish(const std::shared_ptr<job>& j, result<job_output> outcome);

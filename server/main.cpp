@@ -38,6 +38,7 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   std::size_t max_atoms = limits.mesh.max_atoms;
   std::uint64_t max_upload_bytes = 0;
   double job_timeout = 600, header_timeout = 30, request_timeout = 300, write_timeout = 60, shutdown_grace = 20;
+  double upload_rate_grace = 10;
   std::vector<std::string> cors_origins;
 
   app.add_option("--listen", listen, "Address and port to listen on (host:port; port 0 = any free port)")
@@ -93,6 +94,35 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   app.add_option("--max-upload-bytes-in-flight", limits.max_upload_bytes_in_flight,
                  "Body bytes of all uploads received or parsed at the same time; more get 429")
       ->capture_default_str();
+  app.add_option("--min-upload-rate", limits.min_upload_bytes_per_second,
+                 "Bytes per second an upload body must average after --upload-rate-grace, else 408 (0 = off)")
+      ->capture_default_str();
+  app.add_option("--upload-rate-grace", upload_rate_grace,
+                 "Seconds after the request header before --min-upload-rate applies")
+      ->capture_default_str();
+  app.add_option("--large-upload-bytes", limits.large_upload_bytes,
+                 "Uploads larger than this (and gzip-encoded ones) are decoded on the large-upload threads")
+      ->capture_default_str();
+  app.add_option("--large-upload-threads", config.large_upload_threads,
+                 "Threads decompressing and parsing large uploads (bounded: more wait their turn)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, 64u));
+  app.add_option("--max-connections-per-client", limits.max_connections_per_client,
+                 "Open connections of one client (bearer token, else IP); more get 429 (health routes answer)")
+      ->capture_default_str();
+  app.add_option("--max-uploads-per-client", limits.max_uploads_per_client,
+                 "Uploads of one client received or parsed at the same time; more get 429")
+      ->capture_default_str();
+  app.add_option("--max-jobs-per-client", limits.max_jobs_per_client,
+                 "Jobs of one client queued or running; more get 429")
+      ->capture_default_str();
+  app.add_option("--small-job-max-atoms", limits.small_job_max_atoms,
+                 "Jobs of at most this many atoms may run on the workers reserved for small jobs")
+      ->capture_default_str();
+  app.add_option("--small-job-workers", config.small_job_workers,
+                 "Workers reserved for small jobs, besides --workers (0 = none)")
+      ->capture_default_str()
+      ->check(CLI::Range(0u, 64u));
   app.add_option("--job-timeout", job_timeout, "Seconds a job may run before it fails with \"timeout\"")
       ->capture_default_str();
   app.add_option("--header-timeout", header_timeout,
@@ -123,6 +153,10 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
       std::fprintf(stderr, "tracemeshd: timeouts must be positive numbers of seconds\n");
       return 2;
     }
+  }
+  if (!(upload_rate_grace >= 0) || upload_rate_grace > 1e7) {
+    std::fprintf(stderr, "tracemeshd: --upload-rate-grace must be >= 0 seconds\n");
+    return 2;
   }
   if (!(shutdown_grace >= 0) || shutdown_grace > 1e7 || max_atoms == 0) {
     std::fprintf(stderr, "tracemeshd: --shutdown-grace must be >= 0 and --max-atoms > 0\n");
@@ -163,6 +197,7 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   limits.request_timeout = to_millis(request_timeout);
   limits.write_timeout = to_millis(write_timeout);
   limits.shutdown_grace = to_millis(shutdown_grace);
+  limits.upload_rate_grace = to_millis(upload_rate_grace);
   return std::nullopt;
 }
 

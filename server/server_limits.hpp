@@ -57,11 +57,33 @@ struct server_limits {
   /// Uploads being received or parsed at the same time (bounds upload memory); over it → 429 + Retry-After.
   /// A lab's burst of small uploads must pass: 20 concurrent clients are well within it.
   std::size_t max_concurrent_uploads = 64;
-  /// Body bytes held by all uploads in flight together (their Content-Length, or what a chunked body has sent so
-  /// far); over it → 429 + Retry-After. Bounds upload memory where max_concurrent_uploads alone would allow
-  /// 64 × max_upload_bytes. One upload is always admitted when none is in flight, so a value below
+  /// Body bytes received by all uploads in flight together (counted as they arrive, never from a declared
+  /// Content-Length: a client announcing 255 MB and sending nothing holds no budget); an upload whose next bytes
+  /// do not fit → 429 + Retry-After and the connection is closed. Bounds upload memory where
+  /// max_concurrent_uploads alone would allow 64 × max_upload_bytes. A lone upload always fits, so a value below
   /// max_upload_bytes serialises large uploads instead of refusing them.
   std::uint64_t max_upload_bytes_in_flight = 1ull << 30;
+  /// Slow bodies (--min-upload-rate, --upload-rate-grace): after the grace time counted from the end of the
+  /// header, an upload must have received at least min_upload_bytes_per_second × (elapsed − grace) bytes; one
+  /// that falls behind is answered 408 (JSON body) and closed, freeing its upload slot. 0 disables the check
+  /// (request_timeout still applies).
+  std::uint64_t min_upload_bytes_per_second = 4 * 1024;
+  std::chrono::milliseconds upload_rate_grace{std::chrono::seconds(10)};
+  /// Uploads whose body exceeds this (and every Content-Encoding: gzip upload) are decoded and parsed on the
+  /// large-upload pool (server_config::large_upload_threads), so that small uploads and cache reads on the prep
+  /// pool never wait behind a big decompression or parse.
+  std::uint64_t large_upload_bytes = 1024 * 1024;
+  /// Per client (its bearer token when --auth-token-file is used, else its IP address): open connections
+  /// (--max-connections-per-client; past it the connection may ask /healthz and /readyz, anything else → 429),
+  /// uploads in flight (--max-uploads-per-client) and jobs queued or running that it submitted
+  /// (--max-jobs-per-client); past a limit → 429 + Retry-After with a JSON body naming the limit. Each default is
+  /// half its global limit (max_connections, max_concurrent_uploads, max_queue): one client never holds all.
+  std::size_t max_connections_per_client = 128;
+  std::size_t max_uploads_per_client = 32;
+  std::size_t max_jobs_per_client = 32;
+  /// The small-job lane: jobs of at most this many atoms (--small-job-max-atoms) may also run on
+  /// small_job_workers extra workers reserved for them, so a small molecule never waits behind big ones.
+  std::size_t small_job_max_atoms = 20000;
   /// Non-file multipart fields (parameters) and parts per upload.
   std::size_t max_form_parts = 16;
   std::size_t max_form_field_bytes = 4096;
@@ -100,7 +122,12 @@ struct server_config {
   unsigned workers = 2;               ///< jobs run at the same time (one per worker thread)
   unsigned mesher_threads = 0;        ///< threads inside one mesher run; 0 = all cores
   unsigned io_threads = 1;            ///< HTTP I/O threads (never mesh, never touch disk)
-  unsigned prep_threads = 1;          ///< PQR parsing, hashing and disk cache reads
+  unsigned prep_threads = 1;          ///< small uploads' parsing, hashing and disk cache reads
+  /// Decompression and parsing of large or gzip-encoded uploads (limits.large_upload_bytes), apart from the prep
+  /// pool; bounded, so at most this many big decodes run at once (the others wait in the pool's queue).
+  unsigned large_upload_threads = 2;
+  /// Workers reserved for small jobs (limits.small_job_max_atoms), in addition to `workers`; 0 = no lane.
+  unsigned small_job_workers = 1;
   std::filesystem::path cache_dir;    ///< empty → memory-only cache
   /// The job store (records, inputs of unfinished jobs, meshes); empty → in memory, nothing survives a restart
   /// (tracemeshd: --job-dir, default <cache-dir>/jobs; --no-disk-store empties both).

@@ -26,6 +26,8 @@ job_queue_options queue_options(const server_config& config) {
   options.max_queue = config.limits.max_queue;
   options.max_records = config.limits.max_job_records;
   options.job_timeout = config.limits.job_timeout;
+  options.small_job_workers = config.small_job_workers;
+  options.small_job_max_atoms = config.limits.small_job_max_atoms;
   return options;
 }
 
@@ -34,6 +36,7 @@ job_queue_options queue_options(const server_config& config) {
 service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesher_function mesher)
     : config_(std::move(config)),
       log_(std::move(log)),
+      state_(config_.limits.max_connections_per_client),
       cors_(config_.cors_origins),
       cache_(config_.cache_dir, cache_limits{config_.limits.cache_memory_bytes, config_.limits.cache_disk_bytes}),
       store_(job_store_options{config_.job_dir, config_.limits.job_retention, config_.limits.job_store_memory_bytes}),
@@ -45,8 +48,9 @@ service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesh
             },
             metrics_, [this](const job_snapshot& final_state, const job_output*) { record_final(final_state); }),
       prep_(std::max(1u, config_.prep_threads)),
+      large_uploads_(std::max(1u, config_.large_upload_threads)),
       api_(api_dependencies{config_, jobs_, cache_, store_, mesh_context_, auth_, metrics_, *log_, state_, cors_,
-                            prep_}),
+                            prep_, large_uploads_}),
       http_context_{config_.limits, api_, state_, metrics_, *log_, cors_} {
   cache_.set_corruption_listener([log = log_](const std::string& key, const char* reason) {
     log_event(*log, spdlog::level::err, "cache_corrupt", {{"key", key}, {"reason", reason}, {"action", "removed"}});
@@ -136,6 +140,7 @@ void service::shutdown() {
   io_.stop();
   for (auto& thread : io_threads_) thread.join();
   io_threads_.clear();
+  large_uploads_.join();
   prep_.join();
   log_event(*log_, spdlog::level::info, "shutdown_done",
             {{"seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count()}});

@@ -1,7 +1,7 @@
 #pragma once
 /// @file service.hpp
-/// tracemeshd as an object: wires the result cache, the job queue and its workers, the prep pool, the API
-/// handlers and the HTTP listener with its I/O threads. main() runs one; tests can run one in-process with a fake
+/// tracemeshd as an object: wires the result cache, the job queue and its workers, the prep and large-upload
+/// pools, the API handlers and the HTTP listener with its I/O threads. main() runs one; tests can run one in-process with a fake
 /// mesher.
 
 #include <memory>
@@ -67,6 +67,7 @@ class service {
   mesh_job_context mesh_context_;
   job_queue jobs_;
   boost::asio::thread_pool prep_;
+  boost::asio::thread_pool large_uploads_;
   api_handlers api_;
   http_context http_context_;
   boost::asio::io_context io_;

@@ -3,9 +3,10 @@
 /// Admission control for uploads: bounds how many uploads are in flight (being received, parsed or prepared) and
 /// how many body bytes they hold together, so a burst of large uploads cannot exhaust memory.
 ///
-/// An upload asks for a ticket when its header arrives, declaring its Content-Length (or 0 when the body is
-/// chunked and its size unknown); a chunked body then grows its reservation as bytes arrive. The ticket holds
-/// the reservation until the last owner drops it (as soon as the upload has been parsed, before any reply).
+/// An upload asks for a ticket when its header arrives, reserving no bytes: its reservation grows with the bytes
+/// actually received (reserve_total), never from a declared Content-Length, so clients that announce large bodies
+/// and send nothing hold no budget. The ticket holds the reservation until the last owner drops it (as soon as
+/// the upload has been parsed, before any reply).
 ///
 /// One upload is always admitted when none is in flight, whatever its size: the byte bound may then be smaller
 /// than the per-upload limit without making large uploads impossible (they are simply served one at a time).
@@ -15,6 +16,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <utility>
 
 namespace tracemesh::server {
 
@@ -57,6 +59,8 @@ class upload_ticket {
   /// (a lone upload always fits: its size is bounded by the per-upload limit instead).
   bool reserve_total(std::uint64_t total_bytes);
   std::uint64_t reserved_bytes() const;
+  /// Keeps `companion` (the client's per-client upload lease) until the ticket is released.
+  void attach(std::shared_ptr<void> companion) { companion_ = std::move(companion); }
 
  private:
   friend class upload_admission;
@@ -64,6 +68,7 @@ class upload_ticket {
 
   std::shared_ptr<upload_admission::state> owner_;
   std::uint64_t bytes_;  // guarded by owner_->mutex
+  std::shared_ptr<void> companion_;
 };
 
 }  // namespace tracemesh::server

@@ -41,6 +41,8 @@ struct stream_transport<beast::tcp_stream> {
   static void expire_after(beast::tcp_stream& s, std::chrono::steady_clock::duration d) { s.expires_after(d); }
   static void expire_at(beast::tcp_stream& s, std::chrono::steady_clock::time_point t) { s.expires_at(t); }
   static void expire_never(beast::tcp_stream& s) { s.expires_never(); }
+  /// Ends the pending read or write with operation_aborted, leaving the connection open (to answer 408).
+  static void cancel(beast::tcp_stream& s) { s.cancel(); }
   static void close(beast::tcp_stream& s) {
     beast::error_code ignored;
     s.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
@@ -108,7 +110,10 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
 
  public:
   http_session(Stream&& stream, http_context& context)
-      : stream_(std::move(stream)), context_(context), client_(transport::client_address(stream_)) {
+      : stream_(std::move(stream)),
+        context_(context),
+        client_(transport::client_address(stream_)),
+        rate_timer_(stream_.get_executor()) {
     context_.state.open_connections.fetch_add(1, std::memory_order_relaxed);
   }
   ~http_session() {
@@ -126,8 +131,22 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   /// anything else gets 503; then the connection is closed.
   void run_health_only() {
     health_only_ = true;
+    health_only_refusal_ = too_many_connections(context_.limits.retry_after_seconds);
     run();
   }
+
+  /// A client over its own connection limit: as run_health_only(), answering `refusal` to anything but a health
+  /// route. While it waits for its request it counts as idle, so it is the first to close when the server's
+  /// connection limit is reached (one client's surplus connections never lock other clients out).
+  void run_over_client_limit(reply refusal) {
+    health_only_ = true;
+    over_client_limit_ = true;
+    health_only_refusal_ = std::move(refusal);
+    run();
+  }
+
+  /// Keeps `lease` (this connection counted against its client) as long as the session lives.
+  void hold(std::shared_ptr<client_lease> lease) { client_lease_ = std::move(lease); }
 
   /// Past the connection limit and its health reserve: answer 503 and close without reading.
   void refuse() {
@@ -153,6 +172,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     multipart_.reset();
     plan_ = body_plan{};
     upload_bytes_ = 0;
+    rate_violated_ = false;
     encoded_body_.clear();
     // header_timeout runs from here: keep-alive idle time and a slow header together.
     transport::expire_after(stream_, context_.limits.header_timeout);
@@ -166,7 +186,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   /// Idle: waits for the first bytes of the next request (their arrival starts the request's clock). Meanwhile a
   /// new connection over the limit may make this one close (close_if_idle).
   void wait_for_request() {
-    if (health_only_) {  // over the limit already: closing it would make no room
+    if (health_only_ && !over_client_limit_) {  // over the limit already: closing it would make no room
       return stream_.async_read_some(buffer_.prepare(first_read_bytes), beast::bind_front_handler(
                                          &http_session::on_first_bytes, this->shared_from_this()));
     }
@@ -233,9 +253,9 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
                   /*force_close=*/!header_parser_->is_done());
     }
     if (health_only_ && !context_.handler.is_health_route(to_std(head_.target()))) {
-      return send(too_many_connections(context_.limits.retry_after_seconds), /*force_close=*/true);
+      return send(health_only_refusal_, /*force_close=*/true);
     }
-    std::variant<reply, body_plan> decision = context_.handler.plan(head_);
+    std::variant<reply, body_plan> decision = context_.handler.plan(head_, client_);
     if (auto* immediate = std::get_if<reply>(&decision)) {
       // The body (if any) is left unread: the connection cannot be reused.
       if (!header_parser_->is_done()) immediate->close = true;
@@ -306,6 +326,8 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
         if (length) multipart_->set_body_size_hint(static_cast<std::size_t>(*length));
       }
       chunk_.resize(body_chunk_bytes);
+      body_started_ = clock::now();
+      arm_rate_check();
       return read_upload_chunk();
     }
     small_parser_.emplace(std::move(*header_parser_));
@@ -330,10 +352,12 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   void on_upload_chunk(beast::error_code ec, std::size_t) {
+    if (rate_violated_) return on_body_error(ec);  // the read completed just as the rate deadline cancelled it
     if (ec == http::error::need_buffer) ec = {};
     if (ec) return on_body_error(ec);
     const std::size_t received = chunk_.size() - body_parser_->get().body().size;
     upload_bytes_ += received;
+    arm_rate_check();
     // A chunked body declared no size: its memory reservation grows with what has arrived.
     if (plan_.ticket && !plan_.ticket->reserve_total(upload_bytes_)) return refuse_upload_bytes();
     if (plan_.gzip_encoded) {
@@ -342,6 +366,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
       return reject_upload(fed);
     }
     if (!body_parser_->is_done()) return read_upload_chunk();
+    stop_rate_check();
     transport::expire_never(stream_);
     chunk_ = {};
     if (plan_.gzip_encoded) {
@@ -352,6 +377,46 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     std::vector<multipart_part> parts = std::move(multipart_->parts());
     multipart_.reset();
     context_.handler.handle_upload(head_, std::move(plan_), std::move(parts), make_sink());
+  }
+
+  // ---- the minimum upload rate -------------------------------------------------------------------------------
+  // After upload_rate_grace from the end of the header, the body must have received min_upload_bytes_per_second
+  // × (elapsed − grace) bytes. The timer is set to the moment the bytes received so far fall behind, and moved on
+  // with every chunk; when it fires, the pending read is cancelled and the upload answered 408.
+
+  void arm_rate_check() {
+    const std::uint64_t rate = context_.limits.min_upload_bytes_per_second;
+    if (rate == 0) return;
+    const auto allowance = std::chrono::duration_cast<clock::duration>(
+        std::chrono::duration<double>(static_cast<double>(upload_bytes_) / static_cast<double>(rate)));
+    rate_timer_.expires_at(body_started_ + context_.limits.upload_rate_grace + allowance);
+    rate_timer_.async_wait([weak = std::weak_ptr<http_session>(this->shared_from_this())](beast::error_code ec) {
+      if (auto self = weak.lock(); self && !ec) self->on_rate_deadline();
+    });
+  }
+
+  void stop_rate_check() { rate_timer_.cancel(); }
+
+  void on_rate_deadline() {
+    if (!body_parser_ || body_parser_->is_done() || rate_violated_) return;
+    rate_violated_ = true;
+    transport::cancel(stream_);  // the pending read ends with operation_aborted: on_body_error answers 408
+  }
+
+  void refuse_slow_upload() {
+    log_event(context_.log, spdlog::level::info, "upload_too_slow",
+              {{"request_id", request_id_},
+               {"client", client_},
+               {"route", plan_.route},
+               {"body_bytes", upload_bytes_},
+               {"ms", std::chrono::duration<double, std::milli>(clock::now() - body_started_).count()}});
+    send(error_reply(408, "request_timeout",
+                     "the upload body arrived slower than " +
+                         std::to_string(context_.limits.min_upload_bytes_per_second) +
+                         " bytes per second (after a grace time of " +
+                         std::to_string(context_.limits.upload_rate_grace.count()) + " ms)",
+                     plan_.route),
+         /*force_close=*/true);
   }
 
   void body_complete_without_bytes() {
@@ -373,6 +438,8 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   void on_body_error(beast::error_code ec) {
+    stop_rate_check();
+    if (rate_violated_) return refuse_slow_upload();
     if (ec == http::error::body_limit) {
       return send(error_reply(413, "limit_exceeded",
                               "the request body exceeds " + std::to_string(plan_.max_bytes) + " bytes",
@@ -413,6 +480,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   void send(reply r, bool force_close = false) {
     if (r.events) return start_event_stream(std::move(r));
     // The request's resources (upload reservation, parsers) are no longer needed once its answer is known.
+    stop_rate_check();
     plan_.ticket.reset();
     multipart_.reset();
     const bool head_request = head_.method() == http::verb::head;
@@ -592,6 +660,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   void close() {
+    stop_rate_check();
     stop_being_idle();
     end_request();
     plan_.ticket.reset();
@@ -603,6 +672,9 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   const std::string client_;  // the peer's address, for the access log
   std::string request_id_;
   bool health_only_ = false;  // over the connection limit: one health request, then close
+  reply health_only_refusal_;  // health_only_: the answer to anything but a health route
+  bool over_client_limit_ = false;  // health_only_ because its client is over max_connections_per_client
+  std::shared_ptr<client_lease> client_lease_;  // this connection counted against its client's connection limit
   bool idle_ = false;         // waiting for the first bytes of a request
   std::optional<std::uint64_t> idle_key_;  // this connection's entry in context_.state.idle
   std::uint64_t idle_generation_ = 0;      // tells a stale close_if_idle from the current idle period
@@ -614,6 +686,9 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   std::optional<multipart_parser> multipart_;
   std::vector<char> chunk_;
   std::uint64_t upload_bytes_ = 0;  // body bytes of the current upload received so far
+  net::steady_timer rate_timer_;    // the minimum upload rate (arm_rate_check)
+  clock::time_point body_started_{};
+  bool rate_violated_ = false;      // the current upload fell behind the minimum rate: answer 408
   request_head head_;
   body_plan plan_;
   clock::time_point request_started_{};

@@ -42,6 +42,7 @@ struct stream_transport<boost::beast::test::stream> {
   static void expire_after(boost::beast::test::stream&, std::chrono::steady_clock::duration) {}
   static void expire_at(boost::beast::test::stream&, std::chrono::steady_clock::time_point) {}
   static void expire_never(boost::beast::test::stream&) {}
+  static void cancel(boost::beast::test::stream& s) { s.close(); }
   static void close(boost::beast::test::stream& s) { s.close(); }
   static std::string client_address(boost::beast::test::stream&) { return "test-stream"; }
   static bool has_unread_bytes(boost::beast::test::stream&) { return false; }
@@ -91,6 +92,9 @@ server_config fuzz_config() {
   config.limits.max_queue = 2;
   config.limits.mesh.max_atoms = 200;
   config.limits.job_timeout = std::chrono::seconds(10);
+  // The rate check's timer would keep each input's io_context running for the grace time; its deadlines are
+  // no-ops over the test stream anyway.
+  config.limits.min_upload_bytes_per_second = 0;
   return config;
 }
 
@@ -98,10 +102,10 @@ server_config fuzz_config() {
 class recording_handler final : public request_handler {
  public:
   explicit recording_handler(request_handler& inner) : inner_(inner) {}
-  std::variant<reply, body_plan> plan(const request_head& head) override {
+  std::variant<reply, body_plan> plan(const request_head& head, const std::string& client) override {
     std::lock_guard lock(mutex_);
     methods_.push_back(head.method());
-    return inner_.plan(head);
+    return inner_.plan(head, client);
   }
   void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) override {
     inner_.handle(head, plan, std::move(body), std::move(done));
@@ -142,12 +146,15 @@ struct fuzz_service {
                  },
                  stats};
   net::thread_pool prep{1};
-  api_handlers api{api_dependencies{config, jobs, cache, store, mesh_context, auth, stats, *log, state, cors, prep}};
+  net::thread_pool large_uploads{1};
+  api_handlers api{api_dependencies{config, jobs, cache, store, mesh_context, auth, stats, *log, state, cors, prep,
+                                    large_uploads}};
   recording_handler recorder{api};
   http_context context{config.limits, recorder, state, stats, *log, cors};
 
   ~fuzz_service() {
     jobs.shutdown(std::chrono::milliseconds(0));
+    large_uploads.join();
     prep.join();
   }
 };

@@ -639,7 +639,8 @@ TEST_F(TracemeshdTest, TwentyConcurrentIdenticalUploadsRunTheMesherOnce) {
 }
 
 TEST_F(TracemeshdTest, QueueOverflowGives429WithRetryAfter) {
-  server_process server(work_.path(), {"--workers", "1", "--max-queue", "1"});
+  // No small-job lane: fas2 would run on it instead of waiting in the queue.
+  server_process server(work_.path(), {"--workers", "1", "--small-job-workers", "0", "--max-queue", "1"});
   const fs::path fas2 = molecule_path("fas2.pqr");
   curl_reply running = upload(server, fas2, "-F density=2", "/jobs");
   curl_reply queued = upload(server, fas2, "-F density=2.5", "/jobs");
@@ -1311,7 +1312,8 @@ TEST_F(TracemeshdTest, AnUnusableCacheOrJobDirectoryStopsTheStartWithOneLine) {
 // Finding 2: any client could DELETE any job, and a second submitter of the same molecule lost its job. Now each
 // submission gets an owner token; a shared job is cancelled only when every owner withdrew.
 TEST_F(TracemeshdTest, ASharedJobIsCancelledOnlyWhenEveryOwnerWithdrew) {
-  server_process server(work_.path(), {"--no-disk-store", "--workers", "1"});
+  // No small-job lane: the shared fas2 job must stay queued behind the blocker.
+  server_process server(work_.path(), {"--no-disk-store", "--workers", "1", "--small-job-workers", "0"});
   const curl_reply blocker = upload(server, molecule_path("2buk_12asu.pqr"), "", "/jobs");
   ASSERT_EQ(blocker.status, 202) << blocker.body;
   const curl_reply first = upload(server, molecule_path("fas2.pqr"), "", "/jobs");
@@ -1361,6 +1363,20 @@ TEST_F(TracemeshdTest, ABearerTokenFileGuardsEveryRouteButTheExemptOnes) {
   const auto [code, output] = run_tracemeshd("--no-disk-store --auth-token-file " + write("short", "abc\n").string());
   EXPECT_EQ(code, 1) << output;
   EXPECT_NE(output.find("shorter than 16"), std::string::npos) << output;
+}
+
+// Issue 12, finding 10: a small job waited behind big ones. With one general worker busy on 2buk_12asu
+// (34,284 atoms, over --small-job-max-atoms), fas2 (906 atoms) is meshed on the small-job lane meanwhile.
+TEST_F(TracemeshdTest, ASmallJobIsMeshedWhileABigOneHoldsTheOnlyWorker) {
+  server_process server(work_.path(), {"--workers", "1", "--small-job-workers", "1", "--small-job-max-atoms", "20000"});
+  const curl_reply big = upload(server, molecule_path("2buk_12asu.pqr"), "", "/jobs");
+  ASSERT_EQ(big.status, 202) << big.body;
+  const std::string big_url = server.url("/jobs/" + nlohmann::json::parse(big.body).at("id").get<std::string>());
+  const curl_reply small = upload(server, molecule_path("fas2.pqr"));
+  EXPECT_EQ(small.status, 200) << small.body;
+  EXPECT_EQ(nlohmann::json::parse(curl("", big_url).body).at("status"), "running")
+      << "fas2 was answered while the big job still ran";
+  curl("-X DELETE -H 'X-Job-Token: " + nlohmann::json::parse(big.body).at("token").get<std::string>() + "'", big_url);
 }
 
 }  // namespace

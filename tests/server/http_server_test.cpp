@@ -508,5 +508,41 @@ TEST_F(HttpServerTest, ClientsVanishingMidUploadOrMidDownloadLeaveNothingBehind)
   EXPECT_EQ(get("/healthz").status, 200);
 }
 
+TEST_F(HttpServerTest, ACacheHitDoesNotWaitBehindABigDecompression) {
+  // Finding 6: decompression and parsing ran on one thread, so one big gzip upload delayed a cache hit by 9.6 s.
+  // Big or gzip-encoded uploads are decoded on the large-upload pool; small uploads and cache reads stay on the
+  // prep pool. Ordering, not a clock: the hit is answered while the big upload is still being decoded (it holds
+  // its upload slot until it has been parsed).
+  start([](server_config& c) {
+    c.limits.max_pqr_bytes = 64u << 20;
+    c.limits.max_upload_bytes = 1u << 20;
+  });
+  ASSERT_EQ(post("/mesh", gly_).status, 200);  // cached from now on
+
+  // A body decoding to more than max_pqr_bytes (a gzip bomb, answered 413 once 64 MB are inflated), made of
+  // concatenated gzip members: a multipart preamble, then 1 MiB of PQR text 80 times (~1 KB each compressed).
+  const std::string preamble = "--" + std::string(test_boundary) +
+                               "\r\nContent-Disposition: form-data; name=\"pqr\"; filename=\"big.pqr\"\r\n\r\n";
+  std::string block;
+  while (block.size() < (1u << 20)) block += "ATOM 1 C ALA 1 0.0 0.0 0.0 0.0 1.5\n";
+  const std::string block_member = gzipped(block);
+  std::string compressed = gzipped(preamble);
+  for (int i = 0; i < 80; ++i) compressed += block_member;
+  ASSERT_FALSE(block_member.empty());
+  ASSERT_LT(compressed.size(), config_.limits.max_upload_bytes);
+
+  raw_connection big(port_, 60s);
+  ASSERT_TRUE(big.send(encoded_upload("/mesh", "gzip", compressed)));
+  ASSERT_TRUE(eventually([&] { return service_->uploads().bytes_in_flight() == compressed.size(); }))
+      << "the whole compressed body was received: its decoding starts now";
+
+  const http_reply hit = post("/mesh", gly_);
+  EXPECT_EQ(hit.status, 200);
+  EXPECT_EQ(hit.header("x-cache"), "hit");
+  EXPECT_EQ(service_->uploads().uploads_in_flight(), 1u) << "the big upload was still being decoded or parsed";
+  EXPECT_TRUE(big.unread().empty()) << "and had not been answered";
+  expect_error(big.read_reply(), 413, "limit_exceeded");
+}
+
 }  // namespace
 }  // namespace tracemesh::server::test

@@ -342,5 +342,88 @@ TEST(JobQueue, ForgetsOldFinishedJobsBeyondTheRecordLimit) {
   EXPECT_TRUE(queue.find("j3"));
 }
 
+
+// ---- the small-job lane (issue 12, finding 10: a small job waited behind big ones) ------------------------------
+
+/// Polls until job `id` is in `state` (5 s at most).
+bool eventually_state(const job_queue& queue, const std::string& id, job_state state) {
+  const auto deadline = std::chrono::steady_clock::now() + 5s;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const auto job = queue.find(id);
+    if (job && job->state == state) return true;
+    std::this_thread::sleep_for(1ms);
+  }
+  return false;
+}
+
+/// A molecule of `atoms` identical atoms (only the count matters to the queue).
+std::shared_ptr<const job_input> input_of(std::size_t atoms) {
+  auto input = std::make_shared<job_input>();
+  input->mol.atoms.resize(atoms);
+  return input;
+}
+
+/// Big jobs (more than `small_atoms` atoms) block until open(); small ones finish at once.
+class big_gate_work {
+ public:
+  explicit big_gate_work(std::size_t small_atoms) : small_atoms_(small_atoms) {}
+  job_work work() {
+    return [this](const std::string&, const job_input& input, progress_token& token) -> result<job_output> {
+      std::unique_lock lock(mutex_);
+      while (!open_ && input.mol.atoms.size() > small_atoms_) {
+        if (!token.report(mesh_stage::sampling, 0.5)) return status(errc::cancelled, "cancelled");
+        changed_.wait_for(lock, 2ms);
+      }
+      return job_output{};
+    };
+  }
+  void open() {
+    std::lock_guard lock(mutex_);
+    open_ = true;
+    changed_.notify_all();
+  }
+
+ private:
+  const std::size_t small_atoms_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  bool open_ = false;
+};
+
+TEST(JobQueue, ASmallJobPassesBigOnesOnTheSmallJobLane) {
+  metrics stats;
+  big_gate_work gate(10);
+  job_queue_options o = options(1, 8);
+  o.small_job_workers = 1;
+  o.small_job_max_atoms = 10;
+  job_queue queue(o, gate.work(), stats);
+  ASSERT_EQ(queue.submit("big-1", input_of(100)).outcome, submit_outcome::accepted);
+  ASSERT_TRUE(eventually_state(queue, "big-1", job_state::running));
+  ASSERT_EQ(queue.submit("big-2", input_of(100)).outcome, submit_outcome::accepted);
+  ASSERT_EQ(queue.submit("small", input_of(10)).outcome, submit_outcome::accepted);
+
+  EXPECT_EQ(wait_final(queue, "small").state, job_state::done) << "the lane ran it past both big jobs";
+  EXPECT_EQ(queue.find("big-1")->state, job_state::running);
+  EXPECT_EQ(queue.find("big-2")->state, job_state::queued) << "the lane never takes a big job";
+  gate.open();
+  EXPECT_EQ(wait_final(queue, "big-1").state, job_state::done);
+  EXPECT_EQ(wait_final(queue, "big-2").state, job_state::done);
+}
+
+TEST(JobQueue, WithoutTheLaneASmallJobWaitsItsTurn) {
+  metrics stats;
+  big_gate_work gate(10);
+  job_queue queue(options(1, 8), gate.work(), stats);
+  ASSERT_EQ(queue.submit("big-1", input_of(100)).outcome, submit_outcome::accepted);
+  ASSERT_TRUE(eventually_state(queue, "big-1", job_state::running));
+  ASSERT_EQ(queue.submit("big-2", input_of(100)).outcome, submit_outcome::accepted);
+  ASSERT_EQ(queue.submit("small", input_of(10)).outcome, submit_outcome::accepted);
+  const auto small = queue.find("small");
+  EXPECT_EQ(small->state, job_state::queued);
+  EXPECT_EQ(small->queue_position, 1u) << "general workers take jobs oldest first";
+  gate.open();
+  EXPECT_EQ(wait_final(queue, "small").state, job_state::done);
+}
+
 }  // namespace
 }  // namespace tracemesh::server

@@ -50,7 +50,7 @@ class fake_mesher {
       std::unique_lock lock(mutex_);
       last_params_ = params;
       const mesh_stage stage = params.method == mesh_method::trace ? mesh_stage::tracing : mesh_stage::sampling;
-      while (!open_) {
+      while (!open_ && mol.atoms.size() >= gate_min_atoms_) {
         if (!token.report(stage, 0.25)) return status(errc::cancelled, "cancelled");
         changed_.wait_for(lock, 2ms);
       }
@@ -84,6 +84,11 @@ class fake_mesher {
     open_ = open;
     changed_.notify_all();
   }
+  /// Only molecules of at least `atoms` atoms wait at the closed gate; smaller ones pass (default 0: all wait).
+  void set_gate_min_atoms(std::size_t atoms) {
+    std::lock_guard lock(mutex_);
+    gate_min_atoms_ = atoms;
+  }
   int runs() const { return runs_.load(); }
   /// The parameters of the last run (mesh_params{} before any).
   mesh_params last_params() {
@@ -96,6 +101,7 @@ class fake_mesher {
   mesh_params last_params_;
   std::condition_variable changed_;
   bool open_ = true;
+  std::size_t gate_min_atoms_ = 0;
   std::atomic<int> runs_{0};
 };
 

@@ -129,7 +129,10 @@ TEST_F(ServiceTest, IdenticalConcurrentUploadsRunTheMesherOnce) {
 }
 
 TEST_F(ServiceTest, FullQueueAnswers429WithRetryAfterAndRecovers) {
-  start([](server_config& c) { c.limits.max_queue = 1; });
+  start([](server_config& c) {
+    c.limits.max_queue = 1;
+    c.small_job_workers = 0;  // one-atom jobs would otherwise run on the small-job lane instead of waiting
+  });
   mesher_.set_open(false);
   ASSERT_EQ(post("/jobs", atom_line(1, 0.0)).status, 202);  // runs
   const auto wait_deadline = std::chrono::steady_clock::now() + 5s;
@@ -397,20 +400,23 @@ TEST_F(ServiceTest, AClientLeavingASynchronousRequestDoesNotCancelItsJob) {
 
 TEST_F(ServiceTest, UploadBytesInFlightAreBoundedTogether) {
   const std::string full = upload_request("/mesh", gly_);
-  const std::size_t body_bytes = full.size() - (full.find("\r\n\r\n") + 4);
+  const std::size_t header_end = full.find("\r\n\r\n") + 4;
+  const std::size_t body_bytes = full.size() - header_end;
   start([&](server_config& c) { c.limits.max_upload_bytes_in_flight = body_bytes + body_bytes / 2; });
 
-  // One upload holds its whole Content-Length while its body is still arriving.
+  // One upload holds the bytes it has received while the rest of its body is still arriving.
   raw_connection holding(port_);
   ASSERT_TRUE(holding.send(full.substr(0, full.size() - 10)));
-  ASSERT_TRUE(eventually([&] { return service_->uploads().bytes_in_flight() == body_bytes; }));
+  ASSERT_TRUE(eventually([&] { return service_->uploads().bytes_in_flight() == body_bytes - 10; }));
 
-  // A second upload of the same size does not fit next to it: 429 before its body, without 100 Continue.
+  // A second upload of the same size is admitted (it has sent nothing yet), and refused with 429 once its bytes
+  // no longer fit next to the first one's; the connection is closed (the rest of its body is not read).
   raw_connection second(port_);
-  ASSERT_TRUE(second.send(full.substr(0, full.find("\r\n\r\n")) + "\r\nExpect: 100-continue\r\n\r\n"));
+  ASSERT_TRUE(second.send(full));
   const http_reply refused = second.read_reply();
   expect_error(refused, 429, "queue_full");
   EXPECT_EQ(refused.header("retry-after"), "5");
+  EXPECT_EQ(refused.header("connection"), "close");
 
   // A chunked upload is admitted (its size is unknown), then refused once what it sent no longer fits.
   raw_connection chunked(port_);
@@ -431,6 +437,23 @@ TEST_F(ServiceTest, UploadBytesInFlightAreBoundedTogether) {
   EXPECT_TRUE(eventually([&] { return service_->uploads().bytes_in_flight() == 0; }));
   EXPECT_EQ(service_->uploads().uploads_in_flight(), 0u);
   EXPECT_EQ(post("/mesh", gly_).status, 200) << "the bytes were released";
+}
+
+TEST_F(ServiceTest, DeclaredButUnsentUploadBytesHoldNoBudget) {
+  // Finding 4: five uploads declaring 255 MB and sending nothing exhausted the 1 GiB budget. Here: five uploads
+  // declaring the largest accepted body each, against a budget of less than two of them.
+  const std::uint64_t max_upload = 256 * 1024;
+  start([&](server_config& c) { c.limits.max_upload_bytes_in_flight = max_upload + max_upload / 2; });
+  const std::string declared_header = "POST /mesh HTTP/1.1\r\nHost: t\r\nContent-Type: multipart/form-data; "
+                                      "boundary=b\r\nContent-Length: " + std::to_string(max_upload) + "\r\n\r\n";
+  std::vector<std::unique_ptr<raw_connection>> silent;
+  for (int i = 0; i < 5; ++i) {
+    silent.push_back(std::make_unique<raw_connection>(port_));
+    ASSERT_TRUE(silent.back()->send(declared_header));
+  }
+  ASSERT_TRUE(eventually([&] { return service_->uploads().uploads_in_flight() == 5; }));
+  EXPECT_EQ(service_->uploads().bytes_in_flight(), 0u) << "nothing was received, nothing is held";
+  EXPECT_EQ(post("/mesh", gly_).status, 200) << "a real upload still fits in the budget";
 }
 
 TEST_F(ServiceTest, MetricsParseAsPrometheusTextAfterRealTraffic) {

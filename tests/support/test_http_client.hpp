@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -37,11 +38,17 @@ class raw_connection {
   /// Connects to 127.0.0.1:`port`. `timeout`: how long each read waits. `receive_buffer_bytes` > 0 shrinks the
   /// socket's receive buffer (set before connecting), so that a client that does not read stalls the server soon.
   explicit raw_connection(unsigned short port, std::chrono::milliseconds timeout = std::chrono::seconds(20),
-                          int receive_buffer_bytes = 0)
+                          int receive_buffer_bytes = 0, std::uint32_t source_address = INADDR_LOOPBACK)
       : timeout_(timeout) {
     fd_ = ::socket(AF_INET, SOCK_STREAM, 0);
     if (receive_buffer_bytes > 0) {
       ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &receive_buffer_bytes, sizeof receive_buffer_bytes);
+    }
+    if (source_address != INADDR_LOOPBACK) {  // another client: 127.0.0.0/8 is all loopback on Linux
+      sockaddr_in source{};
+      source.sin_family = AF_INET;
+      source.sin_addr.s_addr = htonl(source_address);
+      ::bind(fd_, reinterpret_cast<sockaddr*>(&source), sizeof source);
     }
     sockaddr_in address{};
     address.sin_family = AF_INET;
