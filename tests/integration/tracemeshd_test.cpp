@@ -1170,6 +1170,32 @@ TEST_F(TracemeshdTest, ABearerTokenFileGuardsEveryRouteButTheExemptOnes) {
 }
 
 
+// Finding 7: one atom of radius ≤ 0.006 Å gave 500 internal_error (its certificate failed in the mesher). Now an
+// atom too small for the density is the user's error, 422 unresolvable_input naming it, synchronously and as a job,
+// alone or beside a real molecule, and the server keeps serving.
+TEST_F(TracemeshdTest, ATinyAtomGets422NamingItNever500) {
+  server_process server(work_.path(), {});
+  const std::string tiny_atom = "ATOM      1  C   GLY     1       0.000   0.000   0.000  0.0000 0.0060\n";
+  const fs::path lone = write("tiny.pqr", tiny_atom);
+  std::string gly_and_tiny = read_file(molecule_path("gly.pqr"));
+  if (gly_and_tiny.back() != '\n') gly_and_tiny += '\n';  // gly.pqr ends without a line break
+  gly_and_tiny += "ATOM      9  C   GLY   562      20.000  20.000  20.000  0.0000 0.0010\n";
+  const fs::path beside = write("gly-and-tiny.pqr", gly_and_tiny);
+  for (const auto& [pqr, route] : {std::pair{lone, "/mesh"}, std::pair{lone, "/jobs"}, std::pair{beside, "/mesh"},
+                                   std::pair{beside, "/jobs"}}) {
+    for (const char* density : {"0.2", "1", "20"}) {
+      const curl_reply reply = upload(server, pqr, std::string("-F density=") + density, route);
+      expect_error(reply, 422, "unresolvable_input", pqr.filename().string() + " " + route + " density " + density);
+      EXPECT_NE(reply.body.find("atom"), std::string::npos) << reply.body;
+    }
+  }
+  EXPECT_EQ(upload(server, molecule_path("gly.pqr"), "").status, 200) << "the server keeps serving";
+  EXPECT_FALSE(log_events(server.log(), "access").empty());
+  for (const nlohmann::json& access : log_events(server.log(), "access")) {
+    EXPECT_LT(access.value("status", 0), 500) << access;
+  }
+}
+
 // ---- Chaos: kill -9 at random moments while jobs run and uploads stream (issue 12) ---------------------------
 // TRACEMESH_CHAOS_ROUNDS (default 10; `make bench-chaos` runs 100) and TRACEMESH_CHAOS_SEED (default: random;
 // the seed is printed, so a failing run is replayed exactly).
