@@ -5,6 +5,7 @@
 #include <gemmi/pdb.hpp>
 #include <gemmi/polyheur.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -49,6 +50,14 @@ bool is_pdb_end_record(std::string_view line) {
   return has_record_prefix(line, "END") && (line.size() == 3 || line[3] == ' ' || line[3] == '\t');
 }
 
+/// Columns that gemmi reads of every line as a record name, by shifting its (signed) chars: 1-4 for the record,
+/// 5-7 for its mmJSON sniff. They must be ASCII (a PDB record name always is); a fuzz find.
+constexpr std::size_t pdb_record_name_columns = 7;
+bool has_ascii_record_name(std::string_view line) {
+  const std::string_view name = line.substr(0, pdb_record_name_columns);
+  return std::none_of(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) >= 0x80; });
+}
+
 std::string_view trimmed(std::string_view field) {
   const std::size_t begin = field.find_first_not_of(" \t");
   if (begin == std::string_view::npos) return {};
@@ -64,6 +73,10 @@ status check_pdb_text(std::string_view text, const mesh_limits& limits) {
     result<bool> more = lines.next(line);
     if (!more) return more.error();
     if (!*more || is_pdb_end_record(line)) return status::success();
+    if (!has_ascii_record_name(line)) {
+      return detail::line_error(lines.line_number(), "record name '" + detail::quote_bytes(line.substr(0, 6)) +
+                                                         "' (columns 1-6) is not ASCII; PDB text is ASCII");
+    }
     if (!is_pdb_atom_record(line)) continue;
     const std::size_t number = lines.line_number();
     if (++atom_records > limits.max_atoms) {
@@ -263,6 +276,8 @@ result<molecule> parse_pdb(std::string_view text, const structure_options& optio
     return atoms_of(structure, options, limits, "ATOM or HETATM record");
   } catch (const std::runtime_error& error) {
     return gemmi_error("PDB", error);
+  } catch (const std::logic_error& error) {  // gemmi's number parsers throw std::invalid_argument
+    return gemmi_error("PDB", error);
   }
 }
 
@@ -284,6 +299,8 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
     return atoms_of(structure, options, limits, "_atom_site row");
   } catch (const std::runtime_error& error) {
     return gemmi_error("mmCIF", error);
+  } catch (const std::logic_error& error) {  // gemmi's as_int throws std::invalid_argument (a fuzz find: it
+    return gemmi_error("mmCIF", error);      // terminated tracemeshd on an upload with auth_seq_id ';')
   }
 }
 
