@@ -56,7 +56,7 @@ for name in $FUZZ_TARGETS; do
   fi
   merged=0
   if [[ "$FUZZ_MERGE" == 1 ]] && compgen -G "$work/new/*" > /dev/null; then
-    "$fuzzer" -merge=1 -timeout="$FUZZ_TIMEOUT" -rss_limit_mb=2048 "$corpus" "$work/new" > "$work/merge.log" 2>&1 || true
+    "$fuzzer" -merge=1 -timeout="$FUZZ_TIMEOUT" -rss_limit_mb=2048 -artifact_prefix="$work/merge-" "$corpus" "$work/new" > "$work/merge.log" 2>&1 || true
     merged=$(( $(find "$corpus" -type f | wc -l) - before - crashes ))
   fi
   rate=$(( runs / (seconds > 0 ? seconds : 1) ))
