@@ -124,6 +124,35 @@ std::string with_lf_line_ends(std::string_view text) {
   return out;
 }
 
+/// gemmi reads columns 73-80 of a LINK or SSBOND record longer than 73 columns without checking its length (a
+/// heap read past the line, a fuzz find): such records are padded with blanks to this many columns.
+constexpr std::size_t pdb_connection_record_columns = 80;
+bool is_short_connection_record(std::string_view line) {
+  return (has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() > 73 &&
+         line.size() < pdb_connection_record_columns;
+}
+
+/// The text as gemmi's PDB reader needs it: LF line ends and short connection records padded. Empty when `text`
+/// already is.
+std::string text_for_gemmi(std::string_view text) {
+  const std::string lf_text = text.find('\r') == std::string_view::npos ? std::string() : with_lf_line_ends(text);
+  const std::string_view input = lf_text.empty() ? text : std::string_view(lf_text);
+  std::string padded;
+  std::size_t copied = 0;  // bytes of input already in `padded`
+  for (std::size_t begin = 0; begin < input.size();) {
+    const std::size_t end = std::min(input.find('\n', begin), input.size());
+    if (is_short_connection_record(input.substr(begin, end - begin))) {
+      padded.append(input.substr(copied, end - copied));
+      padded.append(pdb_connection_record_columns - (end - begin), ' ');
+      copied = end;
+    }
+    begin = end + 1;
+  }
+  if (copied == 0) return lf_text;
+  padded.append(input.substr(copied));
+  return padded;
+}
+
 std::string atom_label(const gemmi::Chain& chain, const gemmi::Residue& residue, const gemmi::Atom& a) {
   return "atom " + std::to_string(a.serial) + " (" + detail::quote_bytes(a.name) + " " +
          detail::quote_bytes(residue.name) + " " + detail::quote_bytes(chain.name) + " " +
@@ -269,8 +298,8 @@ status check_atom_site(gemmi::cif::Block& block, const mesh_limits& limits) {
 
 result<molecule> parse_pdb(std::string_view text, const structure_options& options, const mesh_limits& limits) {
   if (status checked = check_pdb_text(text, limits); !checked) return checked;
-  const std::string lf_text = text.find('\r') == std::string_view::npos ? std::string() : with_lf_line_ends(text);
-  const std::string_view input = lf_text.empty() ? text : std::string_view(lf_text);
+  const std::string prepared = text_for_gemmi(text);
+  const std::string_view input = prepared.empty() ? text : std::string_view(prepared);
   try {
     gemmi::Structure structure = gemmi::read_pdb_from_memory(input.data(), input.size(), "input");
     return atoms_of(structure, options, limits, "ATOM or HETATM record");

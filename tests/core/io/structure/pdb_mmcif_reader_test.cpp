@@ -133,6 +133,24 @@ TEST(PdbReader, RejectsBadRecordsNamingTheLineOrAtom) {
             "line 1: control byte 0x7f at column 1 (binary data, not PDB text)");
 }
 
+// A fuzz find: gemmi read columns 74-78 of a LINK record of 74-77 columns past the end of the line (ASan: a heap
+// read overflow). The reader pads such records; the atoms are read as without the record.
+TEST(PdbReader, ShortLinkAndSsbondRecordsAreReadWithinTheirLine) {
+  const std::string atom = pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C");
+  for (const char* record_name : {"LINK", "SSBOND"}) {
+    const std::string record = record_name;
+    for (std::size_t columns : {74u, 76u, 77u}) {
+      std::string line = record + std::string(columns - record.size() - 2, ' ') + "2.";
+      line[73] = '2';
+      for (const char* end : {"\n", "\r\n"}) {
+        const result<molecule> mol = parse_pdb(atom + line + end + atom);
+        ASSERT_TRUE(mol.ok()) << record << " " << columns << ": " << mol.error().message();
+        EXPECT_EQ(mol->atoms.size(), 2u);
+      }
+    }
+  }
+}
+
 const std::string cif_header =
     "data_t\nloop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n_atom_site.label_atom_id\n"
     "_atom_site.label_alt_id\n_atom_site.label_comp_id\n_atom_site.label_asym_id\n_atom_site.label_entity_id\n"
