@@ -26,7 +26,7 @@ test-sanitize: deps
 	cd $(SANITIZE_DIR) && TRACEMESH_SANITIZED=1 ctest --output-on-failure -j $(JOBS) --timeout 1800
 
 # ThreadSanitizer on the server: tracemeshd and the server and integration test executables only, with clang-14
-# (Boost.Asio and libstdc++ under gcc 12's -Wtsan fail -Werror on atomic_thread_fence). Reports go to
+# like the fuzz build (gcc 12's -Wtsan on atomic_thread_fence would be an error under -Werror). Reports go to
 # $(TSAN_DIR)/tsan-report.<pid> (the integration tests' tracemeshd children too) and fail the target.
 # tests/tsan.supp lists third-party false positives only, each with its reason. Not in .ci/run (time).
 TSAN_OPTIONS_ALL = halt_on_error=1 second_deadlock_stack=1 history_size=4 suppressions=$(CURDIR)/tests/tsan.supp log_path=$(CURDIR)/$(TSAN_DIR)/tsan-report
