@@ -1,12 +1,13 @@
 # tracemesh — the four entry points of DEVELOPERS.md. Everything else is CMake.
 BUILD_DIR        ?= build
 SANITIZE_DIR     ?= build-asan
+TSAN_DIR         ?= build-tsan
 JOBS             ?= $(shell nproc)
 LISTEN           ?= 127.0.0.1:8080
 CACHE_DIR        ?= $(CURDIR)/cache
 CMAKE_FLAGS      ?=
 
-.PHONY: deps build test test-sanitize run bench bench-paper fuzz image test-image clean
+.PHONY: deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos fuzz fuzz-campaign image test-image clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -24,6 +25,20 @@ test-sanitize: deps
 	cmake --build $(SANITIZE_DIR) -j $(JOBS)
 	cd $(SANITIZE_DIR) && TRACEMESH_SANITIZED=1 ctest --output-on-failure -j $(JOBS) --timeout 1800
 
+# ThreadSanitizer on the server: tracemeshd and the server and integration test executables only, with clang-14
+# like the fuzz build (gcc 12's -Wtsan on atomic_thread_fence would be an error under -Werror). Reports go to
+# $(TSAN_DIR)/tsan-report.<pid> (the integration tests' tracemeshd children too) and fail the target.
+# tests/tsan.supp lists third-party false positives only, each with its reason. Not in .ci/run (time).
+TSAN_OPTIONS_ALL = halt_on_error=1 second_deadlock_stack=1 history_size=4 suppressions=$(CURDIR)/tests/tsan.supp log_path=$(CURDIR)/$(TSAN_DIR)/tsan-report
+test-tsan: deps
+	CXX=clang++-14 cmake -S . -B $(TSAN_DIR) -DCMAKE_BUILD_TYPE=CI -DTRACEMESH_SANITIZE=thread -DTRACEMESH_BUILD_BENCH=OFF $(CMAKE_FLAGS)
+	cmake --build $(TSAN_DIR) -j $(JOBS) --target tracemeshd server_tests integration_tests
+	rm -f $(TSAN_DIR)/tsan-report.*
+	cd $(TSAN_DIR) && TRACEMESH_SANITIZED=1 TSAN_OPTIONS="$(TSAN_OPTIONS_ALL)" \
+	  ctest -R '^(server|integration)\.' --output-on-failure -j $(JOBS) --timeout 1800
+	@if ls $(TSAN_DIR)/tsan-report.* > /dev/null 2>&1; then cat $(TSAN_DIR)/tsan-report.*; \
+	  echo "test-tsan: ThreadSanitizer reports above ($(TSAN_DIR)/tsan-report.*)" >&2; exit 1; fi
+
 run: build
 	@if [ -x $(BUILD_DIR)/bin/tracemeshd ]; then \
 	  mkdir -p $(CACHE_DIR) && exec $(BUILD_DIR)/bin/tracemeshd --listen $(LISTEN) --cache-dir $(CACHE_DIR); \
@@ -34,6 +49,17 @@ run: build
 # The molecule ladder, lattice vs trace (bench/run_ladder.sh: RUNS, MAX_ATOMS, MOLECULES, THREADS...).
 bench: build
 	BUILD_DIR=$(BUILD_DIR) bash bench/run_ladder.sh
+
+# Load: 1,000 mixed requests at 64 concurrent against tracemeshd; Markdown p50/p99 table, fails on any 5xx
+# (bench/load_bench.py: LOAD_ARGS="--requests 200 --seed 3" ...).
+bench-load: build
+	python3 bench/load_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(CURDIR)/../shared/molecules $(LOAD_ARGS)
+
+# Chaos: 100 rounds of kill -9 at seeded random moments while jobs run and uploads stream (10 run in `make test`).
+CHAOS_ROUNDS ?= 100
+bench-chaos: build
+	cd $(BUILD_DIR) && TRACEMESH_CHAOS_ROUNDS=$(CHAOS_ROUNDS) $(if $(CHAOS_SEED),TRACEMESH_CHAOS_SEED=$(CHAOS_SEED)) \
+	  ./bin/integration_tests --gtest_filter='*ChaosKill9*'
 
 # The paper reproduction: bench/paper/report.md and its figures (PAPER_MAX_ATOMS=20000 for a quick run).
 bench-paper: build
@@ -55,5 +81,14 @@ image:
 test-image: image
 	bash tests/image/smoke_test.sh $(IMAGE)
 
+# The fuzz campaign: each fuzz target FUZZ_RUNS executions (default 10^7; FUZZ_RUNS=100000 for a short run,
+# FUZZ_TARGETS="pqr_reader gzip_body" for some); new coverage is merged into tests/fuzz/corpus/<name>/ and every
+# crash kept there as a regression input (scripts/fuzz_campaign.sh; summary in build-fuzz/campaign/summary.md).
+FUZZ_TARGET_NAMES = $(patsubst tests/fuzz/%.cpp,%,$(wildcard tests/fuzz/*_fuzzer.cpp))
+fuzz-campaign: deps
+	CXX=clang++-14 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=CI -DTRACEMESH_BUILD_FUZZERS=ON -DTRACEMESH_SANITIZE="address;undefined" -DTRACEMESH_BUILD_BENCH=OFF $(CMAKE_FLAGS)
+	cmake --build build-fuzz -j $(JOBS) --target $(FUZZ_TARGET_NAMES)
+	BUILD_DIR=build-fuzz bash scripts/fuzz_campaign.sh
+
 clean:
-	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) build-fuzz
+	rm -rf $(BUILD_DIR) $(SANITIZE_DIR) $(TSAN_DIR) build-fuzz

@@ -246,7 +246,7 @@ bool fan_is_valid(const std::vector<numbered_vertex>& loop, const surface_sample
   std::vector<vec3> positions{centre.position};
   std::vector<std::array<std::uint32_t, 3>> fan;
   for (std::size_t n = 0; n < loop.size(); ++n) {
-    const vertex_ref a = loop[n].vertex, b = loop[(n + 1) % loop.size()].vertex;
+    vertex_ref a = loop[n].vertex, b = loop[(n + 1) % loop.size()].vertex;
     const vec3 face = cross(b.position - a.position, centre.position - a.position);
     const double longest2 = std::max({squared_norm(b.position - a.position), squared_norm(centre.position - a.position),
                                       squared_norm(centre.position - b.position)});

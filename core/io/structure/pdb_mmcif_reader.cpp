@@ -5,6 +5,7 @@
 #include <gemmi/pdb.hpp>
 #include <gemmi/polyheur.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -49,6 +50,14 @@ bool is_pdb_end_record(std::string_view line) {
   return has_record_prefix(line, "END") && (line.size() == 3 || line[3] == ' ' || line[3] == '\t');
 }
 
+/// Columns that gemmi reads of every line as a record name, by shifting its (signed) chars: 1-4 for the record,
+/// 5-7 for its mmJSON sniff. They must be ASCII (a PDB record name always is); a fuzz find.
+constexpr std::size_t pdb_record_name_columns = 7;
+bool has_ascii_record_name(std::string_view line) {
+  const std::string_view name = line.substr(0, pdb_record_name_columns);
+  return std::none_of(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) >= 0x80; });
+}
+
 std::string_view trimmed(std::string_view field) {
   const std::size_t begin = field.find_first_not_of(" \t");
   if (begin == std::string_view::npos) return {};
@@ -64,6 +73,10 @@ status check_pdb_text(std::string_view text, const mesh_limits& limits) {
     result<bool> more = lines.next(line);
     if (!more) return more.error();
     if (!*more || is_pdb_end_record(line)) return status::success();
+    if (!has_ascii_record_name(line)) {
+      return detail::line_error(lines.line_number(), "record name '" + detail::quote_bytes(line.substr(0, 6)) +
+                                                         "' (columns 1-6) is not ASCII; PDB text is ASCII");
+    }
     if (!is_pdb_atom_record(line)) continue;
     const std::size_t number = lines.line_number();
     if (++atom_records > limits.max_atoms) {
@@ -109,6 +122,35 @@ std::string with_lf_line_ends(std::string_view text) {
     }
   }
   return out;
+}
+
+/// gemmi reads columns 73-80 of a LINK or SSBOND record longer than 73 columns without checking its length (a
+/// heap read past the line, a fuzz find): such records are padded with blanks to this many columns.
+constexpr std::size_t pdb_connection_record_columns = 80;
+bool is_short_connection_record(std::string_view line) {
+  return (has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() > 73 &&
+         line.size() < pdb_connection_record_columns;
+}
+
+/// The text as gemmi's PDB reader needs it: LF line ends and short connection records padded. Empty when `text`
+/// already is.
+std::string text_for_gemmi(std::string_view text) {
+  const std::string lf_text = text.find('\r') == std::string_view::npos ? std::string() : with_lf_line_ends(text);
+  const std::string_view input = lf_text.empty() ? text : std::string_view(lf_text);
+  std::string padded;
+  std::size_t copied = 0;  // bytes of input already in `padded`
+  for (std::size_t begin = 0; begin < input.size();) {
+    const std::size_t end = std::min(input.find('\n', begin), input.size());
+    if (is_short_connection_record(input.substr(begin, end - begin))) {
+      padded.append(input.substr(copied, end - copied));
+      padded.append(pdb_connection_record_columns - (end - begin), ' ');
+      copied = end;
+    }
+    begin = end + 1;
+  }
+  if (copied == 0) return lf_text;
+  padded.append(input.substr(copied));
+  return padded;
 }
 
 std::string atom_label(const gemmi::Chain& chain, const gemmi::Residue& residue, const gemmi::Atom& a) {
@@ -256,12 +298,14 @@ status check_atom_site(gemmi::cif::Block& block, const mesh_limits& limits) {
 
 result<molecule> parse_pdb(std::string_view text, const structure_options& options, const mesh_limits& limits) {
   if (status checked = check_pdb_text(text, limits); !checked) return checked;
-  const std::string lf_text = text.find('\r') == std::string_view::npos ? std::string() : with_lf_line_ends(text);
-  const std::string_view input = lf_text.empty() ? text : std::string_view(lf_text);
+  const std::string prepared = text_for_gemmi(text);
+  const std::string_view input = prepared.empty() ? text : std::string_view(prepared);
   try {
     gemmi::Structure structure = gemmi::read_pdb_from_memory(input.data(), input.size(), "input");
     return atoms_of(structure, options, limits, "ATOM or HETATM record");
   } catch (const std::runtime_error& error) {
+    return gemmi_error("PDB", error);
+  } catch (const std::logic_error& error) {  // gemmi's number parsers throw std::invalid_argument
     return gemmi_error("PDB", error);
   }
 }
@@ -284,6 +328,8 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
     return atoms_of(structure, options, limits, "_atom_site row");
   } catch (const std::runtime_error& error) {
     return gemmi_error("mmCIF", error);
+  } catch (const std::logic_error& error) {  // gemmi's as_int throws std::invalid_argument (a fuzz find: it
+    return gemmi_error("mmCIF", error);      // terminated tracemeshd on an upload with auth_seq_id ';')
   }
 }
 

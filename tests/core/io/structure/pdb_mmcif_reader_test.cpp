@@ -114,6 +114,9 @@ TEST(PdbReader, RejectsBadRecordsNamingTheLineOrAtom) {
       {pdb_atom("ATOM", 8, " CA", ' ', "GLY", 1, 2e6, 0, 0, 1, "C").replace(30, 8, " 2000000"),
        "line 1: x coordinate 2000000 is beyond +-1e+06 Angstrom (limits.max_abs_coordinate)", errc::invalid_input},
       {"HEADER\nEND\n", "no atoms with radius > 0: the input has no ATOM or HETATM record", errc::nothing_to_mesh},
+      // A fuzz find: gemmi shifts the signed chars of every record name (UB for a byte >= 0x80 before C++20).
+      {"H\xc4\xbe" "DER    TEST\n" + bad_y, "line 1: record name 'H\\xc4\\xbeDER' (columns 1-6) is not ASCII; PDB text is ASCII",
+       errc::invalid_input},
   };
   for (const auto& c : cases) {
     const result<molecule> mol = parse_pdb(c.text);
@@ -128,6 +131,24 @@ TEST(PdbReader, RejectsBadRecordsNamingTheLineOrAtom) {
   EXPECT_EQ(over.error().message(), "line 3: more than 2 atoms (limits.max_atoms)");
   EXPECT_EQ(parse_pdb("\x7f" "ELF\x01\x02").error().message(),
             "line 1: control byte 0x7f at column 1 (binary data, not PDB text)");
+}
+
+// A fuzz find: gemmi read columns 74-78 of a LINK record of 74-77 columns past the end of the line (ASan: a heap
+// read overflow). The reader pads such records; the atoms are read as without the record.
+TEST(PdbReader, ShortLinkAndSsbondRecordsAreReadWithinTheirLine) {
+  const std::string atom = pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C");
+  for (const char* record_name : {"LINK", "SSBOND"}) {
+    const std::string record = record_name;
+    for (std::size_t columns : {74u, 76u, 77u}) {
+      std::string line = record + std::string(columns - record.size() - 2, ' ') + "2.";
+      line[73] = '2';
+      for (const char* end : {"\n", "\r\n"}) {
+        const result<molecule> mol = parse_pdb(atom + line + end + atom);
+        ASSERT_TRUE(mol.ok()) << record << " " << columns << ": " << mol.error().message();
+        EXPECT_EQ(mol->atoms.size(), 2u);
+      }
+    }
+  }
 }
 
 const std::string cif_header =
@@ -161,6 +182,9 @@ TEST(MmcifReader, RejectsBadInputNamingTheLineOrAtom) {
       {"data_t\nloop_\n_atom_site.id\n_atom_site.Cartn_x\n1 2.0\n",
        "mmCIF _atom_site has no _atom_site.type_symbol column"},
       {"data_t\n_x.y 'unterminated\n", "line 2: column 19: mmCIF syntax: unterminated 'string'"},
+      // A fuzz find: gemmi throws std::invalid_argument (not a runtime_error) for a sequence number that is not an
+      // integer, which ended the process.
+      {cif_header + "ATOM 1 N N . GLY A 1 1 1.0 2.0 3.0 1.0 10 x1 A\n", "mmCIF: not an integer: x"},
   };
   for (const auto& c : cases) {
     const result<molecule> mol = parse_mmcif(c.text);
