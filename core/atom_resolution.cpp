@@ -56,7 +56,13 @@ status check_atom_resolution(const molecule& mol, const mesh_params& params) {
     if (factor > 0) {
       const double needed_density = 2.0 / (std::sqrt(3.0) * std::pow(a.radius * factor /
                                                                       parameter_ranges::min_atom_surface_radius_per_edge, 2));
-      why << "; raise the density to at least " << needed_density << ",";
+      // Only a density the service accepts is worth suggesting.
+      if (needed_density <= parameter_ranges::max_density) {
+        why << "; raise the density to at least " << needed_density << ",";
+      } else {
+        why << "; no accepted density resolves it (it would need " << needed_density << ", the maximum is "
+            << parameter_ranges::max_density << "),";
+      }
     } else {
       why << "; with t0 >= e^-d no atom alone reaches t0,";
     }
