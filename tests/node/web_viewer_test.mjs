@@ -198,8 +198,13 @@ try {
     problems.push(`console ${message.type()}: ${message.text()} (${message.location().url})`);
   });
   page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
+  // The page closes a job's EventSource itself once the final event came or the job was cancelled (else the browser
+  // would reconnect when the server ends the stream): Chromium reports that as an aborted request, which is no error.
+  const closedByThePage = (request) =>
+    /\/jobs\/[0-9a-f]{64}\/events$/.test(request.url()) && request.failure()?.errorText === 'net::ERR_ABORTED';
   page.on('requestfailed', (request) => {
-    if (!expected404(request.url())) problems.push(`request failed: ${request.url()} ${request.failure()?.errorText}`);
+    if (expected404(request.url()) || closedByThePage(request)) return;
+    problems.push(`request failed: ${request.url()} ${request.failure()?.errorText}`);
   });
   const jobPolls = [];  // GET /jobs/{id}: the page's fallback when the events stream is not there
   page.on('request', (request) => {
