@@ -2,11 +2,9 @@
 // response compression levels (server/content_coding.hpp). Usage: compression_levels_bench <file> [repeats=3]
 // Prints one line per setting: output bytes, ratio to the input, median milliseconds to compress. Deterministic
 // sizes; times need a quiet machine.
-#include <brotli/encode.h>
-#include <zlib.h>
-
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <fstream>
 #include <functional>
@@ -14,29 +12,18 @@
 #include <string>
 #include <vector>
 
+#include "server/content_coding.hpp"
+
 namespace {
 
-std::string gzip(const std::string& in, int level) {
-  z_stream stream{};
-  deflateInit2(&stream, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);
-  std::string out(deflateBound(&stream, static_cast<uLong>(in.size())), '\0');
-  stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(in.data()));
-  stream.avail_in = static_cast<uInt>(in.size());
-  stream.next_out = reinterpret_cast<Bytef*>(out.data());
-  stream.avail_out = static_cast<uInt>(out.size());
-  deflate(&stream, Z_FINISH);
-  out.resize(stream.total_out);
-  deflateEnd(&stream);
-  return out;
-}
-
-std::string brotli(const std::string& in, int quality, int window) {
-  std::size_t size = BrotliEncoderMaxCompressedSize(in.size());
-  std::string out(size, '\0');
-  BrotliEncoderCompress(quality, window, BROTLI_MODE_GENERIC, in.size(), reinterpret_cast<const uint8_t*>(in.data()),
-                        &size, reinterpret_cast<uint8_t*>(out.data()));
-  out.resize(size);
-  return out;
+/// The service's own compressor (server/content_coding.hpp) at `level`.
+std::string compressed(const std::string& in, tracemesh::server::content_coding coding, int level) {
+  auto out = tracemesh::server::compress_at_level(in, coding, level);
+  if (!out.ok()) {
+    std::fprintf(stderr, "compression_levels_bench: %s\n", out.error().message().c_str());
+    std::exit(1);
+  }
+  return std::move(*out);
 }
 
 void measure(const char* name, int level, const std::string& in, int repeats,
@@ -73,12 +60,13 @@ int main(int argc, char** argv) {
   const int repeats = argc > 2 ? std::max(1, std::atoi(argv[2])) : 3;
   std::printf("input %zu bytes, median of %d\n", in.size(), repeats);
   for (int level : {1, 3, 5, 6, 7, 9}) {
-    measure("gzip", level, in, repeats, [level](const std::string& s) { return gzip(s, level); });
+    measure("gzip", level, in, repeats, [level](const std::string& s) { return compressed(s, tracemesh::server::content_coding::gzip, level); });
   }
   for (int quality : {1, 3, 4, 5, 6, 7, 9, 11}) {
     if (quality >= 9 && in.size() > (8u << 20)) continue;  // minutes per run on a large mesh
-    measure("br w22", quality, in, quality >= 9 ? 1 : repeats,
-            [quality](const std::string& s) { return brotli(s, quality, 22); });
+    measure("br w22", quality, in, quality >= 9 ? 1 : repeats, [quality](const std::string& s) {
+      return compressed(s, tracemesh::server::content_coding::br, quality);
+    });
   }
   return 0;
 }

@@ -131,12 +131,16 @@ std::optional<content_coding> negotiate_coding(std::optional<std::string_view> a
 }
 
 result<std::string> compress(std::string_view bytes, content_coding coding) {
+  return compress_at_level(bytes, coding, coding == content_coding::br ? brotli_quality : gzip_level);
+}
+
+result<std::string> compress_at_level(std::string_view bytes, content_coding coding, int level) {
   switch (coding) {
     case content_coding::identity: return std::string(bytes);
     case content_coding::gzip: {
       z_stream stream{};
       // windowBits 15 + 16: a gzip wrapper (RFC 1952) rather than zlib's.
-      if (deflateInit2(&stream, gzip_level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+      if (deflateInit2(&stream, level, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
         return status(errc::internal_error, "gzip: deflateInit2 failed");
       }
       std::string out(deflateBound(&stream, static_cast<uLong>(bytes.size())), '\0');
@@ -155,7 +159,7 @@ result<std::string> compress(std::string_view bytes, content_coding coding) {
       std::size_t produced = BrotliEncoderMaxCompressedSize(bytes.size());
       if (produced == 0) return status(errc::internal_error, "br: input too large for one brotli call");
       std::string out(produced, '\0');
-      if (!BrotliEncoderCompress(brotli_quality, brotli_window_bits, BROTLI_MODE_GENERIC, bytes.size(),
+      if (!BrotliEncoderCompress(level, brotli_window_bits, BROTLI_MODE_GENERIC, bytes.size(),
                                  reinterpret_cast<const std::uint8_t*>(bytes.data()), &produced,
                                  reinterpret_cast<std::uint8_t*>(out.data()))) {
         return status(errc::internal_error, "br: BrotliEncoderCompress failed");

@@ -44,6 +44,8 @@ std::optional<content_coding> negotiate_coding(std::optional<std::string_view> a
 /// version and level give the same output.
 /// @return errc::internal_error when the compressor fails (out of memory).
 result<std::string> compress(std::string_view bytes, content_coding coding);
+/// The same at another level (gzip: zlib level 1–9; br: brotli quality 0–11), for the benchmark that chose them.
+result<std::string> compress_at_level(std::string_view bytes, content_coding coding, int level);
 
 /// The short text identifying the compressed bytes' producer, for ETags: "gz6-z1.2.13" (level and zlib version),
 /// "br4w22-b1.0.9" (quality, window and brotli version); empty for identity.
