@@ -75,6 +75,12 @@ status unreachable(const redis_endpoint& endpoint, std::string_view detail) {
 
 }  // namespace
 
+status redis_refused(std::string_view what, const redis_reply& reply) {
+  std::string message = "Redis refused ";
+  message.append(what).append(": ").append(reply.text);
+  return status(errc::io_error, std::move(message));
+}
+
 void redis_client::context_deleter::operator()(redisContext* context) const noexcept { redisFree(context); }
 
 redis_client::redis_client(redis_endpoint endpoint, redis_limits limits)

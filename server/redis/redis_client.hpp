@@ -74,6 +74,7 @@ class redis_client {
   result<std::vector<redis_reply>> pipeline(const std::vector<std::vector<std::string>>& commands);
 
   const redis_endpoint& endpoint() const noexcept { return endpoint_; }
+  const redis_limits& limits() const noexcept { return limits_; }
   bool connected() const;
   redis_client_stats stats() const;
 
@@ -95,5 +96,8 @@ class redis_client {
   std::chrono::milliseconds backoff_{0};
   redis_client_stats stats_;
 };
+
+/// errc::io_error "Redis refused <what>: <the error reply's text>", for a Redis error reply a caller cannot accept.
+status redis_refused(std::string_view what, const redis_reply& reply);
 
 }  // namespace tracemesh::server
