@@ -173,6 +173,22 @@ TEST_F(RedisClient, BackoffRefusesAtOnceWhileRedisIsDown) {
   EXPECT_TRUE(client.command({"PING"})->is_status("PONG"));
 }
 
+TEST_F(RedisClient, ACommandOutlastingTheTimeoutFailsAndTheNextOneReconnects) {
+  redis_limits limits = quick_limits();
+  limits.command_timeout = 100ms;
+  redis_client client(redis_.endpoint(), limits);
+  ASSERT_TRUE(client.connect().ok());
+  // BLPOP on an empty list waits 2 s server-side: far past the 100 ms command timeout.
+  const auto waited = client.command({"BLPOP", "empty-list", "2"});
+  ASSERT_FALSE(waited.ok());
+  EXPECT_EQ(waited.error().code(), errc::io_error);
+  EXPECT_FALSE(client.connected());  // the connection may still carry the late reply: dropped
+  const auto after = command_until_ok(client, {"PING"});
+  ASSERT_TRUE(after.ok()) << after.error().message();
+  EXPECT_TRUE(after->is_status("PONG"));  // not the late BLPOP reply
+  EXPECT_EQ(client.stats().connects, 2u);
+}
+
 TEST(RedisClientUnreachable, ConnectFailsWithAClearMessage) {
   const unsigned short port = free_loopback_port();  // nobody listens there
   redis_limits limits = quick_limits();
