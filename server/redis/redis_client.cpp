@@ -122,7 +122,10 @@ status redis_client::open_locked() {
   std::vector<std::vector<std::string>> handshake{{"PING"}};
   if (endpoint_.db != 0) handshake.push_back({"SELECT", std::to_string(endpoint_.db)});
   for (const auto& arguments : handshake) {
-    if (!append(context.get(), arguments)) return fail_locked("out of memory");
+    if (!append(context.get(), arguments)) {
+      ++stats_.failed_connects;
+      return fail_locked("out of memory");
+    }
   }
   for (const auto& arguments : handshake) {
     void* raw = nullptr;
@@ -165,11 +168,11 @@ result<redis_reply> redis_client::command(const std::vector<std::string>& argume
 }
 
 result<std::vector<redis_reply>> redis_client::pipeline(const std::vector<std::vector<std::string>>& commands) {
-  std::lock_guard lock(mutex_);
-  if (status connected = ensure_connected_locked(/*ignore_backoff=*/false); !connected.ok()) return connected;
   for (const auto& arguments : commands) {
     if (arguments.empty()) return status(errc::invalid_argument, "empty Redis command");
   }
+  std::lock_guard lock(mutex_);
+  if (status connected = ensure_connected_locked(/*ignore_backoff=*/false); !connected.ok()) return connected;
   for (const auto& arguments : commands) {
     if (!append(context_.get(), arguments)) {
       ++stats_.failed_commands;
