@@ -21,6 +21,10 @@ add_library(brotli::enc INTERFACE IMPORTED)
 set_target_properties(brotli::enc PROPERTIES INTERFACE_LINK_LIBRARIES PkgConfig::BROTLIENC)
 add_library(brotli::dec INTERFACE IMPORTED)
 set_target_properties(brotli::dec PROPERTIES INTERFACE_LINK_LIBRARIES PkgConfig::BROTLIDEC)
+# hiredis (Debian libhiredis-dev 0.14) ships a .pc file but no CMake package: the Redis client of server/redis/.
+pkg_check_modules(HIREDIS REQUIRED IMPORTED_TARGET hiredis)
+add_library(hiredis::hiredis INTERFACE IMPORTED)
+set_target_properties(hiredis::hiredis PROPERTIES INTERFACE_LINK_LIBRARIES PkgConfig::HIREDIS)
 # gemmi (Debian gemmi-dev 0.5.7) is header-only and ships neither a CMake package nor a .pc file: find its
 # header and wrap it in an imported target. Its CIF parser includes PEGTL, which Debian ships separately
 # (tao-pegtl-dev, CMake package `pegtl`, target taocpp::pegtl); its gzip helpers use zlib.
@@ -35,6 +39,7 @@ if(TRACEMESH_BUILD_TESTS)
   find_package(CGAL CONFIG QUIET)
   find_program(DRACO_DECODER draco_decoder)
   find_program(CURL_EXECUTABLE curl)
+  find_program(REDIS_SERVER_EXECUTABLE redis-server)  # tests/support/redis_process.hpp starts its own
 endif()
 if(TRACEMESH_BUILD_BENCH)
   find_package(benchmark CONFIG REQUIRED)

@@ -13,11 +13,13 @@ build_packages=(
   cmake g++ make pkg-config ca-certificates ccache
   libboost-dev nlohmann-json3-dev libdraco-dev libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
   libssl-dev libcli11-dev zlib1g-dev libbrotli-dev gemmi-dev tao-pegtl-dev
+  libhiredis-dev  # the Redis client of `tracemeshd --store redis://…` (server/redis/)
 )
 # The suite, the benchmarks, the fuzzers and the tools the tests call (draco_decoder, curl, wrk, nginx).
 test_packages=(
   git curl draco libgtest-dev libgmock-dev libbenchmark-dev libcgal-dev libgmp-dev libmpfr-dev
   clang-14 libclang-rt-14-dev wrk nginx-light procps
+  redis-server  # the suite starts its own redis-server on a free loopback port (tests/support/redis_process.hpp)
   chromium  # the web viewer's browser test (tests/node/web_viewer_test.mjs): headless, WebGL on SwiftShader
 )
 needs_node=true  # node, npm and `npm ci`: the viewer's bundle (every build) and the suite's checkers

@@ -76,6 +76,10 @@ nlohmann::json config_to_json(const server_config& config) {
       {"retry_after_s", limits.retry_after_seconds},
       {"cache_memory_bytes", limits.cache_memory_bytes},
       {"cache_disk_bytes", limits.cache_disk_bytes},
+      {"redis_connect_timeout_ms", limits.redis.connect_timeout.count()},
+      {"redis_command_timeout_ms", limits.redis.command_timeout.count()},
+      {"redis_reconnect_backoff_initial_ms", limits.redis.reconnect_backoff_initial.count()},
+      {"redis_reconnect_backoff_max_ms", limits.redis.reconnect_backoff_max.count()},
   };
 }
 

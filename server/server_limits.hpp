@@ -27,6 +27,20 @@ inline std::uint64_t upload_limit_for_atoms(std::size_t max_atoms) {
   return static_cast<std::uint64_t>(max_atoms) * upload_bytes_per_atom + 64 * 1024;
 }
 
+/// Timeouts and reconnect pacing of one Redis connection (server/redis/redis_client.hpp). A command runs on a worker
+/// or prep thread, never on an I/O thread, so these bound how long such a thread can wait on Redis.
+struct redis_limits {
+  /// TCP connect (and name lookup) of one attempt.
+  std::chrono::milliseconds connect_timeout{std::chrono::seconds(2)};
+  /// Send and receive of one command; past it the connection is dropped and the command fails.
+  std::chrono::milliseconds command_timeout{std::chrono::seconds(5)};
+  /// After a failed command or connect, no new attempt for this long (doubled on each further failure up to
+  /// reconnect_backoff_max, reset by a success): calls inside the window fail at once, so threads do not pile up
+  /// on a dead Redis.
+  std::chrono::milliseconds reconnect_backoff_initial{100};
+  std::chrono::milliseconds reconnect_backoff_max{std::chrono::seconds(5)};
+};
+
 struct server_limits {
   /// Mesher limits (atoms, extent, lattice, triangles); max_atoms is --max-atoms.
   mesh_limits mesh;
@@ -114,6 +128,8 @@ struct server_limits {
   /// Result cache: memory LRU bytes and disk bytes (--cache-max-bytes).
   std::size_t cache_memory_bytes = 256u << 20;
   std::uint64_t cache_disk_bytes = 4ull << 30;
+  /// The Redis connections of a replicated store (not used by the default local store).
+  redis_limits redis;
 };
 
 struct server_config {

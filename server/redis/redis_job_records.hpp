@@ -1,0 +1,65 @@
+#pragma once
+/// @file redis_job_records.hpp
+/// Job records in Redis, shared by every replica of `tracemeshd --store redis://…` (issue 13), so GET /jobs/{id},
+/// DELETE and the event stream answer the same through any replica.
+///
+/// One job = two keys under a prefix (default "tracemesh:"):
+///   <prefix>job:<id>          hash: state, parameters, format, error_code, error_message, report (done jobs),
+///                             accepted_ms, finished_ms (the fields of stored_job), and the live fields stage,
+///                             progress, eta_s written by set_progress while the job runs;
+///   <prefix>job:<id>:owners   set: SHA-256 hex of each owner token still holding the job.
+/// Retention is Redis expiry: a finished record (finished_ms > 0) expires at finished_ms + retention (PEXPIREAT on
+/// both keys), an unfinished one never does. Every write is one MULTI/EXEC transaction or one Lua script, so a
+/// reader on another replica never sees half a record, and writes to a job that has expired never recreate it.
+///
+/// The result bytes are not here: they stay in the content-addressed disk store on a directory all replicas
+/// mount (server/result_cache.hpp, detail/durable_file.hpp).
+
+#include <chrono>
+#include <optional>
+#include <string>
+
+#include "core/status.hpp"
+#include "server/job_store.hpp"
+#include "server/redis/redis_client.hpp"
+
+namespace tracemesh::server {
+
+class redis_job_records {
+ public:
+  /// `client` must outlive this object; `retention` is --job-retention.
+  redis_job_records(redis_client& client, std::chrono::milliseconds retention, std::string key_prefix = "tracemesh:");
+
+  /// Writes the whole record (replacing any previous one, its live fields and owners included) and its expiry.
+  /// @return errc::io_error when Redis is unreachable or refused the transaction.
+  status put(const stored_job& record);
+  /// The record, or std::nullopt when unknown or expired. errc::io_error when Redis is unreachable or the stored
+  /// hash is not a record this version wrote (a field missing or malformed).
+  result<std::optional<stored_job>> find(const std::string& id);
+  /// Adds an owner to an existing record (its set gets the record's expiry). errc::invalid_argument when the job
+  /// is unknown or expired.
+  status add_owner(const std::string& id, const std::string& owner_hash);
+  /// Removes an owner; false when it was not one.
+  result<bool> remove_owner(const std::string& id, const std::string& owner_hash);
+  /// Live fields of a running job (proto stage name, progress 0..1, eta in seconds or nullopt = unknown); no-op
+  /// for an unknown or expired job (false), so a late progress report never recreates a purged record.
+  result<bool> set_progress(const std::string& id, std::string_view stage, double progress,
+                            std::optional<double> eta_s);
+  /// The live fields as last written (empty strings when never written; eta_s "" = unknown).
+  struct live_fields {
+    std::string stage;
+    std::string progress;
+    std::string eta_s;
+  };
+  result<std::optional<live_fields>> find_progress(const std::string& id);
+
+  std::string record_key(const std::string& id) const { return prefix_ + "job:" + id; }
+  std::string owners_key(const std::string& id) const { return record_key(id) + ":owners"; }
+
+ private:
+  redis_client& client_;
+  const std::chrono::milliseconds retention_;
+  const std::string prefix_;
+};
+
+}  // namespace tracemesh::server

@@ -1,0 +1,142 @@
+#include "server/redis/redis_job_records.hpp"
+
+#include <gtest/gtest.h>
+
+#include "redis_fixture.hpp"
+
+namespace tracemesh::server::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+stored_job queued_job(const std::string& id) {
+  stored_job record;
+  record.id = id;
+  record.state = job_state::queued;
+  record.parameters = "density=2;d=-1;t0=1";
+  record.format = proto::mesh_format::glb;
+  record.owners = {std::string(64, 'a')};
+  record.accepted_ms = unix_millis();
+  return record;
+}
+
+const std::string job_id(64, '1');
+
+using RedisJobRecords = SharedRedis;
+
+TEST_F(RedisJobRecords, ARecordWrittenByOneReplicaIsReadByAnother) {
+  redis_job_records a(*replica_a_, 24h);
+  redis_job_records b(*replica_b_, 24h);
+  const stored_job written = queued_job(job_id);
+  ASSERT_TRUE(a.put(written).ok());
+
+  const auto read = b.find(job_id);
+  ASSERT_TRUE(read.ok()) << read.error().message();
+  ASSERT_TRUE(read->has_value());
+  const stored_job& record = **read;
+  EXPECT_EQ(record.id, job_id);
+  EXPECT_EQ(record.state, job_state::queued);
+  EXPECT_EQ(record.parameters, written.parameters);
+  EXPECT_EQ(record.format, proto::mesh_format::glb);
+  EXPECT_EQ(record.owners, written.owners);
+  EXPECT_EQ(record.accepted_ms, written.accepted_ms);
+  EXPECT_EQ(record.finished_ms, 0);
+  EXPECT_EQ(record.report, nullptr);
+  // Unfinished: no expiry.
+  EXPECT_EQ(replica_a_->command({"PTTL", a.record_key(job_id)})->integer, -1);
+
+  const auto unknown = b.find(std::string(64, '2'));
+  ASSERT_TRUE(unknown.ok());
+  EXPECT_FALSE(unknown->has_value());
+}
+
+TEST_F(RedisJobRecords, AFinishedRecordExpiresAfterTheRetention) {
+  redis_job_records a(*replica_a_, 1h);
+  stored_job record = queued_job(job_id);
+  ASSERT_TRUE(a.put(record).ok());
+  record.state = job_state::done;
+  record.report = std::make_shared<const std::string>(R"({"triangles":4})");
+  record.finished_ms = unix_millis();
+  ASSERT_TRUE(a.put(record).ok());
+
+  for (const std::string& key : {a.record_key(job_id), a.owners_key(job_id)}) {
+    const long long ttl_ms = replica_a_->command({"PTTL", key})->integer;
+    EXPECT_GT(ttl_ms, 0) << key;
+    EXPECT_LE(ttl_ms, 3'600'000) << key;
+  }
+  const auto read = redis_job_records(*replica_b_, 1h).find(job_id);
+  ASSERT_TRUE(read.ok() && read->has_value());
+  EXPECT_EQ((*read)->state, job_state::done);
+  ASSERT_NE((*read)->report, nullptr);
+  EXPECT_EQ(*(*read)->report, R"({"triangles":4})");
+
+  // A record that ended longer ago than the retention is gone at once.
+  record.finished_ms = unix_millis() - 2 * 3'600'000;
+  ASSERT_TRUE(a.put(record).ok());
+  EXPECT_FALSE(a.find(job_id)->has_value());
+}
+
+TEST_F(RedisJobRecords, OwnersAreSharedAndNeverRecreateAnExpiredJob) {
+  redis_job_records a(*replica_a_, 24h);
+  redis_job_records b(*replica_b_, 24h);
+  ASSERT_TRUE(a.put(queued_job(job_id)).ok());
+  const std::string second(64, 'b');
+  ASSERT_TRUE(b.add_owner(job_id, second).ok());
+  EXPECT_EQ(a.find(job_id)->value().owners.size(), 2u);
+  EXPECT_TRUE(*a.remove_owner(job_id, std::string(64, 'a')));
+  EXPECT_FALSE(*a.remove_owner(job_id, std::string(64, 'a')));
+  EXPECT_EQ(b.find(job_id)->value().owners, std::vector<std::string>{second});
+
+  const std::string unknown(64, '3');
+  const status refused = b.add_owner(unknown, second);
+  EXPECT_EQ(refused.code(), errc::invalid_argument);
+  EXPECT_EQ(replica_a_->command({"EXISTS", a.owners_key(unknown)})->integer, 0);
+}
+
+TEST_F(RedisJobRecords, ProgressOfARunningJobIsSeenEverywhere) {
+  redis_job_records a(*replica_a_, 24h);
+  redis_job_records b(*replica_b_, 24h);
+  ASSERT_TRUE(a.put(queued_job(job_id)).ok());
+  ASSERT_TRUE(*a.set_progress(job_id, "sampling", 0.25, 12.5));
+  const auto live = b.find_progress(job_id);
+  ASSERT_TRUE(live.ok() && live->has_value());
+  EXPECT_EQ((*live)->stage, "sampling");
+  EXPECT_DOUBLE_EQ(std::stod((*live)->progress), 0.25);
+  EXPECT_DOUBLE_EQ(std::stod((*live)->eta_s), 12.5);
+  ASSERT_TRUE(*a.set_progress(job_id, "tracing", 0.5, std::nullopt));
+  EXPECT_EQ(b.find_progress(job_id)->value().eta_s, "");  // unknown
+  // The progress fields do not disturb the record.
+  EXPECT_EQ(b.find(job_id)->value().state, job_state::queued);
+
+  // A late report for an unknown (purged) job writes nothing.
+  const std::string gone(64, '4');
+  EXPECT_FALSE(*a.set_progress(gone, "sampling", 0.9, 1.0));
+  EXPECT_FALSE(b.find_progress(gone)->has_value());
+  EXPECT_EQ(replica_a_->command({"EXISTS", a.record_key(gone)})->integer, 0);
+}
+
+TEST_F(RedisJobRecords, AForeignHashIsAnErrorNotARecord) {
+  redis_job_records a(*replica_a_, 24h);
+  ASSERT_TRUE(replica_a_->command({"HSET", a.record_key(job_id), "state", "done"}).ok());
+  const auto read = a.find(job_id);
+  ASSERT_FALSE(read.ok());
+  EXPECT_EQ(read.error().code(), errc::io_error);
+  EXPECT_NE(read.error().message().find("malformed job record"), std::string::npos) << read.error().message();
+
+  ASSERT_TRUE(replica_a_->command({"HSET", a.record_key(job_id), "parameters", "", "format", "off", "error_code",
+                                   "", "error_message", "", "accepted_ms", "1", "finished_ms", "x"})
+                  .ok());
+  EXPECT_FALSE(a.find(job_id).ok());  // finished_ms not a number
+}
+
+TEST_F(RedisJobRecords, WritesFailAsValuesWhenRedisIsDown) {
+  redis_job_records a(*replica_a_, 24h);
+  redis_.stop();
+  const status failed = a.put(queued_job(job_id));
+  EXPECT_EQ(failed.code(), errc::io_error);
+  EXPECT_NE(failed.message().find("unreachable"), std::string::npos) << failed.message();
+  EXPECT_FALSE(a.find(job_id).ok());
+}
+
+}  // namespace
+}  // namespace tracemesh::server::test
