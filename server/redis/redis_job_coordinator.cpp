@@ -180,6 +180,7 @@ void redis_job_coordinator::consumer_loop() {
     if (!entries.ok()) {
       note_redis(false);
       pause(consumer_stopping_, limits_.error_pause);
+      (void)replica_.queue.ensure_group();  // a Redis that came back empty (no append-only file) has no group
       continue;
     }
     note_redis(true);

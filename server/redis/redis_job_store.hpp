@@ -37,7 +37,8 @@ class redis_job_store final : public job_record_store {
 
   std::optional<stored_job> find(const std::string& id) override;
   std::shared_ptr<const surface_mesh> mesh(const std::string& id) override;
-  /// The mesh into the shared result store first, then the record done in Redis.
+  /// The mesh into the shared result store first (errc::io_error when it fails), then the record done in Redis
+  /// (when Redis is away, the coordinator writes it with the job's final state once it is back).
   status complete(const std::string& id, const stored_job& record_if_new, const surface_mesh& mesh,
                   std::shared_ptr<const std::string> report) override;
   status record_encoding(const std::string& id, std::string_view format_name, const nlohmann::json& entry) override;

@@ -1,7 +1,8 @@
 #pragma once
 // A real redis-server for the tests: started on a free loopback port in its own temporary directory, without
-// persistence (--save '' --appendonly no), stopped (SIGKILL, as a crash would) and restarted on the same port on
-// demand. Tests skip with GTEST_SKIP only when no redis-server is installed (scripts/install-deps.sh installs it).
+// persistence (--save '' --appendonly no) or, when made `persistent`, with the append-only file fsync'd on every
+// write (as docker/compose.yaml runs it), stopped (SIGKILL, as a crash would) and restarted on the same port on
+// demand (a persistent one comes back with everything it acknowledged). Tests skip with GTEST_SKIP only when no redis-server is installed (scripts/install-deps.sh installs it).
 #include <gtest/gtest.h>
 
 #include <netinet/in.h>
@@ -46,7 +47,7 @@ inline unsigned short free_loopback_port() {
 
 class redis_process {
  public:
-  redis_process() {
+  explicit redis_process(bool persistent = false) : persistent_(persistent) {
     char pattern[] = "/tmp/tracemesh-redis-XXXXXX";
     if (::mkdtemp(pattern) != nullptr) directory_ = pattern;
   }
@@ -76,7 +77,7 @@ class redis_process {
     ::waitpid(pid_, &ignored, 0);
     pid_ = -1;
   }
-  /// A new redis-server on the same port (empty: persistence is off).
+  /// A new redis-server on the same port and directory (empty unless persistent).
   bool restart() {
     stop();
     if (launch()) return true;
@@ -94,7 +95,8 @@ class redis_process {
     const std::string port = std::to_string(port_);
     const std::string log = (directory_ / "redis.log").string();
     std::vector<std::string> arguments{binary,      "--port", port,        "--bind",       "127.0.0.1", "--save",
-                                       "",          "--appendonly", "no",  "--dir",        directory_.string(),
+                                       "",          "--appendonly", persistent_ ? "yes" : "no",
+                                       "--appendfsync", "always",   "--dir",        directory_.string(),
                                        "--logfile", log,      "--daemonize", "no"};
     pid_ = ::fork();
     if (pid_ == 0) {
@@ -123,6 +125,7 @@ class redis_process {
     return false;
   }
 
+  const bool persistent_;
   std::filesystem::path directory_;
   unsigned short port_ = 0;
   pid_t pid_ = -1;
