@@ -51,20 +51,30 @@ status redis_job_store::record_encoding(const std::string& id, std::string_view 
   return records_.set_encoding(id, format_name, entry.dump());
 }
 
+bool redis_job_store::done_elsewhere(const std::string& id) {
+  const result<std::optional<stored_job>> found = records_.find(id);
+  if (!found.ok() || !*found || (*found)->state != job_state::done) return false;
+  // A done record whose mesh the shared store evicted is meshed again.
+  if (!results_.get(stored_mesh_key(id))) return false;
+  stats_.count_replica_followed();
+  return true;
+}
+
 result<bool> redis_job_store::claim_run(const std::string& id, progress_token& token) {
   for (;;) {
     const result<bool> acquired = lease_.acquire(id, limits_.reclaim_timeout);
     if (!acquired.ok()) return true;  // Redis is away: mesh without the lease
     if (*acquired) {
+      // The lease may be free because its holder just finished the job.
+      if (done_elsewhere(id)) {
+        (void)lease_.release(id);
+        return false;
+      }
       std::lock_guard lock(held_mutex_);
       held_.insert(id);
       return true;
     }
-    const result<std::optional<stored_job>> found = records_.find(id);
-    if (found.ok() && *found && (*found)->state == job_state::done) {
-      stats_.count_replica_followed();
-      return false;
-    }
+    if (done_elsewhere(id)) return false;
     if (token.cancelled()) return status(errc::cancelled, "cancelled while another replica meshed the job");
     std::this_thread::sleep_for(limits_.follow_poll);
   }

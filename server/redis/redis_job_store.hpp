@@ -43,7 +43,8 @@ class redis_job_store final : public job_record_store {
                   std::shared_ptr<const std::string> report) override;
   status record_encoding(const std::string& id, std::string_view format_name, const nlohmann::json& entry) override;
   /// Acquires the job's run lease; while another replica holds it, polls (limits.follow_poll) until the job is
-  /// done (false) or the lease is free again (that replica failed or died: this one takes it). When Redis cannot be
+  /// done with its mesh stored (false) or the lease is free again (that replica failed or died: this one takes
+  /// it). When Redis cannot be
   /// asked, meshes without the lease (true): the result is content-addressed, a second run is only wasted time.
   result<bool> claim_run(const std::string& id, progress_token& token) override;
   void end_run(const std::string& id) override;
@@ -51,6 +52,9 @@ class redis_job_store final : public job_record_store {
   void renew_leases();
 
  private:
+  /// True (counted as followed) when the job's record says done and its mesh is in the shared store.
+  bool done_elsewhere(const std::string& id);
+
   redis_job_records& records_;
   redis_run_lease& lease_;
   result_cache& results_;

@@ -56,9 +56,11 @@ struct job_spec {
   std::vector<std::pair<std::string, std::string>> fields;
 };
 
-/// A job that meshes for a few seconds (fas2 at 4 vertices/Å², one mesher thread): long enough to be caught
-/// running.
+/// A job that meshes for a second or more (fas2 at 4 vertices/Å², one mesher thread): long enough to be caught
+/// running, short enough to be meshed again after a kill.
 const job_spec slow_job{"fas2.pqr", {{"density", "4"}}};
+/// A job that meshes for several seconds (mache, 8,279 atoms): it never ends before a test cancels it.
+const job_spec long_job{"mache.pqr", {{"density", "1.5"}}};
 
 class ReplicasTest : public ::testing::Test {
  protected:
@@ -231,7 +233,7 @@ TEST_F(ReplicasTest, SameMoleculeSentToBothReplicasIsMeshedOnce) {
 TEST_F(ReplicasTest, JobCreatedThroughOneReplicaIsReadStreamedAndCancelledThroughAnother) {
   auto a = start_replica("A");
   auto b = start_replica("B");
-  const nlohmann::json accepted = submit(a->port(), slow_job);
+  const nlohmann::json accepted = submit(a->port(), long_job);
   const std::string id = accepted["id"];
   const std::string token = accepted["token"];
   ASSERT_TRUE(eventually(patience(10s), [&] { return !running_on(id).empty(); })) << "no replica took the job";
