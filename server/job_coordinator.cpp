@@ -1,6 +1,18 @@
 #include "server/job_coordinator.hpp"
 
+#include "server/job_store.hpp"
+
 namespace tracemesh::server {
+
+stored_job accepted_record(const std::string& id, const job_input& input, const std::string& owner_hash) {
+  stored_job record;
+  record.id = id;
+  record.parameters = proto::canonical_parameters(input.params);
+  record.format = input.format;
+  record.owners = {owner_hash};
+  record.accepted_ms = unix_millis();
+  return record;
+}
 
 job_snapshot snapshot_from_record(const stored_job& record) {
   job_snapshot job;

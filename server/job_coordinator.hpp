@@ -64,6 +64,9 @@ class job_coordinator {
   virtual void stop() {}
 };
 
+/// The record of a job accepted now (state queued) for `owner_hash`.
+stored_job accepted_record(const std::string& id, const job_input& input, const std::string& owner_hash);
+
 /// A job as the job store (or Redis) records it, as GET /jobs/{id} shows it.
 job_snapshot snapshot_from_record(const stored_job& record);
 

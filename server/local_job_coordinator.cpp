@@ -11,13 +11,7 @@ accept_result local_job_coordinator::accept(const std::string& id, std::shared_p
   if (already_queued) {
     recorded = store_.add_owner(id, owner_hash);
   } else {
-    stored_job record;
-    record.id = id;
-    record.parameters = proto::canonical_parameters(input->params);
-    record.format = input->format;
-    record.owners = {owner_hash};
-    record.accepted_ms = unix_millis();
-    recorded = store_.accept(record, *input);
+    recorded = store_.accept(accepted_record(id, *input, owner_hash), *input);
   }
   if (!recorded.ok()) return {submit_outcome::shutting_down, {}, recorded};
   submit_result submitted = jobs_.submit(id, std::move(input), {}, submit_options{job_holder{owner_hash}, false});

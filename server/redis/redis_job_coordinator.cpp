@@ -104,12 +104,7 @@ std::optional<std::string> redis_job_coordinator::unready_reason() const {
 
 accept_result redis_job_coordinator::accept(const std::string& id, std::shared_ptr<const job_input> input,
                                             const std::string& owner_hash) {
-  stored_job record;
-  record.id = id;
-  record.parameters = proto::canonical_parameters(input->params);
-  record.format = input->format;
-  record.owners = {owner_hash};
-  record.accepted_ms = unix_millis();
+  const stored_job record = accepted_record(id, *input, owner_hash);
   const result<redis_job_records::accept_outcome> accepted = replica_.records.accept_and_queue(
       record, serialize_molecule(input->mol), replica_.queue.stream_key(), redis_work_queue::group,
       replica_.limits.max_queue);

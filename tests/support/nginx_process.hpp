@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "support/child_process.hpp"
 #include "support/redis_process.hpp"
 #include "support/test_http_client.hpp"
 #include "support/tracemeshd_process.hpp"
@@ -63,12 +64,7 @@ class nginx_process {
     }
     if (port_ == 0) ADD_FAILURE() << "nginx did not start: " << read_file(dir_ / "error.log");
   }
-  ~nginx_process() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGTERM);  // the master stops its workers
-    int ignored = 0;
-    ::waitpid(pid_, &ignored, 0);
-  }
+  ~nginx_process() { kill_process(pid_, SIGTERM); }  // TERM: the master stops its workers
   nginx_process(const nginx_process&) = delete;
   nginx_process& operator=(const nginx_process&) = delete;
 
@@ -93,32 +89,10 @@ class nginx_process {
   /// Starts nginx and waits until it answers on `port`; false (process reaped) when it exits first.
   bool launch(unsigned short port) {
     const std::string binary = nginx_binary();
-    std::vector<std::string> arguments{binary, "-p", dir_.string(), "-c", (dir_ / "nginx.conf").string(),
-                                       "-g", "daemon off;"};
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      std::vector<char*> argv;
-      for (std::string& argument : arguments) argv.push_back(argument.data());
-      argv.push_back(nullptr);
-      ::execv(binary.c_str(), argv.data());
-      ::_exit(127);
-    }
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return false;
-      }
-      raw_connection probe(port, std::chrono::milliseconds(200));
-      if (probe.connected()) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ::kill(pid_, SIGKILL);
-    int ignored = 0;
-    ::waitpid(pid_, &ignored, 0);
-    pid_ = -1;
-    return false;
+    pid_ = spawn_process({binary, "-p", dir_.string(), "-c", (dir_ / "nginx.conf").string(), "-g", "daemon off;"});
+    return wait_until_ready(pid_, std::chrono::seconds(10), [&] {
+      return raw_connection(port, std::chrono::milliseconds(200)).connected();
+    });
   }
 
   std::filesystem::path dir_;

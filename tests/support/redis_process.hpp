@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "server/redis/redis_client.hpp"
+#include "support/child_process.hpp"
 
 namespace tracemesh::testing {
 
@@ -70,13 +71,7 @@ class redis_process {
     return false;
   }
   /// Kills redis-server (SIGKILL: nothing is flushed, like a crash) and waits for it to exit.
-  void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGKILL);
-    int ignored = 0;
-    ::waitpid(pid_, &ignored, 0);
-    pid_ = -1;
-  }
+  void stop() { kill_process(pid_); }
   /// A new redis-server on the same port and directory (empty unless persistent).
   bool restart() {
     stop();
@@ -98,31 +93,12 @@ class redis_process {
                                        "",          "--appendonly", persistent_ ? "yes" : "no",
                                        "--appendfsync", "always",   "--dir",        directory_.string(),
                                        "--logfile", log,      "--daemonize", "no"};
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      std::vector<char*> argv;
-      for (std::string& argument : arguments) argv.push_back(argument.data());
-      argv.push_back(nullptr);
-      ::execv(binary.c_str(), argv.data());
-      ::_exit(127);
-    }
-    if (pid_ < 0) return false;
+    pid_ = spawn_process(arguments);
     // Ready when it answers PING; gone (port taken, bad option) when the child has exited.
     server::redis_limits limits;
     limits.connect_timeout = std::chrono::milliseconds(500);
     server::redis_client probe(endpoint(), limits);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return false;
-      }
-      if (probe.connect().ok()) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    stop();
-    return false;
+    return wait_until_ready(pid_, std::chrono::seconds(10), [&] { return probe.connect().ok(); });
   }
 
   const bool persistent_;
