@@ -50,6 +50,8 @@ class RedisJobCoordinator : public ::testing::Test {
   }
   void TearDown() override {
     released_ = true;
+    // As the service: the queue ends (its listeners call the coordinator) before the coordinator goes.
+    if (jobs_) jobs_->shutdown(std::chrono::seconds(5));
     coordinator_.reset();
     jobs_.reset();
     std::error_code ignored;
