@@ -129,9 +129,11 @@ result<std::optional<job_snapshot>> redis_job_coordinator::find(const std::strin
   if (!found.ok()) return found.error();
   std::optional<job_snapshot> local = jobs_.find(id);
   if (!*found) return local;  // a synchronous job of this replica not recorded yet, or unknown
+  // This replica runs it: the freshest view, and the one its /jobs/{id}/mesh route goes by (the record says done a
+  // moment before the local job is).
+  if (local && !proto::is_final(local->state)) return local;
   job_snapshot job = snapshot_from_record(**found);
   if (job.state != job_state::running) return std::optional(std::move(job));
-  if (local && local->state == job_state::running) return local;  // this replica runs it: the freshest view
   const auto live = replica_.records.find_progress(id);
   if (live.ok() && *live) apply_live_fields(job, **live);
   return std::optional(std::move(job));

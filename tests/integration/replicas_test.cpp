@@ -292,7 +292,7 @@ TEST_F(ReplicasTest, JobOfAKilledReplicaCompletesOnAnotherAndItsMeshIsServed) {
             << " s after kill -9 of " << victim << "\n";
   EXPECT_EQ(jobs_run(port, survivor, "reclaimed"), 1);
   const http_reply mesh = get(port, "/jobs/" + id + "/mesh?format=off");
-  EXPECT_EQ(mesh.status, 200);
+  EXPECT_EQ(mesh.status, 200) << mesh.body.substr(0, 300) << "\n" << replicas[survivor]->log();
   EXPECT_EQ(mesh.body.rfind("OFF", 0), 0u);
 }
 
