@@ -7,7 +7,7 @@ LISTEN           ?= 127.0.0.1:8080
 CACHE_DIR        ?= $(CURDIR)/cache
 CMAKE_FLAGS      ?=
 
-.PHONY: deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos fuzz fuzz-campaign image test-image clean
+.PHONY: deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas fuzz fuzz-campaign image test-image clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -54,6 +54,11 @@ bench: build
 # (bench/load_bench.py: LOAD_ARGS="--requests 200 --seed 3" ...).
 bench-load: build
 	python3 bench/load_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(CURDIR)/../shared/molecules $(LOAD_ARGS)
+
+# Scaling out: a mixed job stream through nginx to 1 and 2 replicas (Redis, one core each) and cache-hit GETs through
+# nginx vs one replica (bench/replicas_bench.py: REPLICAS_ARGS="--ladder fas2.pqr,mache.pqr --densities 1" ...).
+bench-replicas: build
+	python3 bench/replicas_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(CURDIR)/../shared/molecules $(REPLICAS_ARGS)
 
 # Chaos: 100 rounds of kill -9 at seeded random moments while jobs run and uploads stream (10 run in `make test`).
 CHAOS_ROUNDS ?= 100

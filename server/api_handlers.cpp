@@ -363,37 +363,6 @@ std::string job_document(const job_snapshot& job) {
   return text;
 }
 
-/// A finished job as the job store keeps it.
-job_snapshot snapshot_from_store(const stored_job& record) {
-  job_snapshot job;
-  job.id = record.id;
-  job.state = record.state;
-  job.format = record.format;
-  job.progress = record.state == job_state::done ? 1.0 : 0.0;
-  job.stage = record.state == job_state::done ? mesh_stage::done : mesh_stage::reading;
-  if (record.state == job_state::done) job.eta_seconds = 0.0;
-  job.error_code = record.error_code;
-  if (!record.error_code.empty()) job.error = status(errc::cancelled, record.error_message);
-  job.report = record.report;
-  return job;
-}
-
-/// The job as GET /jobs/{id} shows it: the queue's record (a done job with the stored report, which has the
-/// encodings made since it ended), else the job store's for finished jobs the queue forgot; nullopt when unknown.
-/// May read the job store (disk).
-std::optional<job_snapshot> current_job(job_queue& jobs, job_store& store, const std::string& id) {
-  if (std::optional<job_snapshot> job = jobs.find(id)) {
-    if (job->state == job_state::done) {
-      if (const std::optional<stored_job> stored = store.find(id); stored && stored->report) {
-        job->report = stored->report;
-      }
-    }
-    return job;
-  }
-  if (std::optional<stored_job> stored = store.find(id)) return snapshot_from_store(*stored);
-  return std::nullopt;
-}
-
 /// One Server-Sent Event; every line of `data` gets its own "data:" field (the JSON documents are one line).
 std::string sse_event(std::string_view name, std::string_view data) {
   std::string text = "event: " + std::string(name) + "\n";
@@ -422,53 +391,48 @@ class event_stream_slot {
 
 /// The events of GET /jobs/{id}/events: a progress event at the first call and whenever the job's status, stage
 /// or progress changed since the last one sent (the session calls at most every limits.event_interval); once the
-/// job is final, its document from the job store's side (as GET /jobs/{id}) as the last event, done or error,
-/// built on the prep pool (it may read the disk).
+/// job is final, its document from the records' side (as GET /jobs/{id}) as the last event, done or error.
+/// A job this process holds in memory is looked at on the I/O thread; anything else (a finished job, or with the
+/// Redis store a job another replica runs) on the prep pool (it may read the disk or ask Redis).
 class job_event_source final : public event_source, public std::enable_shared_from_this<job_event_source> {
  public:
-  job_event_source(job_queue& jobs, job_store& store, boost::asio::thread_pool& prep, std::string id,
+  job_event_source(job_coordinator& jobs, boost::asio::thread_pool& prep, std::string id,
                    std::unique_ptr<event_stream_slot> slot)
-      : jobs_(jobs), store_(store), prep_(prep), id_(std::move(id)), slot_(std::move(slot)) {}
+      : jobs_(jobs), prep_(prep), id_(std::move(id)), slot_(std::move(slot)) {}
 
   void next(std::function<void(batch)> deliver) override {
-    const std::optional<job_snapshot> job = jobs_.find(id_);
-    std::string text;
-    if (job && (first_ || job->state != last_state_ || job->stage != last_stage_ || job->progress != last_progress_)) {
-      text = sse_event("progress", job_document(*job));
-      first_ = false;
-      last_state_ = job->state;
-      last_stage_ = job->stage;
-      last_progress_ = job->progress;
-    }
-    if (job && !proto::is_final(job->state)) return deliver({std::move(text), false});
-    // Final, or only in the job store: the last event (reads the store).
-    boost::asio::post(prep_, [this, text = std::move(text), deliver = std::move(deliver),
-                              keep = shared_from_this()]() mutable {
-      deliver(final_events(std::move(text)));
+    const std::optional<job_snapshot> job = jobs_.find_in_memory(id_);
+    if (job && !proto::is_final(job->state)) return deliver({progress_if_changed(*job), false});
+    boost::asio::post(prep_, [this, deliver = std::move(deliver), keep = shared_from_this()]() mutable {
+      deliver(from_records());
     });
   }
 
  private:
-  batch final_events(std::string text) {
-    const std::optional<job_snapshot> job = current_job(jobs_, store_, id_);
-    if (!job) {
-      text += sse_event("error", proto::error_body("not_found", "the job is no longer known").dump());
-      return {std::move(text), true};
-    }
-    if (!proto::is_final(job->state)) {  // a stored record not (yet) queued again: keep watching
-      if (first_) text += sse_event("progress", job_document(*job));
-      first_ = false;
-      return {std::move(text), false};
-    }
-    const std::string document = job_document(*job);
-    if (first_) text += sse_event("progress", document);  // the connect event, for a job already final
+  /// A progress event when the job changed since the last one sent (always the first time), else nothing.
+  std::string progress_if_changed(const job_snapshot& job) {
+    if (!first_ && job.state == last_state_ && job.stage == last_stage_ && job.progress == last_progress_) return {};
     first_ = false;
-    text += sse_event(job->state == job_state::done ? "done" : "error", document);
+    last_state_ = job.state;
+    last_stage_ = job.stage;
+    last_progress_ = job.progress;
+    return sse_event("progress", job_document(job));
+  }
+
+  batch from_records() {
+    const result<std::optional<job_snapshot>> found = jobs_.find(id_);
+    if (!found.ok()) return {{}, false};  // the records are unreachable for now: try again at the next call
+    const std::optional<job_snapshot>& job = *found;
+    if (!job) {
+      return {sse_event("error", proto::error_body("not_found", "the job is no longer known").dump()), true};
+    }
+    std::string text = progress_if_changed(*job);
+    if (!proto::is_final(job->state)) return {std::move(text), false};
+    text += sse_event(job->state == job_state::done ? "done" : "error", job_document(*job));
     return {std::move(text), true};
   }
 
-  job_queue& jobs_;
-  job_store& store_;
+  job_coordinator& jobs_;
   boost::asio::thread_pool& prep_;
   const std::string id_;
   const std::unique_ptr<event_stream_slot> slot_;
@@ -882,7 +846,8 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
     } else if (encoded.error().code() != errc::invalid_argument) {
       return upload->done(status_error_reply(encoded.error(), route));
     }
-  } else if (const auto stored = deps_.store.find(id); stored && stored->state == job_state::done) {
+  } else if (const auto known = deps_.coordinator.find(id);
+             known.ok() && *known && (*known)->state == job_state::done) {
     deps_.stats.count_cache_response();
     nlohmann::json accepted = {{"id", id}, {"status", "done"}, {"links", job_links(id, upload->request.format)}};
     reply r = json_reply(200, accepted.dump(), route);
@@ -924,32 +889,17 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   if (upload->route == route_id::mesh) {
     submitted = deps_.jobs.submit(id, shared_input, std::move(listener), how);
   } else {
-    // Accepted work is durable: the store holds the job (record + input) before the queue runs it and before
-    // the client hears 202; a job the queue refuses is forgotten again.
-    std::lock_guard accepting(accept_mutex_);
-    const std::optional<stored_job> stored = deps_.store.find(id);
-    status recorded = status::success();
-    if (stored && stored->state == job_state::queued) {
-      recorded = deps_.store.add_owner(id, how.holder->owner_hash);
-    } else {
-      stored_job record;
-      record.id = id;
-      record.parameters = proto::canonical_parameters(shared_input->params);
-      record.format = shared_input->format;
-      record.owners = {how.holder->owner_hash};
-      record.accepted_ms = unix_millis();
-      recorded = deps_.store.accept(record, *shared_input);
-    }
-    if (!recorded.ok()) {
-      log_event(deps_.log, spdlog::level::err, "job_store_write_failed", {{"job", id}, {"error", recorded.message()}});
+    // Accepted work is durable: the coordinator records the job (record + input) before it runs and before the
+    // client hears 202.
+    accept_result accepted = deps_.coordinator.accept(id, shared_input, how.holder->owner_hash);
+    if (!accepted.error.ok()) {
+      log_event(deps_.log, spdlog::level::err, "job_store_write_failed",
+                {{"job", id}, {"error", accepted.error.message()}});
       return upload->done(with_retry_after(
           error_reply(503, "unavailable", "the job could not be stored; retry later", route),
           deps_.config.limits.retry_after_seconds));
     }
-    submitted = deps_.jobs.submit(id, shared_input, {}, how);
-    const bool refused =
-        submitted.outcome == submit_outcome::queue_full || submitted.outcome == submit_outcome::shutting_down;
-    if (refused && !(stored && stored->state == job_state::queued)) deps_.store.forget(id);
+    submitted = {accepted.outcome, std::move(accepted.snapshot)};
   }
   const unsigned retry = deps_.config.limits.retry_after_seconds;
   log_event(deps_.log, spdlog::level::info, "job_submitted",
@@ -992,32 +942,53 @@ void api_handlers::log_result_lost(const std::string& id, proto::mesh_format for
             {{"job", id}, {"key", mesh_key(id, format)}, {"reason", reason}});
 }
 
+void api_handlers::off_io_thread_if_blocking(std::function<void()> lookup) {
+  if (!deps_.coordinator.blocking_lookups()) return lookup();
+  boost::asio::post(deps_.prep, std::move(lookup));
+}
+
 void api_handlers::job_status(const std::string& id, reply_sink done) {
-  if (auto job = current_job(deps_.jobs, deps_.store, id)) {
-    return done(json_reply(200, job_document(*job), "/jobs/{id}"));
-  }
-  done(error_reply(404, "not_found", "no such job", "/jobs/{id}"));
+  off_io_thread_if_blocking([this, id, done = std::move(done)] {
+    const result<std::optional<job_snapshot>> job = deps_.coordinator.find(id);
+    if (!job.ok()) return done(records_unreachable_reply(job.error(), "/jobs/{id}"));
+    if (*job) return done(json_reply(200, job_document(**job), "/jobs/{id}"));
+    done(error_reply(404, "not_found", "no such job", "/jobs/{id}"));
+  });
+}
+
+reply api_handlers::records_unreachable_reply(const status& error, std::string route) const {
+  log_event(deps_.log, spdlog::level::err, "job_records_unreachable", {{"error", error.message()}});
+  return with_retry_after(error_reply(503, "unavailable", "the job records cannot be read now; retry later",
+                                      std::move(route)),
+                          deps_.config.limits.retry_after_seconds);
 }
 
 void api_handlers::job_events(const std::string& id, reply_sink done) {
-  const std::string route = "/jobs/{id}/events";
-  if (!deps_.jobs.find(id) && !deps_.store.find(id)) return done(error_reply(404, "not_found", "no such job", route));
-  const server_limits& limits = deps_.config.limits;
-  if (deps_.state.event_streams.fetch_add(1, std::memory_order_relaxed) >= limits.max_event_streams) {
-    deps_.state.event_streams.fetch_sub(1, std::memory_order_relaxed);
-    return done(with_retry_after(error_reply(503, "unavailable",
-                                             "too many event streams (" + std::to_string(limits.max_event_streams) +
-                                                 "); poll GET /jobs/" + id + " instead",
-                                             route),
-                                 limits.retry_after_seconds));
-  }
-  auto source = std::make_shared<job_event_source>(deps_.jobs, deps_.store, deps_.prep, id,
-                                                   std::make_unique<event_stream_slot>(deps_.state.event_streams));
-  reply r;
-  r.route = route;
-  r.content_type = "text/event-stream";
-  r.events = std::move(source);
-  done(std::move(r));
+  off_io_thread_if_blocking([this, id, done = std::move(done)] {
+    const std::string route = "/jobs/{id}/events";
+    if (!deps_.coordinator.find_in_memory(id)) {
+      const result<std::optional<job_snapshot>> job = deps_.coordinator.find(id);
+      if (!job.ok()) return done(records_unreachable_reply(job.error(), route));
+      if (!*job) return done(error_reply(404, "not_found", "no such job", route));
+    }
+    const server_limits& limits = deps_.config.limits;
+    if (deps_.state.event_streams.fetch_add(1, std::memory_order_relaxed) >= limits.max_event_streams) {
+      deps_.state.event_streams.fetch_sub(1, std::memory_order_relaxed);
+      return done(with_retry_after(error_reply(503, "unavailable",
+                                               "too many event streams (" +
+                                                   std::to_string(limits.max_event_streams) + "); poll GET /jobs/" +
+                                                   id + " instead",
+                                               route),
+                                   limits.retry_after_seconds));
+    }
+    auto source = std::make_shared<job_event_source>(deps_.coordinator, deps_.prep, id,
+                                                     std::make_unique<event_stream_slot>(deps_.state.event_streams));
+    reply r;
+    r.route = route;
+    r.content_type = "text/event-stream";
+    r.events = std::move(source);
+    done(std::move(r));
+  });
 }
 
 void api_handlers::cancel_job(const std::string& id, const std::string& owner_token, reply_sink done) {
@@ -1026,31 +997,28 @@ void api_handlers::cancel_job(const std::string& id, const std::string& owner_to
     return done(error_reply(401, "unauthorized",
                             "cancelling a job needs the X-Job-Token header returned when it was submitted", route));
   }
-  const std::string owner = token_digest(owner_token);
-  const cancel_outcome outcome = deps_.jobs.withdraw(id, owner);
-  std::optional<job_snapshot> job = deps_.jobs.find(id);
-  if (outcome == cancel_outcome::not_found || outcome == cancel_outcome::already_final) {
-    // A finished job changes for nobody: cancelled again is 200 (idempotent), done or failed 409, whoever asks
-    // (GET tells the same).
-    std::optional<job_snapshot> final_state = job;
-    if (!final_state) {
-      if (const std::optional<stored_job> stored = deps_.store.find(id)) final_state = snapshot_from_store(*stored);
+  off_io_thread_if_blocking([this, id, route, owner = token_digest(owner_token), done = std::move(done)] {
+    const withdraw_result withdrawn = deps_.coordinator.withdraw(id, owner);
+    if (!withdrawn.error.ok()) return done(records_unreachable_reply(withdrawn.error, route));
+    const std::optional<job_snapshot>& job = withdrawn.job;
+    if (withdrawn.outcome == cancel_outcome::not_found || withdrawn.outcome == cancel_outcome::already_final) {
+      // A finished job changes for nobody: cancelled again is 200 (idempotent), done or failed 409, whoever asks
+      // (GET tells the same).
+      if (!job) return done(error_reply(404, "not_found", "no such job", route));
+      if (job->state == job_state::cancelled) return done(json_reply(200, job_document(*job), route));
+      return done(already_finished_reply(job->state, route));
     }
-    if (!final_state) return done(error_reply(404, "not_found", "no such job", route));
-    if (final_state->state == job_state::cancelled) return done(json_reply(200, job_document(*final_state), route));
-    return done(already_finished_reply(final_state->state, route));
-  }
-  if (outcome == cancel_outcome::not_owner) {
-    return done(error_reply(403, "forbidden", "this token does not own the job", route));
-  }
-  deps_.store.remove_owner(id, owner);
-  log_event(deps_.log, spdlog::level::info, "job_cancel",
-            {{"job", id},
-             {"outcome", outcome == cancel_outcome::withdrawn ? "withdrawn" : "cancelled"},
-             {"status", job ? std::string(proto::job_state_name(job->state)) : "unknown"}});
-  if (!job) return done(error_reply(404, "not_found", "no such job", route));
-  // cancelled; running until the pipeline sees the token; or, when other owners hold it, going on for them.
-  done(json_reply(200, job_document(*job), route));
+    if (withdrawn.outcome == cancel_outcome::not_owner) {
+      return done(error_reply(403, "forbidden", "this token does not own the job", route));
+    }
+    log_event(deps_.log, spdlog::level::info, "job_cancel",
+              {{"job", id},
+               {"outcome", withdrawn.outcome == cancel_outcome::withdrawn ? "withdrawn" : "cancelled"},
+               {"status", job ? std::string(proto::job_state_name(job->state)) : "unknown"}});
+    if (!job) return done(error_reply(404, "not_found", "no such job", route));
+    // cancelled; running until the pipeline sees the token; or, when other owners hold it, going on for them.
+    done(json_reply(200, job_document(*job), route));
+  });
 }
 
 std::optional<reply> api_handlers::authorization_failure(const request_head& head, const char* route) const {
@@ -1124,7 +1092,10 @@ reply api_handlers::readiness_reply() const {
     return with_retry_after(error_reply(503, "unavailable", "the job queue is full", "/readyz"),
                             deps_.config.limits.retry_after_seconds);
   }
-  if (!deps_.store.durable()) {
+  if (const std::optional<std::string> why = deps_.coordinator.unready_reason()) {
+    return with_retry_after(error_reply(503, "unavailable", *why, "/readyz"), deps_.config.limits.retry_after_seconds);
+  }
+  if (!deps_.coordinator.durable()) {
     return json_reply(200,
                       R"({"status":"ready","durable":false,"warning":"no disk store: accepted jobs and results )"
                       R"(are kept in memory only and a restart loses them"})",
@@ -1147,6 +1118,7 @@ reply api_handlers::metrics_reply() const {
   gauges.cache_corrupt_entries = cache.corrupt_entries;
   gauges.cache_evictions = cache.evictions;
   gauges.cache_write_failures = cache.write_failures;
+  deps_.coordinator.add_gauges(gauges);
   reply r;
   r.route = "/metrics";
   r.content_type = "text/plain; version=0.0.4; charset=utf-8";

@@ -33,6 +33,7 @@
 #include "server/access_tokens.hpp"
 #include "server/client_quota.hpp"
 #include "server/http_server.hpp"
+#include "server/job_coordinator.hpp"
 #include "server/job_queue.hpp"
 #include "server/job_store.hpp"
 #include "server/mesh_job.hpp"
@@ -48,7 +49,7 @@ struct api_dependencies {
   const server_config& config;
   job_queue& jobs;
   result_cache& cache;
-  job_store& store;
+  job_coordinator& coordinator;  ///< POST /jobs jobs: accepted, looked up, withdrawn (local or Redis)
   const mesh_job_context& results;  ///< encodes stored meshes on demand (encoded_result)
   const bearer_tokens& auth;        ///< empty: no bearer authentication
   metrics& stats;
@@ -84,6 +85,10 @@ class api_handlers final : public request_handler {
 
   reply metrics_reply() const;
   reply readiness_reply() const;
+  /// Runs `lookup` here, or on the prep pool when the coordinator's lookups block (Redis).
+  void off_io_thread_if_blocking(std::function<void()> lookup);
+  /// 503 + Retry-After (logged): the job records cannot be read now.
+  reply records_unreachable_reply(const status& error, std::string route) const;
   void job_status(const std::string& id, reply_sink done);
   /// GET /jobs/{id}/events: 404 for an unknown job, 503 past limits.max_event_streams, else the event stream.
   void job_events(const std::string& id, reply_sink done);
@@ -104,9 +109,6 @@ class api_handlers final : public request_handler {
   upload_admission uploads_;
   client_quota client_uploads_;
   client_quota client_jobs_;
-  // Serialises the accept step of POST /jobs (job store record + queue submit), so concurrent submissions of one
-  // job never overwrite each other's owners.
-  std::mutex accept_mutex_;
 };
 
 }  // namespace tracemesh::server

@@ -92,7 +92,13 @@ std::optional<stored_job> record_from_json(const std::string& text) {
   }
 }
 
-/// "density=1;d=-1;..." (proto::canonical_parameters) back to mesh_params.
+std::size_t mesh_bytes(const surface_mesh& mesh) {
+  return mesh.positions.size() * sizeof(vec3) + mesh.normals.size() * sizeof(vec3) +
+         mesh.atom_index.size() * sizeof(std::uint32_t) + mesh.triangles.size() * sizeof(mesh.triangles[0]);
+}
+
+}  // namespace
+
 result<mesh_params> parse_canonical_parameters(const std::string& text) {
   std::map<std::string, std::string, std::less<>> fields;
   std::string_view rest = text;
@@ -110,13 +116,6 @@ result<mesh_params> parse_canonical_parameters(const std::string& text) {
     return it->second;
   });
 }
-
-std::size_t mesh_bytes(const surface_mesh& mesh) {
-  return mesh.positions.size() * sizeof(vec3) + mesh.normals.size() * sizeof(vec3) +
-         mesh.atom_index.size() * sizeof(std::uint32_t) + mesh.triangles.size() * sizeof(mesh.triangles[0]);
-}
-
-}  // namespace
 
 std::int64_t unix_millis() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
@@ -395,6 +394,19 @@ status job_store::finish(const std::string& id, job_state state, const std::stri
   const status written = write_record(record);
   if (durable()) (void)detail::remove_file_durably(file_path(id, input_extension));
   return written;
+}
+
+status job_store::record_encoding(const std::string& id, std::string_view format_name, const nlohmann::json& entry) {
+  return amend_report(id, [&](const std::string& report) { return with_encoding(report, format_name, entry); });
+}
+
+std::string with_encoding(const std::string& report, std::string_view name, const nlohmann::json& entry) {
+  nlohmann::json doc = nlohmann::json::parse(report, nullptr, false);
+  if (!doc.is_object()) return report;  // never written by this service; leave it as it is
+  nlohmann::json& encodings = doc["encodings"];
+  if (!encodings.is_object()) encodings = nlohmann::json::object();
+  encodings[std::string(name)] = entry;
+  return doc.dump();
 }
 
 std::optional<stored_job> job_store::find(const std::string& id) {

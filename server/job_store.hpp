@@ -36,6 +36,7 @@
 #include "core/mesh.hpp"
 #include "core/status.hpp"
 #include "server/job_queue.hpp"
+#include "server/job_record_store.hpp"
 
 namespace tracemesh::server {
 
@@ -48,19 +49,6 @@ struct job_store_options {
   std::size_t memory_bytes = std::size_t{1} << 30;
 };
 
-/// What the store knows of a job.
-struct stored_job {
-  std::string id;
-  job_state state = job_state::queued;  ///< queued (accepted, not final yet), done, failed or cancelled
-  std::string parameters;               ///< proto::canonical_parameters of the job's mesh_params
-  proto::mesh_format format = proto::mesh_format::off;  ///< the format of the submission that created it
-  std::vector<std::string> owners;      ///< SHA-256 (hex) of each owner token still holding the job
-  std::string error_code;               ///< failed/cancelled
-  std::string error_message;
-  std::shared_ptr<const std::string> report;  ///< done: the report JSON text
-  std::int64_t accepted_ms = 0;               ///< Unix time in ms
-  std::int64_t finished_ms = 0;               ///< Unix time in ms; 0 while unfinished
-};
 
 /// An unfinished job found at open(): to be queued again.
 struct unfinished_job {
@@ -71,7 +59,7 @@ struct unfinished_job {
 /// job_snapshot::error_code of a job whose stored input or result was found unusable at start.
 inline constexpr const char* lost_job_error = "lost";
 
-class job_store {
+class job_store final : public job_record_store {
  public:
   explicit job_store(job_store_options options);
   job_store(const job_store&) = delete;
@@ -100,19 +88,21 @@ class job_store {
   /// A done job: stores the mesh and the report, then marks the record done (creating it when the job was never
   /// accepted through accept(), e.g. a synchronous /mesh job) and drops the input.
   status complete(const std::string& id, const stored_job& record_if_new, const surface_mesh& mesh,
-                  std::shared_ptr<const std::string> report);
+                  std::shared_ptr<const std::string> report) override;
   /// A done job's report rewritten by `amend` (given the current report text, returns the new one), under the
   /// writers' lock so that amendments never lose one another; durable before it returns. Used to add an encoding's
   /// entry when a format is first encoded. errc::invalid_argument when the job is not done (or unknown).
   status amend_report(const std::string& id, const std::function<std::string(const std::string&)>& amend);
+  /// amend_report with with_encoding.
+  status record_encoding(const std::string& id, std::string_view format_name, const nlohmann::json& entry) override;
   /// A failed or cancelled job: marks its record (when it has one) and drops the input.
   status finish(const std::string& id, job_state state, const std::string& error_code,
                 const std::string& error_message);
 
   /// The job's record while it is retained (expired records are forgotten on the way).
-  std::optional<stored_job> find(const std::string& id);
+  std::optional<stored_job> find(const std::string& id) override;
   /// A done job's mesh (read from disk for a durable store; nullptr when unknown, expired or unreadable).
-  std::shared_ptr<const surface_mesh> mesh(const std::string& id);
+  std::shared_ptr<const surface_mesh> mesh(const std::string& id) override;
 
   /// Forgets jobs that ended more than `retention` ago (records, results, inputs).
   void purge_expired();
@@ -146,6 +136,8 @@ std::optional<surface_mesh> deserialize_mesh(std::string_view bytes);
 /// The same for a job's input (atoms and zero-radius count); the parameters travel in the record.
 std::string serialize_molecule(const molecule& mol);
 std::optional<molecule> deserialize_molecule(std::string_view bytes);
+/// "density=1;d=-1;..." (proto::canonical_parameters) back to mesh_params; errc::invalid_input when malformed.
+result<mesh_params> parse_canonical_parameters(const std::string& text);
 
 /// Unix time now, in milliseconds.
 std::int64_t unix_millis();

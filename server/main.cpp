@@ -3,11 +3,14 @@
 #include <cstdio>
 #include <thread>
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
 
 #include "server/logging.hpp"
+#include "server/redis/redis_url.hpp"
 #include "server/service.hpp"
 
 namespace {
@@ -16,6 +19,15 @@ using tracemesh::server::server_config;
 
 std::chrono::milliseconds to_millis(double seconds) {
   return std::chrono::milliseconds(static_cast<long long>(seconds * 1000.0));
+}
+
+double seconds_of(std::chrono::milliseconds time) { return static_cast<double>(time.count()) / 1000.0; }
+
+/// "<hostname>-<pid>": unique among the replicas of one group while they run.
+std::string default_replica_name() {
+  char host[256] = {};
+  if (::gethostname(host, sizeof host - 1) != 0 || host[0] == '\0') std::snprintf(host, sizeof host, "replica");
+  return std::string(host) + "-" + std::to_string(::getpid());
 }
 
 struct command_line {
@@ -134,6 +146,16 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   app.add_option("--shutdown-grace", shutdown_grace,
                  "Seconds jobs may still run after SIGTERM before they are cancelled")
       ->capture_default_str();
+  double reclaim_timeout = seconds_of(limits.replicas.reclaim_timeout);
+  app.add_option("--store", config.store_url,
+                 "Where jobs are coordinated: omit for this process alone (the local job store); "
+                 "redis://HOST:PORT[/DB] makes this process one replica of many that share job records and work "
+                 "through Redis and results through --cache-dir (a directory every replica mounts)");
+  app.add_option("--replica-name", config.replica_name,
+                 "With --store: this replica's name in Redis and in /metrics (default <hostname>-<pid>; unique)");
+  app.add_option("--reclaim-timeout", reclaim_timeout,
+                 "With --store: seconds after which a job whose replica stopped renewing it (died) is taken over")
+      ->capture_default_str();
   app.add_option("--cors-origin", cors_origins, "Allowed CORS origin; repeat for several; \"*\" = any (default)");
   app.add_option("--log-level", line.log_level, "trace, debug, info, warn, error, critical or off")
       ->capture_default_str();
@@ -175,10 +197,29 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
     std::fprintf(stderr, "tracemeshd: --job-retention must be a positive number of seconds\n");
     return 2;
   }
+  if (!config.store_url.empty()) {
+    if (const auto endpoint = tracemesh::server::parse_redis_url(config.store_url); !endpoint.ok()) {
+      std::fprintf(stderr, "tracemeshd: --store: %s\n", endpoint.error().message().c_str());
+      return 2;
+    }
+    if (cache_dir.empty() || !job_dir.empty()) {
+      std::fprintf(stderr, "tracemeshd: --store redis://… needs --cache-dir (the result directory every replica "
+                           "mounts) and takes no --job-dir (job records live in Redis)\n");
+      return 2;
+    }
+    if (!(reclaim_timeout >= 0.1) || reclaim_timeout > 1e6) {
+      std::fprintf(stderr, "tracemeshd: --reclaim-timeout must be at least 0.1 seconds\n");
+      return 2;
+    }
+    limits.replicas.reclaim_timeout = to_millis(reclaim_timeout);
+    // Renewals several times per reclaim timeout, so a live replica's jobs are never taken over.
+    limits.replicas.heartbeat = std::min(limits.replicas.heartbeat, limits.replicas.reclaim_timeout / 4);
+    if (config.replica_name.empty()) config.replica_name = default_replica_name();
+  }
   config.cache_dir = cache_dir;
   config.job_dir = !job_dir.empty() ? std::filesystem::path(job_dir)
-                   : cache_dir.empty() ? std::filesystem::path()
-                                       : std::filesystem::path(cache_dir) / "jobs";
+                   : cache_dir.empty() || !config.store_url.empty() ? std::filesystem::path()
+                                                                     : std::filesystem::path(cache_dir) / "jobs";
   config.auth_token_file = auth_token_file;
   if (!auth_exempt.empty()) {
     config.auth_exempt_routes.clear();

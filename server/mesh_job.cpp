@@ -22,16 +22,6 @@ errc errc_named(std::string_view name) {
   return errc::internal_error;
 }
 
-/// `report` with encodings.<name> set to `entry`.
-std::string with_encoding(const std::string& report, std::string_view name, const nlohmann::json& entry) {
-  nlohmann::json doc = nlohmann::json::parse(report, nullptr, false);
-  if (!doc.is_object()) return report;  // never written by this service; leave it as it is
-  nlohmann::json& encodings = doc["encodings"];
-  if (!encodings.is_object()) encodings = nlohmann::json::object();
-  encodings[std::string(name)] = entry;
-  return doc.dump();
-}
-
 /// Encodes `mesh` in `format` and states the outcome in the stored report. A refusal (limit_exceeded) is
 /// recorded too, so that the next request is refused from the report without encoding again. `recorded` tells
 /// whether the report now states this encoding (bytes the report does not describe must not be cached).
@@ -44,8 +34,7 @@ result<std::string> encode_and_record(const mesh_job_context& context, const std
   const result<std::size_t> size = bytes ? result<std::size_t>(bytes->size()) : result<std::size_t>(bytes.error());
   const nlohmann::json entry = proto::encoding_to_json(encoder, format, size);
   const std::string_view name = proto::format_name(format);
-  const status amended = context.store.amend_report(
-      id, [&](const std::string& report) { return with_encoding(report, name, entry); });
+  const status amended = context.store.record_encoding(id, name, entry);
   recorded = amended.ok();
   // A job the store does not hold (a memory store forgot it) has no report to amend; a write failure is an error.
   if (!amended.ok() && amended.code() != errc::invalid_argument) {
@@ -75,12 +64,43 @@ std::optional<status> refused_encoding(const std::string& report, proto::mesh_fo
   return status(errc_named(error.value("code", "")), error.value("message", "this format cannot carry the mesh"));
 }
 
+namespace {
+
+/// The stored result of a done job, when the store has it whole.
+std::optional<job_output> stored_output(const mesh_job_context& context, const std::optional<stored_job>& stored) {
+  if (!stored || stored->state != job_state::done || !stored->report) return std::nullopt;
+  if (auto mesh = context.store.mesh(stored->id)) return job_output{std::move(mesh), stored->report, true};
+  return std::nullopt;
+}
+
+/// Ends a run granted by claim_run() when the work returns.
+class run_claim {
+ public:
+  run_claim(job_record_store& store, const std::string& id) : store_(store), id_(id) {}
+  ~run_claim() { store_.end_run(id_); }
+  run_claim(const run_claim&) = delete;
+  run_claim& operator=(const run_claim&) = delete;
+
+ private:
+  job_record_store& store_;
+  const std::string& id_;
+};
+
+}  // namespace
+
 result<job_output> run_mesh_job(const mesh_job_context& context, const std::string& id, const job_input& input,
                                 progress_token& token) {
-  const std::optional<stored_job> stored = context.store.find(id);
-  if (stored && stored->state == job_state::done && stored->report) {
-    if (auto mesh = context.store.mesh(id)) return job_output{std::move(mesh), stored->report, true};
+  if (auto output = stored_output(context, context.store.find(id))) return *std::move(output);
+  const result<bool> claimed = context.store.claim_run(id, token);
+  if (!claimed.ok()) return claimed.error();
+  if (!*claimed) {  // another replica meshed it while this one waited
+    if (auto output = stored_output(context, context.store.find(id))) return *std::move(output);
+    return status(errc::io_error, "another replica meshed the job but its result cannot be read");
   }
+  const run_claim claim(context.store, id);
+  // Finished by another replica between the first look and the claim.
+  const std::optional<stored_job> stored = context.store.find(id);
+  if (auto output = stored_output(context, stored)) return *std::move(output);
 
   mesh_params params = input.params;
   params.threads = context.mesher_threads;

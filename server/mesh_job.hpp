@@ -19,6 +19,7 @@
 #include "core/mesher.hpp"
 #include "server/content_coding.hpp"
 #include "server/job_queue.hpp"
+#include "server/job_record_store.hpp"
 #include "server/job_store.hpp"
 #include "server/metrics.hpp"
 #include "server/result_cache.hpp"
@@ -31,7 +32,7 @@ using mesher_function = std::function<result<mesh_output>(const molecule&, const
 
 struct mesh_job_context {
   result_cache& cache;
-  job_store& store;
+  job_record_store& store;  ///< job_store, or redis_job_store for replicas
   metrics& stats;
   spdlog::logger& log;
   mesh_limits limits;
@@ -42,8 +43,11 @@ struct mesh_job_context {
 /// The job's stored mesh and report when the job store has them (output.from_cache), else a mesher run (counted
 /// in metrics::mesher_runs) whose mesh and report (with an empty `encodings`: no format is encoded yet) are stored
 /// in the job store before the job is done.
+/// Meshing needs the store's claim_run() first: a job another replica is meshing is waited for and its result
+/// returned (output.from_cache), so a job is meshed once across replicas.
 /// Errors: the mesher's (cancelled when the token was cancelled); errc::io_error when the result cannot be stored
-/// (a job is never done without a result that can be served for the whole retention period).
+/// (a job is never done without a result that can be served for the whole retention period) or, for a job another
+/// replica meshed, cannot be read.
 result<job_output> run_mesh_job(const mesh_job_context& context, const std::string& id, const job_input& input,
                                 progress_token& token);
 

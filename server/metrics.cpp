@@ -148,7 +148,25 @@ std::string metrics::render(const metrics_gauges& gauges) const {
   sample(out, "tracemesh_cache_disk_bytes", gauges.cache_disk_bytes);
   family(out, "tracemesh_cache_entries", "gauge", "Entries in the cache.");
   sample(out, "tracemesh_cache_entries", gauges.cache_entries);
+  if (!gauges.replica.empty()) render_replica(out, gauges);
   return out;
+}
+
+void metrics::render_replica(std::string& out, const metrics_gauges& gauges) const {
+  const std::string replica = "replica=\"" + label_value(gauges.replica) + "\"";
+  family(out, "tracemesh_replica_info", "gauge", "This replica of a Redis-coordinated group (--store), by name.");
+  sample(out, "tracemesh_replica_info{" + replica + "}", std::uint64_t{1});
+  family(out, "tracemesh_redis_up", "gauge", "1 while Redis answered this replica's last heartbeat.");
+  sample(out, "tracemesh_redis_up{" + replica + "}", std::uint64_t{gauges.redis_up ? 1u : 0u});
+  family(out, "tracemesh_replica_jobs_total", "counter",
+         "Jobs this replica ran from the shared stream (taken new, or reclaimed from a dead replica) and jobs it "
+         "found meshed by another replica while it waited on the run lease (followed).");
+  sample(out, "tracemesh_replica_jobs_total{" + replica + ",how=\"taken\"}",
+         replica_taken_.load(std::memory_order_relaxed));
+  sample(out, "tracemesh_replica_jobs_total{" + replica + ",how=\"reclaimed\"}",
+         replica_reclaimed_.load(std::memory_order_relaxed));
+  sample(out, "tracemesh_replica_jobs_total{" + replica + ",how=\"followed\"}",
+         replica_followed_.load(std::memory_order_relaxed));
 }
 
 }  // namespace tracemesh::server

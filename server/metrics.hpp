@@ -28,6 +28,8 @@ struct metrics_gauges {
   std::uint64_t cache_corrupt_entries = 0;
   std::uint64_t cache_evictions = 0;
   std::uint64_t cache_write_failures = 0;
+  std::string replica;    ///< a replica's name (--store redis://…); empty: one process, no replica families
+  bool redis_up = false;  ///< replicas: Redis answered the last heartbeat
 };
 
 class metrics {
@@ -48,6 +50,13 @@ class metrics {
     (brotli ? br_compressions_ : gzip_compressions_).fetch_add(1, std::memory_order_relaxed);
   }
 
+  /// A replica took a job from the shared stream: new (`reclaimed` false) or from a dead replica.
+  void count_replica_job(bool reclaimed) {
+    (reclaimed ? replica_reclaimed_ : replica_taken_).fetch_add(1, std::memory_order_relaxed);
+  }
+  /// A replica waited on another replica's run lease and found the job meshed there.
+  void count_replica_followed() { replica_followed_.fetch_add(1, std::memory_order_relaxed); }
+
   std::uint64_t mesher_runs() const { return mesher_runs_.load(std::memory_order_relaxed); }
   std::uint64_t requests(std::string_view route, unsigned status) const;
 
@@ -55,6 +64,8 @@ class metrics {
   std::string render(const metrics_gauges& gauges) const;
 
  private:
+  void render_replica(std::string& out, const metrics_gauges& gauges) const;
+
   mutable std::mutex mutex_;
   std::map<std::pair<std::string, unsigned>, std::uint64_t, std::less<>> requests_;
   std::map<std::string, std::uint64_t, std::less<>> jobs_finished_;
@@ -65,6 +76,9 @@ class metrics {
   std::atomic<std::uint64_t> cache_responses_{0};
   std::atomic<std::uint64_t> gzip_compressions_{0};
   std::atomic<std::uint64_t> br_compressions_{0};
+  std::atomic<std::uint64_t> replica_taken_{0};
+  std::atomic<std::uint64_t> replica_reclaimed_{0};
+  std::atomic<std::uint64_t> replica_followed_{0};
 };
 
 }  // namespace tracemesh::server

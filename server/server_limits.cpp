@@ -37,7 +37,9 @@ nlohmann::json config_to_json(const server_config& config) {
       {"small_job_workers", config.small_job_workers},
       {"cache_dir", config.cache_dir.string()},
       {"job_dir", config.job_dir.string()},
-      {"durable_jobs", !config.job_dir.empty()},
+      {"durable_jobs", !config.job_dir.empty() || !config.store_url.empty()},
+      {"store", config.store_url.empty() ? std::string("local") : config.store_url},
+      {"replica", config.replica_name},
       {"auth", !config.auth_token_file.empty()},
       {"auth_exempt_routes", config.auth_exempt_routes},
       {"job_retention_s", seconds(limits.job_retention)},
@@ -80,6 +82,12 @@ nlohmann::json config_to_json(const server_config& config) {
       {"redis_command_timeout_ms", limits.redis.command_timeout.count()},
       {"redis_reconnect_backoff_initial_ms", limits.redis.reconnect_backoff_initial.count()},
       {"redis_reconnect_backoff_max_ms", limits.redis.reconnect_backoff_max.count()},
+      {"reclaim_timeout_ms", limits.replicas.reclaim_timeout.count()},
+      {"replica_heartbeat_ms", limits.replicas.heartbeat.count()},
+      {"replica_take_block_ms", limits.replicas.take_block.count()},
+      {"replica_follow_poll_ms", limits.replicas.follow_poll.count()},
+      {"replica_idle_poll_ms", limits.replicas.idle_poll.count()},
+      {"replica_error_pause_ms", limits.replicas.error_pause.count()},
   };
 }
 

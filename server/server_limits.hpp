@@ -41,6 +41,27 @@ struct redis_limits {
   std::chrono::milliseconds reconnect_backoff_max{std::chrono::seconds(5)};
 };
 
+/// The replicas of `tracemeshd --store redis://…` (server/redis/redis_job_coordinator.hpp): how fast a dead
+/// replica's job is taken over, and how often a live one says it is alive.
+struct replica_limits {
+  /// A job taken from the shared stream whose replica stopped renewing it for this long (it died) is reclaimed
+  /// by another replica (XAUTOCLAIM), and its run lease (SET NX PX) expires after the same time
+  /// (--reclaim-timeout). A kill -9'd replica's job is done within this plus its meshing time.
+  std::chrono::milliseconds reclaim_timeout{std::chrono::seconds(30)};
+  /// How often a replica renews its jobs' stream entries and run leases, publishes their progress to Redis,
+  /// looks for owners' cancellations and checks that Redis answers (/readyz). Kept well under reclaim_timeout.
+  std::chrono::milliseconds heartbeat{250};
+  /// Longest wait of one XREADGROUP for new work (shorter than redis_limits::command_timeout).
+  std::chrono::milliseconds take_block{1000};
+  /// A replica asked for a job another replica is meshing (the run lease is held) looks this often whether it
+  /// is done.
+  std::chrono::milliseconds follow_poll{100};
+  /// A replica with no free worker looks this often whether one is free before taking more work.
+  std::chrono::milliseconds idle_poll{50};
+  /// Pause after a failed Redis command of the consumer loop (the client's own backoff paces reconnects).
+  std::chrono::milliseconds error_pause{200};
+};
+
 struct server_limits {
   /// Mesher limits (atoms, extent, lattice, triangles); max_atoms is --max-atoms.
   mesh_limits mesh;
@@ -130,6 +151,8 @@ struct server_limits {
   std::uint64_t cache_disk_bytes = 4ull << 30;
   /// The Redis connections of a replicated store (not used by the default local store).
   redis_limits redis;
+  /// Reclaim, heartbeat and polling of a replicated store.
+  replica_limits replicas;
 };
 
 struct server_config {
@@ -145,6 +168,12 @@ struct server_config {
   /// Workers reserved for small jobs (limits.small_job_max_atoms), in addition to `workers`; 0 = no lane.
   unsigned small_job_workers = 1;
   std::filesystem::path cache_dir;    ///< empty → memory-only cache
+  /// --store: empty = this process alone (the job store below); "redis://HOST:PORT[/DB]" = one replica of many
+  /// sharing records and work through Redis and results through cache_dir (a directory every replica mounts).
+  std::string store_url;
+  /// This replica's name in the Redis consumer group, the run leases and the metrics (--replica-name; default
+  /// "<hostname>-<pid>"). Unique per running process.
+  std::string replica_name;
   /// The job store (records, inputs of unfinished jobs, meshes); empty → in memory, nothing survives a restart
   /// (tracemeshd: --job-dir, default <cache-dir>/jobs; --no-disk-store empties both).
   std::filesystem::path job_dir;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "server/local_job_coordinator.hpp"
 #include "server/logging.hpp"
 
 namespace tracemesh::server {
@@ -31,6 +32,27 @@ job_queue_options queue_options(const server_config& config) {
   return options;
 }
 
+/// This replica's Redis side with --store redis://…; null for one process alone (or a malformed URL: start()
+/// reports it).
+std::unique_ptr<redis_replica> make_replica(const server_config& config, result_cache& results, metrics& stats) {
+  if (config.store_url.empty()) return nullptr;
+  result<redis_endpoint> endpoint = parse_redis_url(config.store_url);
+  if (!endpoint.ok()) return nullptr;
+  return std::make_unique<redis_replica>(*endpoint, config, results, stats);
+}
+
+job_record_store& record_store(const std::unique_ptr<redis_replica>& replica, job_store& local) {
+  if (replica) return replica->store;
+  return local;
+}
+
+std::unique_ptr<job_coordinator> make_coordinator(const std::unique_ptr<redis_replica>& replica, job_queue& jobs,
+                                                  job_store& local, const server_config& config, metrics& stats,
+                                                  spdlog::logger& log) {
+  if (replica) return std::make_unique<redis_job_coordinator>(*replica, jobs, config.workers, stats, log);
+  return std::make_unique<local_job_coordinator>(jobs, local);
+}
+
 }  // namespace
 
 service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesher_function mesher)
@@ -40,16 +62,18 @@ service::service(server_config config, std::shared_ptr<spdlog::logger> log, mesh
       cors_(config_.cors_origins),
       cache_(config_.cache_dir, cache_limits{config_.limits.cache_memory_bytes, config_.limits.cache_disk_bytes}),
       store_(job_store_options{config_.job_dir, config_.limits.job_retention, config_.limits.job_store_memory_bytes}),
-      mesh_context_{cache_, store_, metrics_, *log_, config_.limits.mesh, config_.mesher_threads,
-                    default_mesher(std::move(mesher))},
+      redis_(make_replica(config_, cache_, metrics_)),
+      mesh_context_{cache_,         record_store(redis_, store_), metrics_, *log_, config_.limits.mesh,
+                    config_.mesher_threads, default_mesher(std::move(mesher))},
       jobs_(queue_options(config_),
             [this](const std::string& id, const job_input& input, progress_token& token) {
               return run_mesh_job(mesh_context_, id, input, token);
             },
             metrics_, [this](const job_snapshot& final_state, const job_output*) { record_final(final_state); }),
+      coordinator_(make_coordinator(redis_, jobs_, store_, config_, metrics_, *log_)),
       prep_(std::max(1u, config_.prep_threads)),
       large_uploads_(std::max(1u, config_.large_upload_threads)),
-      api_(api_dependencies{config_, jobs_, cache_, store_, mesh_context_, auth_, metrics_, *log_, state_, cors_,
+      api_(api_dependencies{config_, jobs_, cache_, *coordinator_, mesh_context_, auth_, metrics_, *log_, state_, cors_,
                             prep_, large_uploads_}),
       http_context_{config_.limits, api_, state_, metrics_, *log_, cors_} {
   cache_.set_corruption_listener([log = log_](const std::string& key, const char* reason) {
@@ -100,6 +124,14 @@ status service::start() {
     if (!tokens.ok()) return tokens.error();
     auth_ = std::move(*tokens);
   }
+  if (!config_.store_url.empty()) {
+    if (result<redis_endpoint> endpoint = parse_redis_url(config_.store_url); !endpoint.ok()) return endpoint.error();
+    if (config_.cache_dir.empty()) {
+      return status(errc::invalid_argument, "--store redis://… needs --cache-dir: the result directory every "
+                                            "replica mounts");
+    }
+  }
+  if (const status started = coordinator_->start(); !started.ok()) return started;
   requeue_unfinished();
   listener_ = std::make_shared<http_listener>(io_, http_context_);
   const status listening = listener_->open(config_.listen_host, config_.listen_port);
@@ -131,6 +163,7 @@ void service::shutdown() {
             {{"queued", jobs_.queue_depth()}, {"running", jobs_.running_jobs()}});
   state_.draining.store(true);
   listener_->stop();
+  coordinator_->stop();  // a replica takes no more work from the shared stream
   jobs_.shutdown(config_.limits.shutdown_grace);
   const auto flush_deadline = std::chrono::steady_clock::now() + response_flush_time;
   while (state_.busy_requests.load() > 0 && std::chrono::steady_clock::now() < flush_deadline) {

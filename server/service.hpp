@@ -17,10 +17,12 @@
 #include "server/api_handlers.hpp"
 #include "server/access_tokens.hpp"
 #include "server/http_server.hpp"
+#include "server/job_coordinator.hpp"
 #include "server/job_queue.hpp"
 #include "server/job_store.hpp"
 #include "server/mesh_job.hpp"
 #include "server/metrics.hpp"
+#include "server/redis/redis_job_coordinator.hpp"
 #include "server/result_cache.hpp"
 #include "server/server_limits.hpp"
 
@@ -50,6 +52,7 @@ class service {
   job_queue& jobs() { return jobs_; }
   result_cache& cache() { return cache_; }
   job_store& store() { return store_; }
+  job_coordinator& coordinator() { return *coordinator_; }
   /// Uploads in flight and the body bytes they hold.
   const upload_admission& uploads() const { return api_.uploads(); }
   /// Open connections and requests being served.
@@ -64,8 +67,11 @@ class service {
   result_cache cache_;
   job_store store_;
   bearer_tokens auth_;
+  // --store redis://…: this replica's Redis side (null for one process alone), built before the work that uses it.
+  std::unique_ptr<redis_replica> redis_;
   mesh_job_context mesh_context_;
   job_queue jobs_;
+  std::unique_ptr<job_coordinator> coordinator_;  // local_job_coordinator or redis_job_coordinator
   boost::asio::thread_pool prep_;
   boost::asio::thread_pool large_uploads_;
   api_handlers api_;

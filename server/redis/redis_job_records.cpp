@@ -3,6 +3,8 @@
 #include <charconv>
 #include <map>
 
+#include <nlohmann/json.hpp>
+
 #include "proto/api_types.hpp"
 #include "proto/mesh_format.hpp"
 
@@ -26,6 +28,63 @@ if redis.call('EXISTS', KEYS[1]) == 0 then return 0 end
 redis.call('HSET', KEYS[1], 'stage', ARGV[1], 'progress', ARGV[2], 'eta_s', ARGV[3])
 return 1
 )lua";
+
+// KEYS[1] record, KEYS[2] owners, KEYS[3] input, KEYS[4] stream; ARGV[1] group, ARGV[2] owner, ARGV[3] job id,
+// ARGV[4] parameters, ARGV[5] format, ARGV[6] accepted_ms, ARGV[7] input bytes, ARGV[8] max waiting entries.
+// {"coalesced"} | {"queue_full"} | {"accepted", entry id}.
+constexpr const char* accept_script = R"lua(
+local state = redis.call('HGET', KEYS[1], 'state')
+if state == 'queued' or state == 'running' then
+  redis.call('SADD', KEYS[2], ARGV[2])
+  return {'coalesced'}
+end
+local waiting = redis.call('XLEN', KEYS[4]) - redis.call('XPENDING', KEYS[4], ARGV[1])[1]
+if waiting >= tonumber(ARGV[8]) then return {'queue_full'} end
+redis.call('DEL', KEYS[1], KEYS[2])
+redis.call('HSET', KEYS[1], 'state', 'queued', 'parameters', ARGV[4], 'format', ARGV[5], 'error_code', '',
+           'error_message', '', 'accepted_ms', ARGV[6], 'finished_ms', '0')
+redis.call('SADD', KEYS[2], ARGV[2])
+redis.call('SET', KEYS[3], ARGV[7])
+local entry = redis.call('XADD', KEYS[4], '*', 'job', ARGV[3])
+redis.call('HSET', KEYS[1], 'entry', entry)
+return {'accepted', entry}
+)lua";
+
+// KEYS[1] record; ARGV[1] replica, ARGV[2] now ms. 1 when the queued job is now running here, 0 otherwise.
+constexpr const char* mark_running_script = R"lua(
+local state = redis.call('HGET', KEYS[1], 'state')
+if state ~= 'queued' and state ~= 'running' then return 0 end
+redis.call('HSET', KEYS[1], 'state', 'running', 'replica', ARGV[1], 'started_ms', ARGV[2])
+return 1
+)lua";
+
+// KEYS[1] record, KEYS[2] owners, KEYS[3] input; ARGV[1] owner, ARGV[2] now ms, ARGV[3] expiry (Unix ms).
+constexpr const char* withdraw_script = R"lua(
+local state = redis.call('HGET', KEYS[1], 'state')
+if not state then return 'not_found' end
+if state ~= 'queued' and state ~= 'running' then return 'already_final' end
+if redis.call('SREM', KEYS[2], ARGV[1]) == 0 then return 'not_owner' end
+if redis.call('SCARD', KEYS[2]) > 0 then return 'withdrawn' end
+if state == 'running' then
+  redis.call('HSET', KEYS[1], 'cancel', '1')
+  return 'cancelling'
+end
+redis.call('HSET', KEYS[1], 'state', 'cancelled', 'error_code', 'cancelled', 'error_message', 'cancelled by request',
+           'finished_ms', ARGV[2])
+redis.call('PEXPIREAT', KEYS[1], ARGV[3])
+redis.call('DEL', KEYS[3])
+return 'cancelled'
+)lua";
+
+// KEYS[1] record; ARGV[1] field, ARGV[2] value. 1 when written (the job is done), 0 otherwise.
+constexpr const char* set_encoding_script = R"lua(
+if redis.call('HGET', KEYS[1], 'state') ~= 'done' then return 0 end
+redis.call('HSET', KEYS[1], ARGV[1], ARGV[2])
+return 1
+)lua";
+
+/// The prefix of a done job's encoding fields ("enc:off").
+constexpr std::string_view encoding_field_prefix = "enc:";
 
 status malformed(const std::string& key, std::string_view why) {
   std::string message = "malformed job record ";
@@ -139,7 +198,15 @@ result<std::optional<stored_job>> redis_job_records::find(const std::string& id)
   record.error_message = *field("error_message");
   record.accepted_ms = *accepted;
   record.finished_ms = *finished;
-  if (const std::string* report = field("report")) record.report = std::make_shared<const std::string>(*report);
+  if (const std::string* report = field("report")) {
+    std::string text = *report;
+    for (const auto& [name, value] : fields) {
+      if (name.rfind(encoding_field_prefix, 0) != 0) continue;
+      const nlohmann::json entry = nlohmann::json::parse(value, nullptr, false);
+      if (!entry.is_discarded()) text = with_encoding(text, name.substr(encoding_field_prefix.size()), entry);
+    }
+    record.report = std::make_shared<const std::string>(std::move(text));
+  }
   for (const redis_reply& owner : (*replies)[1].elements) record.owners.push_back(owner.text);
   return std::optional<stored_job>(std::move(record));
 }
@@ -177,6 +244,114 @@ result<std::optional<redis_job_records::live_fields>> redis_job_records::find_pr
   if (reply->elements.size() != 4 || reply->elements[0].is_nil()) return std::optional<live_fields>{};
   return std::optional<live_fields>(
       live_fields{reply->elements[1].text, reply->elements[2].text, reply->elements[3].text});
+}
+
+namespace {
+
+/// The error of a Redis reply that is not an integer (or an array when `array`).
+status unexpected_reply(std::string_view what) {
+  return status(errc::io_error, std::string("unexpected Redis reply to ").append(what));
+}
+
+}  // namespace
+
+result<redis_job_records::accept_outcome> redis_job_records::accept_and_queue(const stored_job& record,
+                                                                              const std::string& input_bytes,
+                                                                              const std::string& stream_key,
+                                                                              const std::string& group,
+                                                                              std::size_t max_waiting) {
+  if (record.owners.size() != 1) return status(errc::invalid_argument, "accept_and_queue takes exactly one owner");
+  auto reply = client_.command({"EVAL", accept_script, "4", record_key(record.id), owners_key(record.id),
+                                input_key(record.id), stream_key, group, record.owners.front(), record.id,
+                                record.parameters, std::string(proto::format_name(record.format)),
+                                std::to_string(record.accepted_ms), input_bytes, std::to_string(max_waiting)});
+  if (!reply.ok()) return reply.error();
+  if (reply->is_error()) return redis_refused("a job's acceptance", *reply);
+  if (reply->elements.empty()) return unexpected_reply("a job's acceptance");
+  const std::string& outcome = reply->elements[0].text;
+  if (outcome == "accepted") return accept_outcome::accepted;
+  if (outcome == "coalesced") return accept_outcome::coalesced;
+  if (outcome == "queue_full") return accept_outcome::queue_full;
+  return unexpected_reply("a job's acceptance");
+}
+
+result<std::optional<std::string>> redis_job_records::input(const std::string& id) {
+  auto reply = client_.command({"GET", input_key(id)});
+  if (!reply.ok()) return reply.error();
+  if (reply->is_error()) return redis_refused("an input read", *reply);
+  if (reply->is_nil()) return std::optional<std::string>{};
+  return std::optional<std::string>(std::move(reply->text));
+}
+
+result<bool> redis_job_records::mark_running(const std::string& id, const std::string& replica) {
+  auto reply = client_.command({"EVAL", mark_running_script, "1", record_key(id), replica,
+                                std::to_string(unix_millis())});
+  if (!reply.ok()) return reply.error();
+  if (reply->is_error()) return redis_refused("a job's start", *reply);
+  return reply->integer == 1;
+}
+
+status redis_job_records::finish(const stored_job& record) {
+  const std::string key = record_key(record.id);
+  const std::string expires_at = std::to_string(record.finished_ms + retention_.count());
+  std::vector<std::string> hset{"HSET",          key,
+                                "state",         std::string(proto::job_state_name(record.state)),
+                                "parameters",    record.parameters,
+                                "format",        std::string(proto::format_name(record.format)),
+                                "error_code",    record.error_code,
+                                "error_message", record.error_message,
+                                "accepted_ms",   std::to_string(record.accepted_ms),
+                                "finished_ms",   std::to_string(record.finished_ms)};
+  if (record.report) {
+    hset.push_back("report");
+    hset.push_back(*record.report);
+  }
+  auto replies = client_.pipeline({{"MULTI"},
+                                   std::move(hset),
+                                   {"HDEL", key, "cancel"},
+                                   {"DEL", input_key(record.id)},
+                                   {"PEXPIREAT", key, expires_at},
+                                   {"PEXPIREAT", owners_key(record.id), expires_at},
+                                   {"EXEC"}});
+  if (!replies.ok()) return replies.error();
+  if (const redis_reply* error = first_error(*replies)) return redis_refused("a job's final record", *error);
+  if (replies->back().type != redis_reply::kind::array) return status(errc::io_error, "Redis aborted a job record write");
+  return status::success();
+}
+
+result<redis_job_records::withdraw_outcome> redis_job_records::withdraw(const std::string& id,
+                                                                        const std::string& owner_hash) {
+  const std::int64_t now = unix_millis();
+  auto reply = client_.command({"EVAL", withdraw_script, "3", record_key(id), owners_key(id), input_key(id),
+                                owner_hash, std::to_string(now), std::to_string(now + retention_.count())});
+  if (!reply.ok()) return reply.error();
+  if (reply->is_error()) return redis_refused("a withdrawal", *reply);
+  static constexpr std::pair<std::string_view, withdraw_outcome> outcomes[] = {
+      {"not_found", withdraw_outcome::not_found},   {"already_final", withdraw_outcome::already_final},
+      {"not_owner", withdraw_outcome::not_owner},   {"withdrawn", withdraw_outcome::withdrawn},
+      {"cancelled", withdraw_outcome::cancelled},   {"cancelling", withdraw_outcome::cancelling}};
+  for (const auto& [name, outcome] : outcomes) {
+    if (reply->text == name) return outcome;
+  }
+  return unexpected_reply("a withdrawal");
+}
+
+result<bool> redis_job_records::cancel_requested(const std::string& id) {
+  auto reply = client_.command({"HGET", record_key(id), "cancel"});
+  if (!reply.ok()) return reply.error();
+  if (reply->is_error()) return redis_refused("a cancel check", *reply);
+  return reply->text == "1";
+}
+
+status redis_job_records::set_encoding(const std::string& id, std::string_view format_name,
+                                       const std::string& entry_json) {
+  std::string field(encoding_field_prefix);
+  field.append(format_name);
+  auto reply = client_.command({"EVAL", set_encoding_script, "1", record_key(id), field, entry_json});
+  if (!reply.ok()) return reply.error();
+  if (reply->is_error()) return redis_refused("an encoding's entry", *reply);
+  if (reply->integer != 1) return status(errc::invalid_argument, std::string("no done job ").append(id));
+  return status::success();
 }
 
 }  // namespace tracemesh::server

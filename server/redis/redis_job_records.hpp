@@ -7,7 +7,9 @@
 ///   <prefix>job:<id>          hash: state, parameters, format, error_code, error_message, report (done jobs),
 ///                             accepted_ms, finished_ms (the fields of stored_job), and the live fields stage,
 ///                             progress, eta_s written by set_progress while the job runs;
-///   <prefix>job:<id>:owners   set: SHA-256 hex of each owner token still holding the job.
+///   <prefix>job:<id>:owners   set: SHA-256 hex of each owner token still holding the job;
+///   <prefix>input:<id>        string: the parsed input of an unfinished job (serialize_molecule), dropped at its end.
+/// A done job's report gets one `enc:<format>` field per encoding made, merged into report.encodings by find().
 /// Retention is Redis expiry: a finished record (finished_ms > 0) expires at finished_ms + retention (PEXPIREAT on
 /// both keys), an unfinished one never does. Every write is one MULTI/EXEC transaction or one Lua script, so a
 /// reader on another replica never sees half a record, and writes to a job that has expired never recreate it.
@@ -16,6 +18,8 @@
 /// mount (server/result_cache.hpp, detail/durable_file.hpp).
 
 #include <chrono>
+#include <cstddef>
+#include <string_view>
 #include <optional>
 #include <string>
 
@@ -53,7 +57,36 @@ class redis_job_records {
   };
   result<std::optional<live_fields>> find_progress(const std::string& id);
 
+  /// How accept_and_queue() went.
+  enum class accept_outcome { accepted, coalesced, queue_full };
+  /// POST /jobs on a replica, atomically (one Lua script): a job queued or running anywhere gets the owner added
+  /// (coalesced); else, unless `max_waiting` entries of `stream_key` wait undelivered (queue_full), the record is
+  /// written anew (state queued, the owner), the input stored under input_key, and the job appended to the stream
+  /// (its entry id kept in the record's `entry` field). `record.owners` must hold exactly the submitting owner.
+  result<accept_outcome> accept_and_queue(const stored_job& record, const std::string& input_bytes,
+                                          const std::string& stream_key, const std::string& group,
+                                          std::size_t max_waiting);
+  /// The input stored by accept_and_queue(); std::nullopt when gone.
+  result<std::optional<std::string>> input(const std::string& id);
+  /// A queued job starts on `replica`: state running, `replica` and `started_ms` set. False when the job is not
+  /// queued any more (final, unknown, or already running elsewhere: then only `replica` changes hands).
+  result<bool> mark_running(const std::string& id, const std::string& replica);
+  /// A final state (done, failed, cancelled), its error, report and finished_ms written over the record's fields,
+  /// keeping its owners and encodings; the input is dropped and the record and owners expire after retention. A
+  /// record that does not exist is created (a synchronous job's). errc::io_error when Redis is unreachable.
+  status finish(const stored_job& record);
+  /// DELETE by an owner, atomically: see withdraw_outcome. A running job gets its `cancel` field set, which its
+  /// replica sees at its next heartbeat (cancel_requested()).
+  enum class withdraw_outcome { not_found, already_final, not_owner, withdrawn, cancelled, cancelling };
+  result<withdraw_outcome> withdraw(const std::string& id, const std::string& owner_hash);
+  /// True when an owner's DELETE asked the running job to stop.
+  result<bool> cancel_requested(const std::string& id);
+  /// report.encodings.<format_name> = entry for a done job (a hash field of its own, merged into the report by
+  /// find(), so concurrent writers never lose one another). errc::invalid_argument when the job is not done.
+  status set_encoding(const std::string& id, std::string_view format_name, const std::string& entry_json);
+
   std::string record_key(const std::string& id) const { return prefix_ + "job:" + id; }
+  std::string input_key(const std::string& id) const { return prefix_ + "input:" + id; }
   std::string owners_key(const std::string& id) const { return record_key(id) + ":owners"; }
 
  private:

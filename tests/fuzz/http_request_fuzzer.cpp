@@ -28,6 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "server/api_handlers.hpp"
+#include "server/local_job_coordinator.hpp"
 #include "server/detail/http_session.hpp"
 #include "server/job_queue.hpp"
 #include "server/logging.hpp"
@@ -145,9 +146,10 @@ struct fuzz_service {
                    return run_mesh_job(mesh_context, id, input, token);
                  },
                  stats};
+  local_job_coordinator coordinator{jobs, store};
   net::thread_pool prep{1};
   net::thread_pool large_uploads{1};
-  api_handlers api{api_dependencies{config, jobs, cache, store, mesh_context, auth, stats, *log, state, cors, prep,
+  api_handlers api{api_dependencies{config, jobs, cache, coordinator, mesh_context, auth, stats, *log, state, cors, prep,
                                     large_uploads}};
   recording_handler recorder{api};
   http_context context{config.limits, recorder, state, stats, *log, cors};

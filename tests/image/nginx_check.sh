@@ -52,8 +52,9 @@ start_nginx() {
   mkdir -p "$dir"
   for _ in 1 2 3 4 5; do
     nginx_port=$((20000 + RANDOM % 40000)); redirect_port=$((nginx_port + 1))
-    sed -e "s|server tracemesh:8080;|server 127.0.0.1:$port;|" \
-        -e "s|listen 80;|listen 127.0.0.1:$redirect_port;|" -e "s|listen 443 |listen 127.0.0.1:$nginx_port |" \
+    sed -e "s|server tracemesh:8080;|server 127.0.0.1:$port;|" "$repo/docker/nginx/upstream.conf" >"$dir/upstream.conf"
+    sed -e "s|listen 80;|listen 127.0.0.1:$redirect_port;|" -e "s|listen 443 |listen 127.0.0.1:$nginx_port |" \
+        -e "s|/etc/nginx/tracemesh/upstream.conf|$dir/upstream.conf|" \
         -e "s|/etc/nginx/tracemesh/proxy.conf|$repo/docker/nginx/proxy.conf|" -e "s|/etc/nginx/certs/|$work/|" \
         "$conf" >"$dir/server.conf"
     # The plain file has only its port-80 server: that is the one to test.

@@ -1,7 +1,8 @@
 #pragma once
 // A real redis-server for the tests: started on a free loopback port in its own temporary directory, without
-// persistence (--save '' --appendonly no), stopped (SIGKILL, as a crash would) and restarted on the same port on
-// demand. Tests skip with GTEST_SKIP only when no redis-server is installed (scripts/install-deps.sh installs it).
+// persistence (--save '' --appendonly no) or, when made `persistent`, with the append-only file fsync'd on every
+// write (as docker/compose.yaml runs it), stopped (SIGKILL, as a crash would) and restarted on the same port on
+// demand (a persistent one comes back with everything it acknowledged). Tests skip with GTEST_SKIP only when no redis-server is installed (scripts/install-deps.sh installs it).
 #include <gtest/gtest.h>
 
 #include <netinet/in.h>
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include "server/redis/redis_client.hpp"
+#include "support/child_process.hpp"
 
 namespace tracemesh::testing {
 
@@ -46,7 +48,7 @@ inline unsigned short free_loopback_port() {
 
 class redis_process {
  public:
-  redis_process() {
+  explicit redis_process(bool persistent = false) : persistent_(persistent) {
     char pattern[] = "/tmp/tracemesh-redis-XXXXXX";
     if (::mkdtemp(pattern) != nullptr) directory_ = pattern;
   }
@@ -69,14 +71,8 @@ class redis_process {
     return false;
   }
   /// Kills redis-server (SIGKILL: nothing is flushed, like a crash) and waits for it to exit.
-  void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGKILL);
-    int ignored = 0;
-    ::waitpid(pid_, &ignored, 0);
-    pid_ = -1;
-  }
-  /// A new redis-server on the same port (empty: persistence is off).
+  void stop() { kill_process(pid_); }
+  /// A new redis-server on the same port and directory (empty unless persistent).
   bool restart() {
     stop();
     if (launch()) return true;
@@ -94,35 +90,18 @@ class redis_process {
     const std::string port = std::to_string(port_);
     const std::string log = (directory_ / "redis.log").string();
     std::vector<std::string> arguments{binary,      "--port", port,        "--bind",       "127.0.0.1", "--save",
-                                       "",          "--appendonly", "no",  "--dir",        directory_.string(),
+                                       "",          "--appendonly", persistent_ ? "yes" : "no",
+                                       "--appendfsync", "always",   "--dir",        directory_.string(),
                                        "--logfile", log,      "--daemonize", "no"};
-    pid_ = ::fork();
-    if (pid_ == 0) {
-      std::vector<char*> argv;
-      for (std::string& argument : arguments) argv.push_back(argument.data());
-      argv.push_back(nullptr);
-      ::execv(binary.c_str(), argv.data());
-      ::_exit(127);
-    }
-    if (pid_ < 0) return false;
+    pid_ = spawn_process(arguments);
     // Ready when it answers PING; gone (port taken, bad option) when the child has exited.
     server::redis_limits limits;
     limits.connect_timeout = std::chrono::milliseconds(500);
     server::redis_client probe(endpoint(), limits);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return false;
-      }
-      if (probe.connect().ok()) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    stop();
-    return false;
+    return wait_until_ready(pid_, std::chrono::seconds(10), [&] { return probe.connect().ok(); });
   }
 
+  const bool persistent_;
   std::filesystem::path directory_;
   unsigned short port_ = 0;
   pid_t pid_ = -1;

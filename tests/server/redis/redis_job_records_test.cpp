@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "redis_fixture.hpp"
 
 namespace tracemesh::server::test {
@@ -136,6 +138,106 @@ TEST_F(RedisJobRecords, WritesFailAsValuesWhenRedisIsDown) {
   EXPECT_EQ(failed.code(), errc::io_error);
   EXPECT_NE(failed.message().find("unreachable"), std::string::npos) << failed.message();
   EXPECT_FALSE(a.find(job_id).ok());
+}
+
+
+// ---- what the replicas' coordinator does with the records (redis_job_coordinator.hpp) ----
+
+constexpr const char* stream = "tracemesh:queue";
+
+/// A stream with its consumer group, as redis_work_queue::ensure_group makes it.
+void make_group(redis_client& client) {
+  ASSERT_TRUE(client.command({"XGROUP", "CREATE", stream, "workers", "0", "MKSTREAM"}).ok());
+}
+
+stored_job submission(const std::string& id, char owner) {
+  stored_job record = queued_job(id);
+  record.owners = {std::string(64, owner)};
+  return record;
+}
+
+TEST_F(RedisJobRecords, AcceptQueuesANewJobOnceAndCoalescesTheSameJobFromAnotherReplica) {
+  make_group(*replica_a_);
+  redis_job_records a(*replica_a_, 24h);
+  redis_job_records b(*replica_b_, 24h);
+  const auto first = a.accept_and_queue(submission(job_id, 'a'), "input bytes", stream, "workers", 8);
+  ASSERT_TRUE(first.ok()) << first.error().message();
+  EXPECT_EQ(*first, redis_job_records::accept_outcome::accepted);
+  const auto second = b.accept_and_queue(submission(job_id, 'b'), "input bytes", stream, "workers", 8);
+  ASSERT_TRUE(second.ok());
+  EXPECT_EQ(*second, redis_job_records::accept_outcome::coalesced);
+
+  EXPECT_EQ(replica_a_->command({"XLEN", stream})->integer, 1) << "one stream entry for the job";
+  const auto record = b.find(job_id);
+  ASSERT_TRUE(record.ok() && record->has_value());
+  EXPECT_EQ((*record)->owners.size(), 2u);
+  EXPECT_EQ(*b.input(job_id), std::optional<std::string>("input bytes"));
+}
+
+TEST_F(RedisJobRecords, AcceptRefusesPastTheWaitingLimitButStillCoalesces) {
+  make_group(*replica_a_);
+  redis_job_records a(*replica_a_, 24h);
+  ASSERT_EQ(*a.accept_and_queue(submission(job_id, 'a'), "x", stream, "workers", 1),
+            redis_job_records::accept_outcome::accepted);
+  EXPECT_EQ(*a.accept_and_queue(submission(std::string(64, '2'), 'a'), "x", stream, "workers", 1),
+            redis_job_records::accept_outcome::queue_full);
+  EXPECT_EQ(*a.accept_and_queue(submission(job_id, 'c'), "x", stream, "workers", 1),
+            redis_job_records::accept_outcome::coalesced);
+  // Delivered (pending) entries do not wait: there is room again.
+  ASSERT_TRUE(replica_a_->command({"XREADGROUP", "GROUP", "workers", "w", "COUNT", "1", "STREAMS", stream, ">"}).ok());
+  EXPECT_EQ(*a.accept_and_queue(submission(std::string(64, '2'), 'a'), "x", stream, "workers", 1),
+            redis_job_records::accept_outcome::accepted);
+}
+
+TEST_F(RedisJobRecords, WithdrawCancelsAQueuedJobAndFlagsARunningOne) {
+  make_group(*replica_a_);
+  redis_job_records a(*replica_a_, 24h);
+  redis_job_records b(*replica_b_, 24h);
+  using outcome = redis_job_records::withdraw_outcome;
+  EXPECT_EQ(*b.withdraw(job_id, std::string(64, 'a')), outcome::not_found);
+  ASSERT_TRUE(a.accept_and_queue(submission(job_id, 'a'), "x", stream, "workers", 8).ok());
+  ASSERT_TRUE(a.accept_and_queue(submission(job_id, 'b'), "x", stream, "workers", 8).ok());
+  EXPECT_EQ(*b.withdraw(job_id, std::string(64, 'z')), outcome::not_owner);
+  EXPECT_EQ(*b.withdraw(job_id, std::string(64, 'b')), outcome::withdrawn);
+  ASSERT_TRUE(*a.mark_running(job_id, "A"));
+  EXPECT_FALSE(*a.cancel_requested(job_id));
+  EXPECT_EQ(*b.withdraw(job_id, std::string(64, 'a')), outcome::cancelling);
+  EXPECT_TRUE(*a.cancel_requested(job_id)) << "the running replica sees the request at its next heartbeat";
+
+  const std::string queued_id(64, '3');
+  ASSERT_TRUE(a.accept_and_queue(submission(queued_id, 'a'), "x", stream, "workers", 8).ok());
+  EXPECT_EQ(*b.withdraw(queued_id, std::string(64, 'a')), outcome::cancelled);
+  const auto cancelled = a.find(queued_id);
+  ASSERT_TRUE(cancelled.ok() && cancelled->has_value());
+  EXPECT_EQ((*cancelled)->state, job_state::cancelled);
+  EXPECT_GT(replica_a_->command({"PTTL", a.record_key(queued_id)})->integer, 0) << "a final record expires";
+  EXPECT_FALSE(a.input(queued_id)->has_value()) << "its input is dropped";
+  EXPECT_EQ(*b.withdraw(queued_id, std::string(64, 'a')), outcome::already_final);
+  EXPECT_FALSE(*a.mark_running(queued_id, "A")) << "a cancelled job is not started";
+}
+
+TEST_F(RedisJobRecords, FinishKeepsTheOwnersAndEncodingsMergeIntoTheReport) {
+  make_group(*replica_a_);
+  redis_job_records a(*replica_a_, 24h);
+  redis_job_records b(*replica_b_, 24h);
+  ASSERT_TRUE(a.accept_and_queue(submission(job_id, 'a'), "x", stream, "workers", 8).ok());
+  EXPECT_EQ(b.set_encoding(job_id, "off", R"({"bytes":10})").code(), errc::invalid_argument) << "not done yet";
+  stored_job done = **a.find(job_id);
+  done.state = job_state::done;
+  done.report = std::make_shared<const std::string>(R"({"triangles":4,"encodings":{}})");
+  done.finished_ms = unix_millis();
+  ASSERT_TRUE(a.finish(done).ok());
+  ASSERT_TRUE(a.set_encoding(job_id, "off", R"({"bytes":10})").ok());
+  ASSERT_TRUE(b.set_encoding(job_id, "draco", R"({"bytes":3})").ok());
+
+  const stored_job read = **b.find(job_id);
+  EXPECT_EQ(read.state, job_state::done);
+  EXPECT_EQ(read.owners, std::vector<std::string>{std::string(64, 'a')});
+  const nlohmann::json report = nlohmann::json::parse(*read.report);
+  EXPECT_EQ(report["triangles"], 4);
+  EXPECT_EQ(report["encodings"]["off"]["bytes"], 10);
+  EXPECT_EQ(report["encodings"]["draco"]["bytes"], 3);
+  EXPECT_FALSE(a.input(job_id)->has_value());
 }
 
 }  // namespace

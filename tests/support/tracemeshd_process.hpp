@@ -1,0 +1,130 @@
+#pragma once
+// tracemeshd as a child process for the end-to-end tests (tests/integration): started on an ephemeral loopback port
+// (read from its "started" log line), its log in a file, killed (SIGKILL) when the object goes; and a temporary
+// directory removed at the end of the test.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "support/test_paths.hpp"
+
+namespace tracemesh::testing {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+inline std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+/// A temporary directory removed at the end of the test.
+class temp_dir {
+ public:
+  temp_dir() {
+    std::string pattern = (fs::temp_directory_path() / "tracemeshd-test-XXXXXX").string();
+    path_ = ::mkdtemp(pattern.data());
+  }
+  ~temp_dir() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+/// tracemeshd as a child process on an ephemeral loopback port; killed on destruction.
+class server_process {
+ public:
+  server_process(const fs::path& work, std::vector<std::string> args) : log_(work / "server.log") {
+    // Tests that give no --cache-dir run without a disk store, which tracemeshd requires to be asked for.
+    if (std::find(args.begin(), args.end(), "--cache-dir") == args.end() &&
+        std::find(args.begin(), args.end(), "--no-disk-store") == args.end()) {
+      args.push_back("--no-disk-store");
+    }
+    args.insert(args.begin(), {binary_path("tracemeshd").string(), "--listen", "127.0.0.1:0"});
+    std::error_code ignored;
+    fs::remove(log_, ignored);  // the port is read from this run's "started" line
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const int log_fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      ::dup2(log_fd, STDERR_FILENO);
+      ::dup2(log_fd, STDOUT_FILENO);
+      std::vector<char*> argv;
+      for (auto& arg : args) argv.push_back(arg.data());
+      argv.push_back(nullptr);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    port_ = wait_for_port();
+  }
+  ~server_process() { kill(SIGKILL); }
+
+  unsigned short port() const { return port_; }
+  std::string url(const std::string& path) const { return "http://127.0.0.1:" + std::to_string(port_) + path; }
+  std::string log() const { return read_file(log_); }
+
+  /// Sends `signal` and reaps the process; returns its exit status (-1 when killed by a signal or already gone).
+  int kill(int signal) {
+    if (pid_ <= 0) return -1;
+    ::kill(pid_, signal);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+  /// Waits up to `within` for the process to exit by itself; its exit code, or -1.
+  int wait_exit(std::chrono::milliseconds within) {
+    const auto deadline = std::chrono::steady_clock::now() + within;
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+      }
+      std::this_thread::sleep_for(10ms);
+    }
+    return -1;
+  }
+
+ private:
+  unsigned short wait_for_port() {
+    for (int i = 0; i < 1000; ++i) {
+      std::istringstream lines(read_file(log_));
+      std::string line;
+      while (std::getline(lines, line)) {
+        if (line.find("\"event\":\"started\"") == std::string::npos) continue;
+        return nlohmann::json::parse(line).at("port").get<unsigned short>();
+      }
+      std::this_thread::sleep_for(5ms);
+    }
+    ADD_FAILURE() << "tracemeshd did not start: " << read_file(log_);
+    return 0;
+  }
+
+  fs::path log_;
+  pid_t pid_ = -1;
+  unsigned short port_ = 0;
+};
+
+}  // namespace tracemesh::testing
