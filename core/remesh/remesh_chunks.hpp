@@ -4,8 +4,9 @@
 /// locally, and never copies the whole mesh.
 ///
 /// Space is cut into cubic chunks of edge C = options.chunk_edges · L, each made of 12³ cells (a cell is at least
-/// twice the longest triangle edge, so C may come out larger). A chunk's patch is every triangle whose centroid
-/// lies in the chunk grown by one cell (C/12) on every side; the vertices that also
+/// twice the longest triangle edge, up to twice its natural size C/12, so C may come out larger; triangles with an
+/// edge longer than half a cell are never in a patch, only in contexts). A chunk's patch is every other triangle
+/// whose centroid lies in the chunk grown by one cell on every side; the vertices that also
 /// have triangles outside the patch are its boundary and stay frozen (remesh_patch.hpp). The growth makes every
 /// vertex an interior vertex of its own chunk's patch, so one pass over the chunks reaches the whole surface, and
 /// the band along a chunk's faces is remeshed by both neighbours in turn. Chunks are processed in 8 colours (the

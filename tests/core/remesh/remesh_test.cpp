@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <map>
@@ -181,15 +182,17 @@ double max_surface_distance(const surface_mesh& mesh, const gaussian_field& fiel
   return worst;
 }
 
-/// The postcondition of remesh_surface: certified, same topology as `input`, on the surface, with field normals.
-void expect_valid(const surface_mesh& mesh, const gaussian_field& field, const mesh_report& input) {
+/// The postcondition of remesh_surface: certified, same topology as `input`, on the surface (within `tolerance` Å,
+/// or as far as the input vertices kept as they are), with field normals.
+void expect_valid(const surface_mesh& mesh, const gaussian_field& field, const mesh_report& input,
+                  double tolerance = 1e-4) {
   const mesh_report report = analyze_mesh(mesh);
   EXPECT_TRUE(report.topologically_certified())
       << "self-intersections " << report.self_intersections << ", degenerate " << report.degenerate_triangles
       << ", inward components " << report.inward_oriented_components;
   EXPECT_EQ(euler_characteristics(report), euler_characteristics(input));
   EXPECT_EQ(report.genus, input.genus);
-  EXPECT_LE(max_surface_distance(mesh, field), 1e-4);
+  EXPECT_LE(max_surface_distance(mesh, field), tolerance);
   ASSERT_EQ(mesh.normals.size(), mesh.positions.size());
   EXPECT_TRUE(mesh.atom_index.empty());  // the mesher's to fill
   for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
@@ -655,6 +658,49 @@ TEST(RemeshSurface, ChunkedPassIsDeterministicWhateverTheThreadCount) {
   EXPECT_EQ(one.mesh.positions, two.mesh.positions);  // bitwise
   EXPECT_EQ(one.mesh.normals, two.mesh.normals);
   EXPECT_EQ(one.stats.patches, two.stats.patches);
+}
+
+/// The triangles of `mesh` with an edge longer than `edge`, as their corner positions.
+std::vector<std::array<vec3, 3>> triangles_with_an_edge_over(const surface_mesh& mesh, double edge) {
+  std::vector<std::array<vec3, 3>> out;
+  for (const auto& t : mesh.triangles) {
+    const std::array<vec3, 3> p{mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]};
+    if (distance(p[0], p[1]) > edge || distance(p[1], p[2]) > edge || distance(p[2], p[0]) > edge) out.push_back(p);
+  }
+  return out;
+}
+
+TEST(RemeshSurface, TrianglesLongerThanHalfACellStayOutOfThePatches) {
+  // A coarse input (edges up to √3 · 0.9 Å) remeshed to L = 0.35 Å: natural cells of 48 L / 12 = 1.4 Å, grown to
+  // at most 2.8 Å, so the triangles with an edge over 1.4 Å (57 of 5,840) stay as they are and every other one is
+  // remeshed.
+  const gaussian_field field = chain_field();
+  const surface_mesh input = marching_tetrahedra(field, 0.9);
+  const mesh_report before = analyze_mesh(input);
+  ASSERT_TRUE(before.topologically_certified());
+  const std::vector<std::array<vec3, 3>> long_input = triangles_with_an_edge_over(input, 1.4);
+  ASSERT_FALSE(long_input.empty());
+  ASSERT_LT(long_input.size(), input.triangles.size() / 4);
+  remesh_options options = options_for(0.35);
+  options.single_patch_triangles = 0;
+  const remesh_run run = remesh_ok(input, field, options);
+  EXPECT_GE(run.stats.patches, 2U);  // ~55 Å long, chunks of 12 cells of 2.8 Å
+  EXPECT_EQ(run.stats.unchanged_patches, 0U);
+  // The long triangles' vertices are the input's (this marching-tetrahedra mesh puts them within ~1e-4 Å).
+  expect_valid(run.mesh, field, before, std::max(1e-4, max_surface_distance(input, field)));
+  // Each long triangle is in the output, bitwise; the rest reached the target edge length.
+  const std::vector<std::array<vec3, 3>> long_output = triangles_with_an_edge_over(run.mesh, 1.4);
+  EXPECT_EQ(long_output.size(), long_input.size());
+  for (const auto& t : long_input) {
+    const bool kept = std::any_of(long_output.begin(), long_output.end(), [&](const std::array<vec3, 3>& u) {
+      return u[0] == t[0] && u[1] == t[1] && u[2] == t[2];
+    });
+    EXPECT_TRUE(kept);
+  }
+  // Everything else was remeshed as a single patch would have: about as many triangles.
+  const remesh_run whole = remesh_ok(input, field, options_for(0.35));
+  EXPECT_NEAR(static_cast<double>(run.mesh.triangles.size()) / static_cast<double>(whole.mesh.triangles.size()), 1.0,
+              0.05);
 }
 
 TEST(RemeshPatch, KeepsAPatchThatWouldCutItsContext) {
