@@ -294,6 +294,68 @@ status check_atom_site(gemmi::cif::Block& block, const mesh_limits& limits) {
   return status::success();
 }
 
+/// The mmCIF categories that gemmi's make_structure reads (gemmi 0.5.7, mmcif.hpp), lower case.
+constexpr std::string_view gemmi_mmcif_categories[] = {
+    "_atom_site.", "_atom_site_anisotrop.", "_atom_sites.", "_audit_author.", "_cell.", "_database_pdb_matrix.",
+    "_database_pdb_rev.", "_diffrn.", "_diffrn_detector.", "_diffrn_radiation.", "_diffrn_source.", "_entity.",
+    "_entity_poly.", "_entity_poly_seq.", "_entry.", "_exptl.", "_exptl_crystal.", "_pdbx_database_status.",
+    "_pdbx_sifts_xref_db.", "_pdbx_struct_assembly.", "_pdbx_struct_assembly_gen.", "_pdbx_struct_assembly_prop.",
+    "_pdbx_struct_oper_list.", "_pdbx_struct_sheet_hbond.", "_refine.", "_reflns.", "_software.", "_struct.",
+    "_struct_asym.", "_struct_conf.", "_struct_conn.", "_struct_keywords.", "_struct_mon_prot_cis.",
+    "_struct_ncs_oper.", "_struct_ref.", "_struct_ref_seq.", "_struct_sheet.", "_struct_sheet_order.",
+    "_struct_sheet_range."};
+
+bool is_read_by_make_structure(std::string_view tag) {
+  const std::size_t dot = tag.find('.');
+  if (dot == std::string_view::npos) return false;
+  std::string category(tag.substr(0, dot + 1));
+  std::transform(category.begin(), category.end(), category.begin(),
+                 [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; });
+  return std::find(std::begin(gemmi_mmcif_categories), std::end(gemmi_mmcif_categories), category) !=
+         std::end(gemmi_mmcif_categories);
+}
+
+/// Whether gemmi's string_to_int (blanks, a sign, then digits, into an int without an overflow check) would
+/// overflow on `value` as cif::as_string gives it: a signed overflow, undefined behaviour (a fuzz find: UBSan on
+/// an _atom_site.auth_seq_id of 11 digits). Leading zeros do not count.
+bool overflows_gemmi_int(std::string_view value) {
+  std::size_t i = 0;
+  while (i < value.size() && (value[i] == ' ' || (value[i] >= '\t' && value[i] <= '\r'))) ++i;
+  bool negative = false;
+  if (i < value.size() && (value[i] == '-' || value[i] == '+')) negative = value[i++] == '-';
+  constexpr long long int_magnitude = 2147483648LL;  // -INT_MIN: gemmi sums negatively, then negates
+  long long magnitude = 0;
+  for (; i < value.size() && value[i] >= '0' && value[i] <= '9'; ++i) {
+    magnitude = magnitude * 10 + (value[i] - '0');
+    if (magnitude > int_magnitude) return true;
+  }
+  return !negative && magnitude == int_magnitude;
+}
+
+/// Refuses the integers gemmi would overflow on, in the categories make_structure reads of the first block.
+status check_gemmi_integers(const gemmi::cif::Block& block) {
+  const auto check = [](const std::string& tag, const std::string& raw) -> status {
+    if (!overflows_gemmi_int(gemmi::cif::as_string(raw))) return status::success();
+    return {errc::invalid_input, "mmCIF " + detail::quote_bytes(tag, 40) + " '" + detail::quote_bytes(raw, 24) +
+                                     "' is an integer beyond the 32-bit range"};
+  };
+  for (const gemmi::cif::Item& item : block.items) {
+    if (item.type == gemmi::cif::ItemType::Pair && is_read_by_make_structure(item.pair[0])) {
+      if (status checked = check(item.pair[0], item.pair[1]); !checked) return checked;
+    } else if (item.type == gemmi::cif::ItemType::Loop) {
+      const gemmi::cif::Loop& loop = item.loop;
+      const std::size_t width = loop.tags.size();
+      for (std::size_t column = 0; column < width; ++column) {
+        if (!is_read_by_make_structure(loop.tags[column])) continue;
+        for (std::size_t at = column; at < loop.values.size(); at += width) {
+          if (status checked = check(loop.tags[column], loop.values[at]); !checked) return checked;
+        }
+      }
+    }
+  }
+  return status::success();
+}
+
 }  // namespace
 
 result<molecule> parse_pdb(std::string_view text, const structure_options& options, const mesh_limits& limits) {
@@ -323,6 +385,7 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
   try {
     if (document.blocks.empty()) return status{errc::nothing_to_mesh, "no atoms with radius > 0: no mmCIF data block"};
     if (status checked = check_atom_site(document.blocks.front(), limits); !checked) return checked;
+    if (status checked = check_gemmi_integers(document.blocks.front()); !checked) return checked;
     gemmi::Structure structure = gemmi::make_structure(document);
     document = gemmi::cif::Document();  // free the text's copy before the atoms are made
     return atoms_of(structure, options, limits, "_atom_site row");

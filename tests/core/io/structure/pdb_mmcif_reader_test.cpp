@@ -195,5 +195,35 @@ TEST(MmcifReader, RejectsBadInputNamingTheLineOrAtom) {
   EXPECT_EQ(parse_mmcif("data_t\n_entry.id x\n").error().code(), errc::nothing_to_mesh);
 }
 
+// A fuzz find: gemmi reads integer fields into an int without an overflow check (a signed overflow, undefined
+// behaviour, that UBSan reported on an 11-digit sequence number). Such values are refused before gemmi reads them;
+// the largest values that fit still parse, and other categories (gemmi reads none of _citation) are not looked at.
+TEST(MmcifReader, RefusesIntegersBeyondTheIntRangeBeforeGemmiReadsThem) {
+  const std::string atom_then = cif_header + "ATOM 1 N N . GLY A 1 1 1.0 2.0 3.0 1.0 10 ";
+  const struct {
+    std::string seq_id, message;
+  } refused[] = {
+      {"99999999999", "mmCIF _atom_site.auth_seq_id '99999999999' is an integer beyond the 32-bit range"},
+      {"2147483648", "mmCIF _atom_site.auth_seq_id '2147483648' is an integer beyond the 32-bit range"},
+      {"-2147483649", "mmCIF _atom_site.auth_seq_id '-2147483649' is an integer beyond the 32-bit range"},
+      {"'12345678901'", "mmCIF _atom_site.auth_seq_id ''12345678901'' is an integer beyond the 32-bit range"},
+  };
+  for (const auto& c : refused) {
+    const result<molecule> mol = parse_mmcif(atom_then + c.seq_id + " A\n");
+    ASSERT_FALSE(mol.ok()) << c.seq_id;
+    EXPECT_EQ(mol.error().message(), c.message);
+    EXPECT_EQ(mol.error().code(), errc::invalid_input);
+  }
+  for (const char* fits : {"2147483647", "-2147483648", "000000000000001"}) {
+    const result<molecule> mol = parse_mmcif(atom_then + fits + " A\n");
+    EXPECT_TRUE(mol.ok()) << fits << ": " << mol.error().message();
+  }
+  const result<molecule> helix = parse_mmcif(atom_then + "1 A\n_struct_conf.pdbx_PDB_helix_length 9999999999\n");
+  ASSERT_FALSE(helix.ok());
+  EXPECT_EQ(helix.error().message(),
+            "mmCIF _struct_conf.pdbx_PDB_helix_length '9999999999' is an integer beyond the 32-bit range");
+  EXPECT_TRUE(parse_mmcif(atom_then + "1 A\n_citation.book_id_ISBN 9780198520078\n").ok());
+}
+
 }  // namespace
 }  // namespace tracemesh
