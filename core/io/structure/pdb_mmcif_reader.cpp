@@ -21,8 +21,8 @@ namespace tracemesh {
 
 namespace {
 
-/// gemmi's messages can quote whole lines: at most this many bytes of one go into ours.
-constexpr std::size_t max_gemmi_message_bytes = 160;
+/// gemmi's messages can quote whole lines: at most this many characters of one, once escaped, go into ours.
+constexpr std::size_t max_gemmi_message_chars = 160;
 /// PDB columns (1-based, inclusive) of x, y, z and occupancy.
 struct pdb_column {
   const char* name;
@@ -124,11 +124,12 @@ std::string with_lf_line_ends(std::string_view text) {
   return out;
 }
 
-/// gemmi reads columns 73-80 of a LINK or SSBOND record longer than 73 columns without checking its length (a
-/// heap read past the line, a fuzz find): such records are padded with blanks to this many columns.
+/// gemmi reads columns 73-80 of a LINK or SSBOND record longer than 73 bytes without checking its length (a heap
+/// read past the line, a fuzz find). gemmi's record keeps its line feed, so a line of 73 columns is such a record
+/// too (a second fuzz find): records of 73 to 79 columns are padded with blanks to this many columns.
 constexpr std::size_t pdb_connection_record_columns = 80;
 bool is_short_connection_record(std::string_view line) {
-  return (has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() > 73 &&
+  return (has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() >= 73 &&
          line.size() < pdb_connection_record_columns;
 }
 
@@ -251,8 +252,23 @@ result<molecule> atoms_of(gemmi::Structure& structure, const structure_options& 
   return mol;
 }
 
+/// quote_bytes of as many leading bytes of `bytes` as fit in `max_chars` characters once escaped (an escaped byte
+/// takes 4): gemmi's messages quote the input, which may be all backslashes (a fuzz find: a message of 643
+/// characters, where the readers promise one line of at most 400).
+std::string quote_within(std::string_view bytes, std::size_t max_chars) {
+  std::size_t chars = 0;
+  std::size_t taken = 0;
+  for (; taken < bytes.size(); ++taken) {
+    const auto c = static_cast<unsigned char>(bytes[taken]);
+    const std::size_t width = c >= 0x20 && c < 0x7F && c != '\\' ? 1 : 4;
+    if (chars + width > max_chars) break;
+    chars += width;
+  }
+  return detail::quote_bytes(bytes, taken);
+}
+
 status gemmi_error(std::string_view format, const std::exception& error) {
-  return {errc::invalid_input, std::string(format) + ": " + detail::quote_bytes(error.what(), max_gemmi_message_bytes)};
+  return {errc::invalid_input, std::string(format) + ": " + quote_within(error.what(), max_gemmi_message_chars)};
 }
 
 /// "input:4:14: unterminated 'string'" (gemmi's CIF syntax error) → "line 4: column 14: unterminated 'string'".
@@ -265,9 +281,9 @@ status cif_syntax_error(const std::exception& error) {
     const std::size_t column_end = line_end == std::string_view::npos ? line_end : message.find(':', line_end + 1);
     if (column_end != std::string_view::npos) {
       return {errc::invalid_input,
-              "line " + detail::quote_bytes(message.substr(0, line_end)) + ": column " +
-                  detail::quote_bytes(message.substr(line_end + 1, column_end - line_end - 1)) + ": mmCIF syntax:" +
-                  detail::quote_bytes(message.substr(column_end + 1), max_gemmi_message_bytes)};
+              "line " + quote_within(message.substr(0, line_end), 20) + ": column " +
+                  quote_within(message.substr(line_end + 1, column_end - line_end - 1), 20) + ": mmCIF syntax:" +
+                  quote_within(message.substr(column_end + 1), max_gemmi_message_chars)};
     }
   }
   return gemmi_error("mmCIF syntax", error);
