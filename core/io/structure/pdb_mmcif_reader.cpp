@@ -64,6 +64,32 @@ std::string_view trimmed(std::string_view field) {
   return field.substr(begin, field.find_last_not_of(" \t") - begin + 1);
 }
 
+/// Whether gemmi's string_to_int (blanks, a sign, then digits, into an int without an overflow check) would
+/// overflow on `value`: a signed overflow, undefined behaviour (fuzz finds: UBSan on an mmCIF _atom_site.auth_seq_id
+/// of 11 digits, and on the 10-column sequence numbers of a PDB DBREF2 record). Leading zeros do not count.
+bool overflows_gemmi_int(std::string_view value) {
+  std::size_t i = 0;
+  while (i < value.size() && (value[i] == ' ' || (value[i] >= '\t' && value[i] <= '\r'))) ++i;
+  bool negative = false;
+  if (i < value.size() && (value[i] == '-' || value[i] == '+')) negative = value[i++] == '-';
+  constexpr long long int_magnitude = 2147483648LL;  // -INT_MIN: gemmi sums negatively, then negates
+  long long magnitude = 0;
+  for (; i < value.size() && value[i] >= '0' && value[i] <= '9'; ++i) {
+    magnitude = magnitude * 10 + (value[i] - '0');
+    if (magnitude > int_magnitude) return true;
+  }
+  return !negative && magnitude == int_magnitude;
+}
+
+/// gemmi reads the database sequence numbers of a DBREF2 record (the first four characters DBRE in any case, the
+/// sixth '2') from columns 46-55 and 58-67 as ints, past the end of a shorter line (into its line buffer's earlier
+/// contents): such records are padded to this many columns, and numbers beyond the int range refused.
+constexpr std::size_t pdb_dbref2_columns = 67;
+constexpr pdb_column pdb_dbref2_numbers[] = {{"database sequence begin", 46, 55}, {"database sequence end", 58, 67}};
+bool is_dbref2_record(std::string_view line) {
+  return has_record_prefix(line, "DBRE") && line.size() > 5 && line[5] == '2';
+}
+
 /// The checks gemmi's PDB reader leaves out, line by line, with the line named.
 status check_pdb_text(std::string_view text, const mesh_limits& limits) {
   detail::text_lines lines(text, limits.max_line_bytes, "PDB");
@@ -76,6 +102,19 @@ status check_pdb_text(std::string_view text, const mesh_limits& limits) {
     if (!has_ascii_record_name(line)) {
       return detail::line_error(lines.line_number(), "record name '" + detail::quote_bytes(line.substr(0, 6)) +
                                                          "' (columns 1-6) is not ASCII; PDB text is ASCII");
+    }
+    if (is_dbref2_record(line)) {
+      for (const pdb_column& column : pdb_dbref2_numbers) {
+        const std::size_t first = std::min(line.size(), column.first - 1);
+        const std::string_view field = line.substr(first, column.last - column.first + 1);
+        if (overflows_gemmi_int(field)) {
+          return detail::line_error(lines.line_number(), std::string(column.name) + " '" +
+                                                             detail::quote_bytes(field) + "' (columns " +
+                                                             std::to_string(column.first) + "-" +
+                                                             std::to_string(column.last) +
+                                                             ") is an integer beyond the 32-bit range");
+        }
+      }
     }
     if (!is_pdb_atom_record(line)) continue;
     const std::size_t number = lines.line_number();
@@ -128,13 +167,17 @@ std::string with_lf_line_ends(std::string_view text) {
 /// read past the line, a fuzz find). gemmi's record keeps its line feed, so a line of 73 columns is such a record
 /// too (a second fuzz find): records of 73 to 79 columns are padded with blanks to this many columns.
 constexpr std::size_t pdb_connection_record_columns = 80;
-bool is_short_connection_record(std::string_view line) {
-  return (has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() >= 73 &&
-         line.size() < pdb_connection_record_columns;
+/// The columns `line` is padded to for gemmi (see above and pdb_dbref2_columns), or its own size.
+std::size_t columns_for_gemmi(std::string_view line) {
+  if ((has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() >= 73) {
+    return std::max(line.size(), pdb_connection_record_columns);
+  }
+  if (is_dbref2_record(line)) return std::max(line.size(), pdb_dbref2_columns);
+  return line.size();
 }
 
-/// The text as gemmi's PDB reader needs it: LF line ends and short connection records padded. Empty when `text`
-/// already is.
+/// The text as gemmi's PDB reader needs it: LF line ends, short connection and DBREF2 records padded. Empty when
+/// `text` already is.
 std::string text_for_gemmi(std::string_view text) {
   const std::string lf_text = text.find('\r') == std::string_view::npos ? std::string() : with_lf_line_ends(text);
   const std::string_view input = lf_text.empty() ? text : std::string_view(lf_text);
@@ -142,9 +185,9 @@ std::string text_for_gemmi(std::string_view text) {
   std::size_t copied = 0;  // bytes of input already in `padded`
   for (std::size_t begin = 0; begin < input.size();) {
     const std::size_t end = std::min(input.find('\n', begin), input.size());
-    if (is_short_connection_record(input.substr(begin, end - begin))) {
+    if (const std::size_t columns = columns_for_gemmi(input.substr(begin, end - begin)); columns > end - begin) {
       padded.append(input.substr(copied, end - copied));
-      padded.append(pdb_connection_record_columns - (end - begin), ' ');
+      padded.append(columns - (end - begin), ' ');
       copied = end;
     }
     begin = end + 1;
@@ -329,23 +372,6 @@ bool is_read_by_make_structure(std::string_view tag) {
                  [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; });
   return std::find(std::begin(gemmi_mmcif_categories), std::end(gemmi_mmcif_categories), category) !=
          std::end(gemmi_mmcif_categories);
-}
-
-/// Whether gemmi's string_to_int (blanks, a sign, then digits, into an int without an overflow check) would
-/// overflow on `value` as cif::as_string gives it: a signed overflow, undefined behaviour (a fuzz find: UBSan on
-/// an _atom_site.auth_seq_id of 11 digits). Leading zeros do not count.
-bool overflows_gemmi_int(std::string_view value) {
-  std::size_t i = 0;
-  while (i < value.size() && (value[i] == ' ' || (value[i] >= '\t' && value[i] <= '\r'))) ++i;
-  bool negative = false;
-  if (i < value.size() && (value[i] == '-' || value[i] == '+')) negative = value[i++] == '-';
-  constexpr long long int_magnitude = 2147483648LL;  // -INT_MIN: gemmi sums negatively, then negates
-  long long magnitude = 0;
-  for (; i < value.size() && value[i] >= '0' && value[i] <= '9'; ++i) {
-    magnitude = magnitude * 10 + (value[i] - '0');
-    if (magnitude > int_magnitude) return true;
-  }
-  return !negative && magnitude == int_magnitude;
 }
 
 /// Refuses the integers gemmi would overflow on, in the categories make_structure reads of the first block.

@@ -152,6 +152,30 @@ TEST(PdbReader, ShortLinkAndSsbondRecordsAreReadWithinTheirLine) {
   }
 }
 
+// A fuzz find: gemmi reads the sequence numbers of a DBREF2 record (columns 46-55 and 58-67) into an int without
+// an overflow check (UBSan: signed overflow), and past the end of a shorter line. Numbers beyond the int range are
+// refused naming the line; short DBREF2 records are padded, so they are read as blanks.
+TEST(PdbReader, Dbref2SequenceNumbersBeyondTheIntRangeAreRefused) {
+  const std::string atom = pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C");
+  const auto dbref2 = [](const std::string& begin, const std::string& end) {
+    std::string line = "DBREF2 1ABC A     P00001" + std::string(45 - 24, ' ');
+    line += std::string(10 - begin.size(), ' ') + begin + "  " + std::string(10 - end.size(), ' ') + end + "\n";
+    return line;
+  };
+  EXPECT_TRUE(parse_pdb(atom + dbref2("2147483647", "-999999999") + atom).ok());
+  const result<molecule> refused = parse_pdb(dbref2("1", "9999999999") + atom);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().message(),
+            "line 1: database sequence end '9999999999' (columns 58-67) is an integer beyond the 32-bit range");
+  EXPECT_EQ(refused.error().code(), errc::invalid_input);
+  EXPECT_FALSE(parse_pdb("dbre?2" + std::string(39, ' ') + "2147483648\n" + atom).ok()) << "gemmi's record test";
+  for (const char* short_record : {"DBREF2\n", "DBREF2 1ABC A     P00001               1\n"}) {
+    const result<molecule> mol = parse_pdb(atom + short_record + atom);
+    ASSERT_TRUE(mol.ok()) << short_record << mol.error().message();
+    EXPECT_EQ(mol->atoms.size(), 2u);
+  }
+}
+
 const std::string cif_header =
     "data_t\nloop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n_atom_site.label_atom_id\n"
     "_atom_site.label_alt_id\n_atom_site.label_comp_id\n_atom_site.label_asym_id\n_atom_site.label_entity_id\n"
