@@ -87,8 +87,9 @@ test-image: image
 	bash tests/image/smoke_test.sh $(IMAGE)
 
 # The fuzz campaign: each fuzz target FUZZ_RUNS executions (default 10^7; FUZZ_RUNS=100000 for a short run,
-# FUZZ_TARGETS="pqr_reader gzip_body" for some); new coverage is merged into tests/fuzz/corpus/<name>/ and every
-# crash kept there as a regression input (scripts/fuzz_campaign.sh; summary in build-fuzz/campaign/summary.md).
+# FUZZ_TARGETS="pqr_reader gzip_body" for some, FUZZ_JOBS=2 for two targets at once); new coverage is merged into
+# tests/fuzz/corpus/<name>/ and every crash kept there as a regression input (scripts/fuzz_campaign.sh; summary in
+# build-fuzz/campaign/summary.md). On a shared machine: `nice -n 19 make fuzz-campaign FUZZ_JOBS=2`.
 FUZZ_TARGET_NAMES = $(patsubst tests/fuzz/%.cpp,%,$(wildcard tests/fuzz/*_fuzzer.cpp))
 fuzz-campaign: deps
 	CXX=clang++-14 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=CI -DTRACEMESH_BUILD_FUZZERS=ON -DTRACEMESH_SANITIZE="address;undefined" -DTRACEMESH_BUILD_BENCH=OFF $(CMAKE_FLAGS)

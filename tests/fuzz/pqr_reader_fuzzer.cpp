@@ -67,12 +67,18 @@ void check_molecule(const molecule& mol, const mesh_limits& limits) {
   if (zero_radii == mol.atoms.size()) fail("ok although every radius is 0");
 }
 
+/// Appends whole lines rather than bytes: the byte loop was a tenth of the target's time under the sanitizers.
 std::string with_crlf_line_endings(std::string_view text) {
   std::string out;
   out.reserve(text.size() + text.size() / 8);
-  for (const char c : text) {
-    if (c == '\n') out += '\r';
-    out += c;
+  for (std::size_t begin = 0; begin < text.size();) {
+    const std::size_t end = text.find('\n', begin);
+    if (end == std::string_view::npos) {
+      out.append(text.substr(begin));
+      break;
+    }
+    out.append(text.substr(begin, end - begin)).append("\r\n");
+    begin = end + 1;
   }
   return out;
 }

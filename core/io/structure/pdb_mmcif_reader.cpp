@@ -21,8 +21,8 @@ namespace tracemesh {
 
 namespace {
 
-/// gemmi's messages can quote whole lines: at most this many bytes of one go into ours.
-constexpr std::size_t max_gemmi_message_bytes = 160;
+/// gemmi's messages can quote whole lines: at most this many characters of one, once escaped, go into ours.
+constexpr std::size_t max_gemmi_message_chars = 160;
 /// PDB columns (1-based, inclusive) of x, y, z and occupancy.
 struct pdb_column {
   const char* name;
@@ -64,6 +64,32 @@ std::string_view trimmed(std::string_view field) {
   return field.substr(begin, field.find_last_not_of(" \t") - begin + 1);
 }
 
+/// Whether gemmi's string_to_int (blanks, a sign, then digits, into an int without an overflow check) would
+/// overflow on `value`: a signed overflow, undefined behaviour (fuzz finds: UBSan on an mmCIF _atom_site.auth_seq_id
+/// of 11 digits, and on the 10-column sequence numbers of a PDB DBREF2 record). Leading zeros do not count.
+bool overflows_gemmi_int(std::string_view value) {
+  std::size_t i = 0;
+  while (i < value.size() && (value[i] == ' ' || (value[i] >= '\t' && value[i] <= '\r'))) ++i;
+  bool negative = false;
+  if (i < value.size() && (value[i] == '-' || value[i] == '+')) negative = value[i++] == '-';
+  constexpr long long int_magnitude = 2147483648LL;  // -INT_MIN: gemmi sums negatively, then negates
+  long long magnitude = 0;
+  for (; i < value.size() && value[i] >= '0' && value[i] <= '9'; ++i) {
+    magnitude = magnitude * 10 + (value[i] - '0');
+    if (magnitude > int_magnitude) return true;
+  }
+  return !negative && magnitude == int_magnitude;
+}
+
+/// gemmi reads the database sequence numbers of a DBREF2 record (the first four characters DBRE in any case, the
+/// sixth '2') from columns 46-55 and 58-67 as ints, past the end of a shorter line (into its line buffer's earlier
+/// contents): such records are padded to this many columns, and numbers beyond the int range refused.
+constexpr std::size_t pdb_dbref2_columns = 67;
+constexpr pdb_column pdb_dbref2_numbers[] = {{"database sequence begin", 46, 55}, {"database sequence end", 58, 67}};
+bool is_dbref2_record(std::string_view line) {
+  return has_record_prefix(line, "DBRE") && line.size() > 5 && line[5] == '2';
+}
+
 /// The checks gemmi's PDB reader leaves out, line by line, with the line named.
 status check_pdb_text(std::string_view text, const mesh_limits& limits) {
   detail::text_lines lines(text, limits.max_line_bytes, "PDB");
@@ -76,6 +102,19 @@ status check_pdb_text(std::string_view text, const mesh_limits& limits) {
     if (!has_ascii_record_name(line)) {
       return detail::line_error(lines.line_number(), "record name '" + detail::quote_bytes(line.substr(0, 6)) +
                                                          "' (columns 1-6) is not ASCII; PDB text is ASCII");
+    }
+    if (is_dbref2_record(line)) {
+      for (const pdb_column& column : pdb_dbref2_numbers) {
+        const std::size_t first = std::min(line.size(), column.first - 1);
+        const std::string_view field = line.substr(first, column.last - column.first + 1);
+        if (overflows_gemmi_int(field)) {
+          return detail::line_error(lines.line_number(), std::string(column.name) + " '" +
+                                                             detail::quote_bytes(field) + "' (columns " +
+                                                             std::to_string(column.first) + "-" +
+                                                             std::to_string(column.last) +
+                                                             ") is an integer beyond the 32-bit range");
+        }
+      }
     }
     if (!is_pdb_atom_record(line)) continue;
     const std::size_t number = lines.line_number();
@@ -124,16 +163,21 @@ std::string with_lf_line_ends(std::string_view text) {
   return out;
 }
 
-/// gemmi reads columns 73-80 of a LINK or SSBOND record longer than 73 columns without checking its length (a
-/// heap read past the line, a fuzz find): such records are padded with blanks to this many columns.
+/// gemmi reads columns 73-80 of a LINK or SSBOND record longer than 73 bytes without checking its length (a heap
+/// read past the line, a fuzz find). gemmi's record keeps its line feed, so a line of 73 columns is such a record
+/// too (a second fuzz find): records of 73 to 79 columns are padded with blanks to this many columns.
 constexpr std::size_t pdb_connection_record_columns = 80;
-bool is_short_connection_record(std::string_view line) {
-  return (has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() > 73 &&
-         line.size() < pdb_connection_record_columns;
+/// The columns `line` is padded to for gemmi (see above and pdb_dbref2_columns), or its own size.
+std::size_t columns_for_gemmi(std::string_view line) {
+  if ((has_record_prefix(line, "LINK") || has_record_prefix(line, "SSBO")) && line.size() >= 73) {
+    return std::max(line.size(), pdb_connection_record_columns);
+  }
+  if (is_dbref2_record(line)) return std::max(line.size(), pdb_dbref2_columns);
+  return line.size();
 }
 
-/// The text as gemmi's PDB reader needs it: LF line ends and short connection records padded. Empty when `text`
-/// already is.
+/// The text as gemmi's PDB reader needs it: LF line ends, short connection and DBREF2 records padded. Empty when
+/// `text` already is.
 std::string text_for_gemmi(std::string_view text) {
   const std::string lf_text = text.find('\r') == std::string_view::npos ? std::string() : with_lf_line_ends(text);
   const std::string_view input = lf_text.empty() ? text : std::string_view(lf_text);
@@ -141,9 +185,9 @@ std::string text_for_gemmi(std::string_view text) {
   std::size_t copied = 0;  // bytes of input already in `padded`
   for (std::size_t begin = 0; begin < input.size();) {
     const std::size_t end = std::min(input.find('\n', begin), input.size());
-    if (is_short_connection_record(input.substr(begin, end - begin))) {
+    if (const std::size_t columns = columns_for_gemmi(input.substr(begin, end - begin)); columns > end - begin) {
       padded.append(input.substr(copied, end - copied));
-      padded.append(pdb_connection_record_columns - (end - begin), ' ');
+      padded.append(columns - (end - begin), ' ');
       copied = end;
     }
     begin = end + 1;
@@ -251,8 +295,23 @@ result<molecule> atoms_of(gemmi::Structure& structure, const structure_options& 
   return mol;
 }
 
+/// quote_bytes of as many leading bytes of `bytes` as fit in `max_chars` characters once escaped (an escaped byte
+/// takes 4): gemmi's messages quote the input, which may be all backslashes (a fuzz find: a message of 643
+/// characters, where the readers promise one line of at most 400).
+std::string quote_within(std::string_view bytes, std::size_t max_chars) {
+  std::size_t chars = 0;
+  std::size_t taken = 0;
+  for (; taken < bytes.size(); ++taken) {
+    const auto c = static_cast<unsigned char>(bytes[taken]);
+    const std::size_t width = c >= 0x20 && c < 0x7F && c != '\\' ? 1 : 4;
+    if (chars + width > max_chars) break;
+    chars += width;
+  }
+  return detail::quote_bytes(bytes, taken);
+}
+
 status gemmi_error(std::string_view format, const std::exception& error) {
-  return {errc::invalid_input, std::string(format) + ": " + detail::quote_bytes(error.what(), max_gemmi_message_bytes)};
+  return {errc::invalid_input, std::string(format) + ": " + quote_within(error.what(), max_gemmi_message_chars)};
 }
 
 /// "input:4:14: unterminated 'string'" (gemmi's CIF syntax error) → "line 4: column 14: unterminated 'string'".
@@ -265,9 +324,9 @@ status cif_syntax_error(const std::exception& error) {
     const std::size_t column_end = line_end == std::string_view::npos ? line_end : message.find(':', line_end + 1);
     if (column_end != std::string_view::npos) {
       return {errc::invalid_input,
-              "line " + detail::quote_bytes(message.substr(0, line_end)) + ": column " +
-                  detail::quote_bytes(message.substr(line_end + 1, column_end - line_end - 1)) + ": mmCIF syntax:" +
-                  detail::quote_bytes(message.substr(column_end + 1), max_gemmi_message_bytes)};
+              "line " + quote_within(message.substr(0, line_end), 20) + ": column " +
+                  quote_within(message.substr(line_end + 1, column_end - line_end - 1), 20) + ": mmCIF syntax:" +
+                  quote_within(message.substr(column_end + 1), max_gemmi_message_chars)};
     }
   }
   return gemmi_error("mmCIF syntax", error);
@@ -290,6 +349,51 @@ status check_atom_site(gemmi::cif::Block& block, const mesh_limits& limits) {
   if (static_cast<std::size_t>(ids.length()) > limits.max_atoms) {
     return {errc::limit_exceeded, "mmCIF _atom_site has " + std::to_string(ids.length()) + " atoms, more than " +
                                       std::to_string(limits.max_atoms) + " (limits.max_atoms)"};
+  }
+  return status::success();
+}
+
+/// The mmCIF categories that gemmi's make_structure reads (gemmi 0.5.7, mmcif.hpp), lower case.
+constexpr std::string_view gemmi_mmcif_categories[] = {
+    "_atom_site.", "_atom_site_anisotrop.", "_atom_sites.", "_audit_author.", "_cell.", "_database_pdb_matrix.",
+    "_database_pdb_rev.", "_diffrn.", "_diffrn_detector.", "_diffrn_radiation.", "_diffrn_source.", "_entity.",
+    "_entity_poly.", "_entity_poly_seq.", "_entry.", "_exptl.", "_exptl_crystal.", "_pdbx_database_status.",
+    "_pdbx_sifts_xref_db.", "_pdbx_struct_assembly.", "_pdbx_struct_assembly_gen.", "_pdbx_struct_assembly_prop.",
+    "_pdbx_struct_oper_list.", "_pdbx_struct_sheet_hbond.", "_refine.", "_reflns.", "_software.", "_struct.",
+    "_struct_asym.", "_struct_conf.", "_struct_conn.", "_struct_keywords.", "_struct_mon_prot_cis.",
+    "_struct_ncs_oper.", "_struct_ref.", "_struct_ref_seq.", "_struct_sheet.", "_struct_sheet_order.",
+    "_struct_sheet_range."};
+
+bool is_read_by_make_structure(std::string_view tag) {
+  const std::size_t dot = tag.find('.');
+  if (dot == std::string_view::npos) return false;
+  std::string category(tag.substr(0, dot + 1));
+  std::transform(category.begin(), category.end(), category.begin(),
+                 [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; });
+  return std::find(std::begin(gemmi_mmcif_categories), std::end(gemmi_mmcif_categories), category) !=
+         std::end(gemmi_mmcif_categories);
+}
+
+/// Refuses the integers gemmi would overflow on, in the categories make_structure reads of the first block.
+status check_gemmi_integers(const gemmi::cif::Block& block) {
+  const auto check = [](const std::string& tag, const std::string& raw) -> status {
+    if (!overflows_gemmi_int(gemmi::cif::as_string(raw))) return status::success();
+    return {errc::invalid_input, "mmCIF " + detail::quote_bytes(tag, 40) + " '" + detail::quote_bytes(raw, 24) +
+                                     "' is an integer beyond the 32-bit range"};
+  };
+  for (const gemmi::cif::Item& item : block.items) {
+    if (item.type == gemmi::cif::ItemType::Pair && is_read_by_make_structure(item.pair[0])) {
+      if (status checked = check(item.pair[0], item.pair[1]); !checked) return checked;
+    } else if (item.type == gemmi::cif::ItemType::Loop) {
+      const gemmi::cif::Loop& loop = item.loop;
+      const std::size_t width = loop.tags.size();
+      for (std::size_t column = 0; column < width; ++column) {
+        if (!is_read_by_make_structure(loop.tags[column])) continue;
+        for (std::size_t at = column; at < loop.values.size(); at += width) {
+          if (status checked = check(loop.tags[column], loop.values[at]); !checked) return checked;
+        }
+      }
+    }
   }
   return status::success();
 }
@@ -323,6 +427,7 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
   try {
     if (document.blocks.empty()) return status{errc::nothing_to_mesh, "no atoms with radius > 0: no mmCIF data block"};
     if (status checked = check_atom_site(document.blocks.front(), limits); !checked) return checked;
+    if (status checked = check_gemmi_integers(document.blocks.front()); !checked) return checked;
     gemmi::Structure structure = gemmi::make_structure(document);
     document = gemmi::cif::Document();  // free the text's copy before the atoms are made
     return atoms_of(structure, options, limits, "_atom_site row");

@@ -139,15 +139,40 @@ TEST(PdbReader, ShortLinkAndSsbondRecordsAreReadWithinTheirLine) {
   const std::string atom = pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C");
   for (const char* record_name : {"LINK", "SSBOND"}) {
     const std::string record = record_name;
-    for (std::size_t columns : {74u, 76u, 77u}) {
+    // gemmi's record keeps its line feed: a line of 73 columns is read at columns 74-78 too (a second fuzz find).
+    for (std::size_t columns : {73u, 74u, 76u, 77u}) {
       std::string line = record + std::string(columns - record.size() - 2, ' ') + "2.";
-      line[73] = '2';
+      if (columns > 73) line[73] = '2';
       for (const char* end : {"\n", "\r\n"}) {
         const result<molecule> mol = parse_pdb(atom + line + end + atom);
         ASSERT_TRUE(mol.ok()) << record << " " << columns << ": " << mol.error().message();
         EXPECT_EQ(mol->atoms.size(), 2u);
       }
     }
+  }
+}
+
+// A fuzz find: gemmi reads the sequence numbers of a DBREF2 record (columns 46-55 and 58-67) into an int without
+// an overflow check (UBSan: signed overflow), and past the end of a shorter line. Numbers beyond the int range are
+// refused naming the line; short DBREF2 records are padded, so they are read as blanks.
+TEST(PdbReader, Dbref2SequenceNumbersBeyondTheIntRangeAreRefused) {
+  const std::string atom = pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 2.5, 2, 3, 1, "C");
+  const auto dbref2 = [](const std::string& begin, const std::string& end) {
+    std::string line = "DBREF2 1ABC A     P00001" + std::string(45 - 24, ' ');
+    line += std::string(10 - begin.size(), ' ') + begin + "  " + std::string(10 - end.size(), ' ') + end + "\n";
+    return line;
+  };
+  EXPECT_TRUE(parse_pdb(atom + dbref2("2147483647", "-999999999") + atom).ok());
+  const result<molecule> refused = parse_pdb(dbref2("1", "9999999999") + atom);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().message(),
+            "line 1: database sequence end '9999999999' (columns 58-67) is an integer beyond the 32-bit range");
+  EXPECT_EQ(refused.error().code(), errc::invalid_input);
+  EXPECT_FALSE(parse_pdb("dbre?2" + std::string(39, ' ') + "2147483648\n" + atom).ok()) << "gemmi's record test";
+  for (const char* short_record : {"DBREF2\n", "DBREF2 1ABC A     P00001               1\n"}) {
+    const result<molecule> mol = parse_pdb(atom + short_record + atom);
+    ASSERT_TRUE(mol.ok()) << short_record << mol.error().message();
+    EXPECT_EQ(mol->atoms.size(), 2u);
   }
 }
 
@@ -193,6 +218,52 @@ TEST(MmcifReader, RejectsBadInputNamingTheLineOrAtom) {
     EXPECT_EQ(mol.error().code(), errc::invalid_input);
   }
   EXPECT_EQ(parse_mmcif("data_t\n_entry.id x\n").error().code(), errc::nothing_to_mesh);
+}
+
+// A fuzz find: gemmi's syntax error quotes the input, and a quoted backslash takes 4 characters, so a block name
+// of backslashes made a message of 643 characters; gemmi's text now goes in by its escaped length.
+TEST(MmcifReader, GemmiMessagesStayOneBoundedLineWhateverTheyQuote) {
+  for (const std::string& text : {"data_" + std::string(200, '\\') + "\n_x.y\n",
+                                  "data_" + std::string(200, '\\') + "\n_x.y #comment\n",
+                                  "data_t\n_x.y '" + std::string(300, '\\') + "\n"}) {
+    const result<molecule> mol = parse_mmcif(text);
+    ASSERT_FALSE(mol.ok());
+    EXPECT_EQ(mol.error().code(), errc::invalid_input);
+    EXPECT_LE(mol.error().message().size(), 400u) << mol.error().message();
+    EXPECT_TRUE(mol.error().message().rfind("line 2", 0) == 0 || mol.error().message().rfind("mmCIF syntax: ", 0) == 0)
+        << mol.error().message();
+    EXPECT_EQ(mol.error().message().find_first_of("\n\r"), std::string::npos);
+  }
+}
+
+// A fuzz find: gemmi reads integer fields into an int without an overflow check (a signed overflow, undefined
+// behaviour, that UBSan reported on an 11-digit sequence number). Such values are refused before gemmi reads them;
+// the largest values that fit still parse, and other categories (gemmi reads none of _citation) are not looked at.
+TEST(MmcifReader, RefusesIntegersBeyondTheIntRangeBeforeGemmiReadsThem) {
+  const std::string atom_then = cif_header + "ATOM 1 N N . GLY A 1 1 1.0 2.0 3.0 1.0 10 ";
+  const struct {
+    std::string seq_id, message;
+  } refused[] = {
+      {"99999999999", "mmCIF _atom_site.auth_seq_id '99999999999' is an integer beyond the 32-bit range"},
+      {"2147483648", "mmCIF _atom_site.auth_seq_id '2147483648' is an integer beyond the 32-bit range"},
+      {"-2147483649", "mmCIF _atom_site.auth_seq_id '-2147483649' is an integer beyond the 32-bit range"},
+      {"'12345678901'", "mmCIF _atom_site.auth_seq_id ''12345678901'' is an integer beyond the 32-bit range"},
+  };
+  for (const auto& c : refused) {
+    const result<molecule> mol = parse_mmcif(atom_then + c.seq_id + " A\n");
+    ASSERT_FALSE(mol.ok()) << c.seq_id;
+    EXPECT_EQ(mol.error().message(), c.message);
+    EXPECT_EQ(mol.error().code(), errc::invalid_input);
+  }
+  for (const char* fits : {"2147483647", "-2147483648", "000000000000001"}) {
+    const result<molecule> mol = parse_mmcif(atom_then + fits + " A\n");
+    EXPECT_TRUE(mol.ok()) << fits << ": " << mol.error().message();
+  }
+  const result<molecule> helix = parse_mmcif(atom_then + "1 A\n_struct_conf.pdbx_PDB_helix_length 9999999999\n");
+  ASSERT_FALSE(helix.ok());
+  EXPECT_EQ(helix.error().message(),
+            "mmCIF _struct_conf.pdbx_PDB_helix_length '9999999999' is an integer beyond the 32-bit range");
+  EXPECT_TRUE(parse_mmcif(atom_then + "1 A\n_citation.book_id_ISBN 9780198520078\n").ok());
 }
 
 }  // namespace
