@@ -640,7 +640,7 @@ TEST(RemeshSurface, ChunkedPassKeepsTheCertificateAndReachesTheQuality) {
   const mesh_report before = analyze_mesh(input);
   ASSERT_TRUE(before.topologically_certified());
   const remesh_run run = remesh_ok(input, field, chunked_options(0.4));
-  EXPECT_GE(run.stats.patches, 3U);  // ~55 Å long; chunks of ~20 Å (cells at least twice the longest edge)
+  EXPECT_GE(run.stats.patches, 3U);  // ~55 Å long; chunks of 12 cells of ~1.2 Å (twice the longest edge)
   EXPECT_EQ(run.stats.unchanged_patches, 0U);
   EXPECT_FALSE(run.stats.input_returned);
   expect_valid(run.mesh, field, before);
