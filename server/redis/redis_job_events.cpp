@@ -1,8 +1,6 @@
 #include "server/redis/redis_job_events.hpp"
 
 #include <poll.h>
-#include <sys/time.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <memory>
@@ -11,27 +9,19 @@
 #include <hiredis/hiredis.h>
 
 #include "proto/api_types.hpp"
+#include "server/redis/detail/hiredis_handles.hpp"
 
 namespace tracemesh::server {
 
 namespace {
 
-timeval to_timeval(std::chrono::milliseconds duration) {
-  timeval tv{};
-  tv.tv_sec = static_cast<time_t>(duration.count() / 1000);
-  tv.tv_usec = static_cast<suseconds_t>((duration.count() % 1000) * 1000);
-  return tv;
-}
+using detail::owned_reply;
+using detail::to_timeval;
 
 struct context_deleter {
   void operator()(redisContext* context) const noexcept { redisFree(context); }
 };
 using owned_context = std::unique_ptr<redisContext, context_deleter>;
-
-struct reply_deleter {
-  void operator()(redisReply* reply) const noexcept { freeReplyObject(reply); }
-};
-using owned_reply = std::unique_ptr<redisReply, reply_deleter>;
 
 status broken(const redis_endpoint& endpoint, const redisContext* context, std::string_view what) {
   std::string message = "job-events subscription to ";
