@@ -393,16 +393,25 @@ class event_stream_slot {
 /// or progress changed since the last one sent (the session calls at most every limits.event_interval); once the
 /// job is final, its document from the records' side (as GET /jobs/{id}) as the last event, done or error.
 /// A job this process holds in memory is looked at on the I/O thread; anything else (a finished job, or with the
-/// Redis store a job another replica runs) on the prep pool (it may read the disk or ask Redis).
+/// Redis store a job another replica runs) on the prep pool (it may read the disk or ask Redis). With Redis, the
+/// records are read only when the coordinator's change_version() moved (a published message: see
+/// redis_job_events.hpp) or `fallback` passed since the last read; without that signal, at every call.
 class job_event_source final : public event_source, public std::enable_shared_from_this<job_event_source> {
  public:
   job_event_source(job_coordinator& jobs, boost::asio::thread_pool& prep, std::string id,
-                   std::unique_ptr<event_stream_slot> slot)
-      : jobs_(jobs), prep_(prep), id_(std::move(id)), slot_(std::move(slot)) {}
+                   std::unique_ptr<event_stream_slot> slot, std::chrono::milliseconds fallback)
+      : jobs_(jobs), prep_(prep), id_(std::move(id)), slot_(std::move(slot)), fallback_(fallback) {}
 
   void next(std::function<void(batch)> deliver) override {
     const std::optional<job_snapshot> job = jobs_.find_in_memory(id_);
     if (job && !proto::is_final(job->state)) return deliver({progress_if_changed(*job), false});
+    const std::optional<std::uint64_t> version = jobs_.change_version(id_);
+    const auto now = std::chrono::steady_clock::now();
+    if (version && read_ && *version == read_version_ && now < next_read_) return deliver({{}, false});
+    // Taken before the read: a change published while it runs moves the version again.
+    read_ = true;
+    read_version_ = version.value_or(0);
+    next_read_ = now + fallback_;
     boost::asio::post(prep_, [this, deliver = std::move(deliver), keep = shared_from_this()]() mutable {
       deliver(from_records());
     });
@@ -436,7 +445,11 @@ class job_event_source final : public event_source, public std::enable_shared_fr
   boost::asio::thread_pool& prep_;
   const std::string id_;
   const std::unique_ptr<event_stream_slot> slot_;
+  const std::chrono::milliseconds fallback_;
   // The session calls next() once at a time (the next call waits for the previous delivery).
+  bool read_ = false;  // the records were read once (at read_version_, next due at next_read_ without a change)
+  std::uint64_t read_version_ = 0;
+  std::chrono::steady_clock::time_point next_read_{};
   bool first_ = true;
   job_state last_state_ = job_state::queued;
   mesh_stage last_stage_ = mesh_stage::reading;
@@ -982,7 +995,8 @@ void api_handlers::job_events(const std::string& id, reply_sink done) {
                                    limits.retry_after_seconds));
     }
     auto source = std::make_shared<job_event_source>(deps_.coordinator, deps_.prep, id,
-                                                     std::make_unique<event_stream_slot>(deps_.state.event_streams));
+                                                     std::make_unique<event_stream_slot>(deps_.state.event_streams),
+                                                     limits.replicas.event_fallback);
     reply r;
     r.route = route;
     r.content_type = "text/event-stream";

@@ -8,6 +8,7 @@
 /// Synchronous POST /mesh jobs run on the local job queue in both cases (the job record store's run claim keeps
 /// replicas from meshing one job twice).
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -56,6 +57,10 @@ class job_coordinator {
   virtual std::optional<std::string> unready_reason() const = 0;
   /// Accepted jobs survive a restart of this process.
   virtual bool durable() const = 0;
+  /// A number that changes whenever job `id` may have changed in the records (a message of the replica that runs
+  /// it), for event streams that read the records only then (and at replica_limits::event_fallback);
+  /// std::nullopt when there is no such signal now: read the records at every event interval.
+  virtual std::optional<std::uint64_t> change_version(const std::string& /*id*/) const { return std::nullopt; }
   /// Adds what /metrics shows of the coordinator (a replica's name and Redis's state).
   virtual void add_gauges(metrics_gauges& /*gauges*/) const {}
   /// Starts what runs in the background (the Redis coordinator's consumer and heartbeat threads).

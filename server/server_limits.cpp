@@ -88,6 +88,8 @@ nlohmann::json config_to_json(const server_config& config) {
       {"replica_follow_poll_ms", limits.replicas.follow_poll.count()},
       {"replica_idle_poll_ms", limits.replicas.idle_poll.count()},
       {"replica_error_pause_ms", limits.replicas.error_pause.count()},
+      {"replica_event_fallback_ms", limits.replicas.event_fallback.count()},
+      {"replica_max_event_jobs", limits.replicas.max_event_jobs},
   };
 }
 

@@ -60,6 +60,13 @@ struct replica_limits {
   std::chrono::milliseconds idle_poll{50};
   /// Pause after a failed Redis command of the consumer loop (the client's own backoff paces reconnects).
   std::chrono::milliseconds error_pause{200};
+  /// An event stream (GET /jobs/{id}/events) of a job another replica runs reads the job's record when a message
+  /// on the job-events channel (Redis pub/sub, server/redis/redis_job_events.hpp) says it changed, and at least
+  /// this often otherwise, so a message lost while the subscriber reconnected delays an event by this much at most.
+  std::chrono::milliseconds event_fallback{std::chrono::seconds(2)};
+  /// Jobs whose latest change a replica's job-events subscriber remembers; past it the oldest is forgotten (its
+  /// event streams then read the record once more). Finished jobs are forgotten at their final message.
+  std::size_t max_event_jobs = 4096;
 };
 
 struct server_limits {

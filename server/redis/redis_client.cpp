@@ -6,21 +6,14 @@
 
 #include <hiredis/hiredis.h>
 
+#include "server/redis/detail/hiredis_handles.hpp"
+
 namespace tracemesh::server {
 
 namespace {
 
-timeval to_timeval(std::chrono::milliseconds duration) {
-  timeval tv{};
-  tv.tv_sec = static_cast<time_t>(duration.count() / 1000);
-  tv.tv_usec = static_cast<suseconds_t>((duration.count() % 1000) * 1000);
-  return tv;
-}
-
-struct reply_deleter {
-  void operator()(redisReply* reply) const noexcept { freeReplyObject(reply); }
-};
-using owned_reply = std::unique_ptr<redisReply, reply_deleter>;
+using detail::owned_reply;
+using detail::to_timeval;
 
 redis_reply convert(const redisReply& raw) {
   redis_reply reply;

@@ -35,6 +35,8 @@ redis_replica::redis_replica(const redis_endpoint& endpoint, const server_config
       client(endpoint, config.limits.redis),
       blocking(endpoint, config.limits.redis),
       records(client, config.limits.job_retention),
+      events(endpoint, config.limits.redis, records.events_channel(), config.limits.replicas.max_event_jobs,
+             config.limits.replicas.error_pause),
       queue(client, name),
       taker(blocking, name),
       lease(client, name),
@@ -54,6 +56,7 @@ redis_job_coordinator::~redis_job_coordinator() {
   heartbeat_stopping_ = true;
   wake_.notify_all();
   if (heartbeat_.joinable()) heartbeat_.join();
+  replica_.events.stop();
   std::vector<pending_final> left;
   {
     std::lock_guard lock(mutex_);
@@ -71,6 +74,7 @@ status redis_job_coordinator::start() {
   if (const status reachable = replica_.client.connect(); !reachable.ok()) return reachable;
   if (const status group = replica_.queue.ensure_group(); !group.ok()) return group;
   note_redis(true);
+  replica_.events.start();
   consumer_ = std::thread([this] { consumer_loop(); });
   heartbeat_ = std::thread([this] { heartbeat_loop(); });
   return status::success();

@@ -11,9 +11,11 @@
 ///              this replica's shutdown stays pending for another replica to reclaim.
 ///   heartbeat  a thread that, every replica_limits::heartbeat: PINGs Redis (/readyz), renews this replica's stream
 ///              entries (XCLAIM JUSTID) and run leases, writes the progress of its jobs into their records (read by
-///              GET /jobs/{id} and the event streams of every replica), cancels a job an owner withdrew through
+///              GET /jobs/{id}; each change is published on the job-events channel), cancels a job an owner withdrew through
 ///              another replica, and retries final records that could not be written while Redis was away.
-/// Any replica answers GET /jobs/{id}, its events and DELETE from the records.
+/// Any replica answers GET /jobs/{id}, its events and DELETE from the records. Its event streams read a record
+/// when the replica's job-events subscriber (redis_job_events.hpp, started with the consumer) heard that the job
+/// changed, or every replica_limits::event_fallback.
 ///
 /// Redis down: accept answers 503, /readyz 503, the consumer takes nothing; running jobs finish and their final
 /// records wait in memory until Redis is back (with AOF on, nothing accepted is lost). A replica killed mid-job:
@@ -34,6 +36,7 @@
 #include "server/job_queue.hpp"
 #include "server/metrics.hpp"
 #include "server/redis/redis_client.hpp"
+#include "server/redis/redis_job_events.hpp"
 #include "server/redis/redis_job_records.hpp"
 #include "server/redis/redis_job_store.hpp"
 #include "server/redis/redis_run_lease.hpp"
@@ -54,6 +57,7 @@ struct redis_replica {
   redis_client client;    ///< every short command
   redis_client blocking;  ///< XREADGROUP ... BLOCK only, so a blocked read never delays the others
   redis_job_records records;
+  redis_job_events events;  ///< its own connection, subscribed to records.events_channel()
   redis_work_queue queue;  ///< on `client`
   redis_work_queue taker;  ///< on `blocking`: take() only
   redis_run_lease lease;
@@ -78,6 +82,9 @@ class redis_job_coordinator final : public job_coordinator {
   std::optional<job_snapshot> find_in_memory(const std::string& id) override { return jobs_.find(id); }
   withdraw_result withdraw(const std::string& id, const std::string& owner_hash) override;
   bool blocking_lookups() const override { return true; }
+  std::optional<std::uint64_t> change_version(const std::string& id) const override {
+    return replica_.events.version(id);
+  }
   std::optional<std::string> unready_reason() const override;
   bool durable() const override { return true; }
   void add_gauges(metrics_gauges& gauges) const override {

@@ -7,6 +7,7 @@
 
 #include "proto/api_types.hpp"
 #include "proto/mesh_format.hpp"
+#include "server/redis/redis_job_events.hpp"
 
 namespace tracemesh::server {
 
@@ -22,15 +23,19 @@ if ttl > 0 then redis.call('PEXPIRE', KEYS[2], ttl) end
 return added
 )lua";
 
-// KEYS[1] record; ARGV stage, progress, eta_s. 0 when the record is gone (nothing written), 1 otherwise.
+// KEYS[1] record; ARGV stage, progress, eta_s, events channel, message. 0 when the record is gone (nothing
+// written), 1 otherwise. The message is published when the stage or progress changed (not for the ETA alone).
 constexpr const char* set_progress_script = R"lua(
 if redis.call('EXISTS', KEYS[1]) == 0 then return 0 end
+local old = redis.call('HMGET', KEYS[1], 'stage', 'progress')
 redis.call('HSET', KEYS[1], 'stage', ARGV[1], 'progress', ARGV[2], 'eta_s', ARGV[3])
+if old[1] ~= ARGV[1] or old[2] ~= ARGV[2] then redis.call('PUBLISH', ARGV[4], ARGV[5]) end
 return 1
 )lua";
 
 // KEYS[1] record, KEYS[2] owners, KEYS[3] input, KEYS[4] stream; ARGV[1] group, ARGV[2] owner, ARGV[3] job id,
-// ARGV[4] parameters, ARGV[5] format, ARGV[6] accepted_ms, ARGV[7] input bytes, ARGV[8] max waiting entries.
+// ARGV[4] parameters, ARGV[5] format, ARGV[6] accepted_ms, ARGV[7] input bytes, ARGV[8] max waiting entries,
+// ARGV[9] events channel, ARGV[10] message (published when accepted).
 // {"coalesced"} | {"queue_full"} | {"accepted", entry id}.
 constexpr const char* accept_script = R"lua(
 local state = redis.call('HGET', KEYS[1], 'state')
@@ -47,18 +52,22 @@ redis.call('SADD', KEYS[2], ARGV[2])
 redis.call('SET', KEYS[3], ARGV[7])
 local entry = redis.call('XADD', KEYS[4], '*', 'job', ARGV[3])
 redis.call('HSET', KEYS[1], 'entry', entry)
+redis.call('PUBLISH', ARGV[9], ARGV[10])
 return {'accepted', entry}
 )lua";
 
-// KEYS[1] record; ARGV[1] replica, ARGV[2] now ms. 1 when the queued job is now running here, 0 otherwise.
+// KEYS[1] record; ARGV[1] replica, ARGV[2] now ms, ARGV[3] events channel, ARGV[4] message. 1 when the queued
+// job is now running here, 0 otherwise.
 constexpr const char* mark_running_script = R"lua(
 local state = redis.call('HGET', KEYS[1], 'state')
 if state ~= 'queued' and state ~= 'running' then return 0 end
 redis.call('HSET', KEYS[1], 'state', 'running', 'replica', ARGV[1], 'started_ms', ARGV[2])
+redis.call('PUBLISH', ARGV[3], ARGV[4])
 return 1
 )lua";
 
-// KEYS[1] record, KEYS[2] owners, KEYS[3] input; ARGV[1] owner, ARGV[2] now ms, ARGV[3] expiry (Unix ms).
+// KEYS[1] record, KEYS[2] owners, KEYS[3] input; ARGV[1] owner, ARGV[2] now ms, ARGV[3] expiry (Unix ms),
+// ARGV[4] events channel, ARGV[5] message (published when a queued job is cancelled).
 constexpr const char* withdraw_script = R"lua(
 local state = redis.call('HGET', KEYS[1], 'state')
 if not state then return 'not_found' end
@@ -73,6 +82,7 @@ redis.call('HSET', KEYS[1], 'state', 'cancelled', 'error_code', 'cancelled', 'er
            'finished_ms', ARGV[2])
 redis.call('PEXPIREAT', KEYS[1], ARGV[3])
 redis.call('DEL', KEYS[3])
+redis.call('PUBLISH', ARGV[4], ARGV[5])
 return 'cancelled'
 )lua";
 
@@ -231,7 +241,8 @@ result<bool> redis_job_records::remove_owner(const std::string& id, const std::s
 result<bool> redis_job_records::set_progress(const std::string& id, std::string_view stage, double progress,
                                              std::optional<double> eta_s) {
   auto reply = client_.command({"EVAL", set_progress_script, "1", record_key(id), std::string(stage),
-                                std::to_string(progress), eta_s ? std::to_string(*eta_s) : std::string()});
+                                std::to_string(progress), eta_s ? std::to_string(*eta_s) : std::string(),
+                                events_channel(), redis_job_events::message("running", id)});
   if (!reply.ok()) return reply.error();
   if (reply->is_error()) return redis_refused("a progress update", *reply);
   return reply->integer == 1;
@@ -264,7 +275,8 @@ result<redis_job_records::accept_outcome> redis_job_records::accept_and_queue(co
   auto reply = client_.command({"EVAL", accept_script, "4", record_key(record.id), owners_key(record.id),
                                 input_key(record.id), stream_key, group, record.owners.front(), record.id,
                                 record.parameters, std::string(proto::format_name(record.format)),
-                                std::to_string(record.accepted_ms), input_bytes, std::to_string(max_waiting)});
+                                std::to_string(record.accepted_ms), input_bytes, std::to_string(max_waiting),
+                                events_channel(), redis_job_events::message("queued", record.id)});
   if (!reply.ok()) return reply.error();
   if (reply->is_error()) return redis_refused("a job's acceptance", *reply);
   if (reply->elements.empty()) return unexpected_reply("a job's acceptance");
@@ -285,7 +297,8 @@ result<std::optional<std::string>> redis_job_records::input(const std::string& i
 
 result<bool> redis_job_records::mark_running(const std::string& id, const std::string& replica) {
   auto reply = client_.command({"EVAL", mark_running_script, "1", record_key(id), replica,
-                                std::to_string(unix_millis())});
+                                std::to_string(unix_millis()), events_channel(),
+                                redis_job_events::message("running", id)});
   if (!reply.ok()) return reply.error();
   if (reply->is_error()) return redis_refused("a job's start", *reply);
   return reply->integer == 1;
@@ -312,6 +325,8 @@ status redis_job_records::finish(const stored_job& record) {
                                    {"DEL", input_key(record.id)},
                                    {"PEXPIREAT", key, expires_at},
                                    {"PEXPIREAT", owners_key(record.id), expires_at},
+                                   {"PUBLISH", events_channel(),
+                                    redis_job_events::message(proto::job_state_name(record.state), record.id)},
                                    {"EXEC"}});
   if (!replies.ok()) return replies.error();
   if (const redis_reply* error = first_error(*replies)) return redis_refused("a job's final record", *error);
@@ -323,7 +338,8 @@ result<redis_job_records::withdraw_outcome> redis_job_records::withdraw(const st
                                                                         const std::string& owner_hash) {
   const std::int64_t now = unix_millis();
   auto reply = client_.command({"EVAL", withdraw_script, "3", record_key(id), owners_key(id), input_key(id),
-                                owner_hash, std::to_string(now), std::to_string(now + retention_.count())});
+                                owner_hash, std::to_string(now), std::to_string(now + retention_.count()),
+                                events_channel(), redis_job_events::message("cancelled", id)});
   if (!reply.ok()) return reply.error();
   if (reply->is_error()) return redis_refused("a withdrawal", *reply);
   static constexpr std::pair<std::string_view, withdraw_outcome> outcomes[] = {

@@ -9,6 +9,8 @@
 ///                             progress, eta_s written by set_progress while the job runs;
 ///   <prefix>job:<id>:owners   set: SHA-256 hex of each owner token still holding the job;
 ///   <prefix>input:<id>        string: the parsed input of an unfinished job (serialize_molecule), dropped at its end.
+/// Writes that change what an event stream shows also PUBLISH "<state> <id>" on events_channel() (see
+/// redis_job_events.hpp).
 /// A done job's report gets one `enc:<format>` field per encoding made, merged into report.encodings by find().
 /// Retention is Redis expiry: a finished record (finished_ms > 0) expires at finished_ms + retention (PEXPIREAT on
 /// both keys), an unfinished one never does. Every write is one MULTI/EXEC transaction or one Lua script, so a
@@ -88,6 +90,9 @@ class redis_job_records {
   std::string record_key(const std::string& id) const { return prefix_ + "job:" + id; }
   std::string input_key(const std::string& id) const { return prefix_ + "input:" + id; }
   std::string owners_key(const std::string& id) const { return record_key(id) + ":owners"; }
+  /// The pub/sub channel every write that changes what an event stream shows publishes on, in the same script or
+  /// transaction (see redis_job_events.hpp).
+  std::string events_channel() const { return prefix_ + "job-events"; }
 
  private:
   redis_client& client_;

@@ -4,10 +4,24 @@
 
 #include <chrono>
 #include <memory>
+#include <string>
 
+#include "server/job_store.hpp"
 #include "support/redis_process.hpp"
 
 namespace tracemesh::server::test {
+
+/// A job record as POST /jobs accepts it (state queued, one owner).
+inline stored_job queued_job(const std::string& id) {
+  stored_job record;
+  record.id = id;
+  record.state = job_state::queued;
+  record.parameters = "density=2;d=-1;t0=1";
+  record.format = proto::mesh_format::glb;
+  record.owners = {std::string(64, 'a')};
+  record.accepted_ms = unix_millis();
+  return record;
+}
 
 class SharedRedis : public ::testing::Test {
  protected:

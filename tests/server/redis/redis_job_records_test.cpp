@@ -11,17 +11,6 @@ namespace {
 
 using namespace std::chrono_literals;
 
-stored_job queued_job(const std::string& id) {
-  stored_job record;
-  record.id = id;
-  record.state = job_state::queued;
-  record.parameters = "density=2;d=-1;t0=1";
-  record.format = proto::mesh_format::glb;
-  record.owners = {std::string(64, 'a')};
-  record.accepted_ms = unix_millis();
-  return record;
-}
-
 const std::string job_id(64, '1');
 
 using RedisJobRecords = SharedRedis;
