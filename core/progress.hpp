@@ -29,11 +29,17 @@ class progress_token {
   void cancel() noexcept { cancelled_.store(true, std::memory_order_relaxed); }
   bool cancelled() const noexcept { return cancelled_.load(std::memory_order_relaxed); }
 
-  /// Report progress; returns false when the work should stop.
+  /// Report progress; returns false when the work should stop. Within one stage, a fraction below one already
+  /// passed on is dropped: parallel workers number their finished items in one order and report them in another,
+  /// and a listener must never see progress go backwards.
   bool report(mesh_stage stage, double fraction) {
     if (on_progress_) {
       std::lock_guard lock(mutex_);
-      on_progress_(stage, fraction);
+      if (stage != last_stage_ || fraction >= last_fraction_) {
+        last_stage_ = stage;
+        last_fraction_ = fraction;
+        on_progress_(stage, fraction);
+      }
     }
     return !cancelled();
   }
@@ -41,6 +47,8 @@ class progress_token {
  private:
   listener on_progress_;
   std::mutex mutex_;
+  mesh_stage last_stage_ = mesh_stage::reading;  ///< guarded by mutex_, as last_fraction_
+  double last_fraction_ = -1;
   std::atomic<bool> cancelled_{false};
 };
 
