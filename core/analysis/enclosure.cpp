@@ -1,5 +1,7 @@
 #include "core/analysis/enclosure.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -46,6 +48,128 @@ double winding_number(const surface_mesh& mesh, const std::vector<std::uint32_t>
   return total / (4 * std::numbers::pi);
 }
 
+namespace {
+
+/// Twice the signed area of (u, v, p) projected on the yz plane.
+double orient_yz(const vec3& u, const vec3& v, const vec3& p) {
+  return (v.y - u.y) * (p.z - u.z) - (v.z - u.z) * (p.y - u.y);
+}
+
+/// A ray from a point along +x, and what the triangles of one closed component did to it.
+struct ray_count {
+  int signed_crossings = 0;  ///< +1 per triangle crossed facing +x, −1 facing −x: the winding number
+  bool degenerate = false;   ///< the ray met an edge or a vertex, or started on a triangle: count not trusted
+};
+
+/// Adds what triangle (a, b, c) does to the ray from p along +x. The ray crosses it where the projection of p on
+/// the yz plane lies strictly inside the triangle's, beyond p; a crossing within a relative 1e-10 of an edge, or
+/// within 1e-9 Å of p, marks the count degenerate instead.
+void cross_ray(const vec3& a, const vec3& b, const vec3& c, const vec3& p, ray_count& count) {
+  const double oa = orient_yz(b, c, p), ob = orient_yz(c, a, p), oc = orient_yz(a, b, p);
+  const double tolerance = 1e-10 * (std::abs(oa) + std::abs(ob) + std::abs(oc));
+  const bool inside = (oa > tolerance && ob > tolerance && oc > tolerance) ||
+                      (oa < -tolerance && ob < -tolerance && oc < -tolerance);
+  if (!inside) {
+    const bool on_edge = (oa >= -tolerance && ob >= -tolerance && oc >= -tolerance) ||
+                         (oa <= tolerance && ob <= tolerance && oc <= tolerance);
+    // Only an edge ahead of p (or at it) matters; one behind it is never crossed.
+    if (on_edge && std::max({a.x, b.x, c.x}) >= p.x - 1e-9) count.degenerate = true;
+    return;
+  }
+  const double area = oa + ob + oc;  // twice the projected area, signed like the face normal's x component
+  const double x = (oa * a.x + ob * b.x + oc * c.x) / area;
+  if (std::abs(x - p.x) <= 1e-9) {
+    count.degenerate = true;
+  } else if (x > p.x) {
+    count.signed_crossings += area > 0 ? 1 : -1;
+  }
+}
+
+/// Points bucketed by a grid over their projections on the yz plane, so that one pass over a surface's triangles
+/// finds, for each triangle, the few points whose ray along +x may cross it. About one point per cell.
+class yz_point_grid {
+ public:
+  explicit yz_point_grid(const std::vector<vec3>& points) {
+    for (const vec3& p : points) bounds_.add(p);
+    cells_ = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(std::sqrt(double(points.size())))));
+    cell_y_ = std::max(bounds_.hi.y - bounds_.lo.y, 1e-9) / double(cells_);
+    cell_z_ = std::max(bounds_.hi.z - bounds_.lo.z, 1e-9) / double(cells_);
+    std::vector<std::uint32_t> cell_of(points.size());
+    first_.assign(cells_ * cells_ + 1, 0);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      cell_of[i] = static_cast<std::uint32_t>(index(points[i].y, bounds_.lo.y, cell_y_) * cells_ +
+                                              index(points[i].z, bounds_.lo.z, cell_z_));
+      ++first_[cell_of[i] + 1];
+    }
+    for (std::size_t c = 1; c < first_.size(); ++c) first_[c] += first_[c - 1];
+    members_.resize(points.size());
+    std::vector<std::uint32_t> next(first_.begin(), first_.end() - 1);
+    for (std::size_t i = 0; i < points.size(); ++i) members_[next[cell_of[i]]++] = static_cast<std::uint32_t>(i);
+  }
+
+  /// Calls visit(i) for each point i whose projection may lie in the yz extent of box `b` (a superset).
+  template <class Visit>
+  void for_each_near(const box& b, Visit&& visit) const {
+    if (b.hi.y < bounds_.lo.y || b.lo.y > bounds_.hi.y || b.hi.z < bounds_.lo.z || b.lo.z > bounds_.hi.z) return;
+    const std::size_t y0 = index(b.lo.y, bounds_.lo.y, cell_y_), y1 = index(b.hi.y, bounds_.lo.y, cell_y_);
+    const std::size_t z0 = index(b.lo.z, bounds_.lo.z, cell_z_), z1 = index(b.hi.z, bounds_.lo.z, cell_z_);
+    for (std::size_t y = y0; y <= y1; ++y) {
+      for (std::size_t z = z0; z <= z1; ++z) {
+        const std::size_t c = y * cells_ + z;
+        for (std::uint32_t k = first_[c]; k < first_[c + 1]; ++k) visit(members_[k]);
+      }
+    }
+  }
+
+ private:
+  std::size_t index(double value, double origin, double size) const {
+    const double i = std::floor((value - origin) / size);
+    return i <= 0 ? 0 : std::min(cells_ - 1, static_cast<std::size_t>(i));
+  }
+
+  box bounds_;
+  std::size_t cells_ = 1;
+  double cell_y_ = 1, cell_z_ = 1;
+  std::vector<std::uint32_t> first_;    // per cell, the index of its first member; one more entry at the end
+  std::vector<std::uint32_t> members_;  // point indices, cell by cell
+};
+
+/// The rays from `points` along +x against the surface `triangles`, in one pass over the triangles (in parallel;
+/// the counts are integer sums, so the result does not depend on the thread count).
+std::vector<ray_count> cast_rays(const surface_mesh& mesh, const std::vector<std::uint32_t>& triangles,
+                                 const std::vector<vec3>& points) {
+  const yz_point_grid grid(points);
+  tbb::enumerable_thread_specific<std::vector<ray_count>> partial(points.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      std::vector<ray_count>& counts = partial.local();
+                      for (std::size_t i = range.begin(); i != range.end(); ++i) {
+                        const auto& [ia, ib, ic] = mesh.triangles[triangles[i]];
+                        const vec3 &a = mesh.positions[ia], &b = mesh.positions[ib], &c = mesh.positions[ic];
+                        box bounds;
+                        bounds.add(a);
+                        bounds.add(b);
+                        bounds.add(c);
+                        grid.for_each_near(bounds, [&](std::uint32_t k) {
+                          const vec3& p = points[k];
+                          const bool beside = p.y < bounds.lo.y || p.y > bounds.hi.y || p.z < bounds.lo.z ||
+                                              p.z > bounds.hi.z || bounds.hi.x < p.x - 1e-9;
+                          if (!beside) cross_ray(a, b, c, p, counts[k]);
+                        });
+                      }
+                    });
+  std::vector<ray_count> total(points.size());
+  for (const std::vector<ray_count>& counts : partial) {
+    for (std::size_t k = 0; k < counts.size(); ++k) {
+      total[k].signed_crossings += counts[k].signed_crossings;
+      total[k].degenerate = total[k].degenerate || counts[k].degenerate;
+    }
+  }
+  return total;
+}
+
+}  // namespace
+
 std::vector<bool> enclosed_components(const surface_mesh& mesh, const mesh_report& report) {
   const std::size_t count = report.components.size();
   std::vector<std::vector<std::uint32_t>> triangles(count);
@@ -62,15 +186,30 @@ std::vector<bool> enclosed_components(const surface_mesh& mesh, const mesh_repor
     boxes[label[v]].add(mesh.positions[v]);
     if (representative[label[v]] == no_component) representative[label[v]] = static_cast<std::uint32_t>(v);
   }
-  std::vector<char> enclosed(count, 0);
-  tbb::parallel_for(std::size_t{0}, count, [&](std::size_t a) {
-    if (representative[a] == no_component) return;
-    const vec3& point = mesh.positions[representative[a]];
-    for (std::size_t b = 0; b < count && !enclosed[a]; ++b) {
-      if (b == a || !boxes[b].contains(boxes[a])) continue;
-      if (std::abs(winding_number(mesh, triangles[b], point)) > 0.5) enclosed[a] = 1;
+  // The components each component may enclose: those whose box lies in its box.
+  std::vector<std::vector<std::uint32_t>> candidates(count);
+  tbb::parallel_for(std::size_t{0}, count, [&](std::size_t b) {
+    for (std::size_t a = 0; a < count; ++a) {
+      if (a != b && representative[a] != no_component && boxes[b].contains(boxes[a])) {
+        candidates[b].push_back(static_cast<std::uint32_t>(a));
+      }
     }
   });
+  // One pass over each enclosing candidate's triangles casts the rays of all its candidates at once; a ray that
+  // met an edge or a vertex is decided by the winding number instead, which has no such case.
+  std::vector<char> enclosed(count, 0);
+  for (std::size_t b = 0; b < count; ++b) {
+    if (candidates[b].empty()) continue;
+    std::vector<vec3> points;
+    points.reserve(candidates[b].size());
+    for (const std::uint32_t a : candidates[b]) points.push_back(mesh.positions[representative[a]]);
+    const std::vector<ray_count> rays = cast_rays(mesh, triangles[b], points);
+    for (std::size_t k = 0; k < rays.size(); ++k) {
+      const bool inside = rays[k].degenerate ? std::abs(winding_number(mesh, triangles[b], points[k])) > 0.5
+                                             : rays[k].signed_crossings != 0;
+      if (inside) enclosed[candidates[b][k]] = 1;
+    }
+  }
   return {enclosed.begin(), enclosed.end()};
 }
 

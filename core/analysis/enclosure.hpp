@@ -3,12 +3,16 @@
 /// Which components of a closed mesh lie inside another component (a molecule's inner cavities, and anything
 /// inside those), and removing components (cavities=drop).
 ///
-/// A component A is *enclosed* when a vertex of A is inside the closed surface of another component B: the
-/// generalised winding number of B's triangles at that vertex (the sum of their signed solid angles over 4π;
-/// ±1 inside a closed surface whatever its orientation, 0 outside) has magnitude above 1/2. The components of a
-/// certified mesh do not intersect, so one vertex decides for the whole component, and the winding number needs no
-/// ray, so no edge or vertex hit can make it ambiguous. Only components whose bounding box lies inside B's are
-/// tested against B. Cost: O(triangles of B) per such pair, run in parallel over the components.
+/// A component A is *enclosed* when a vertex of A is inside the closed surface of another component B: B's winding
+/// number there is ±1 (±: whatever B's orientation), 0 outside. The components of a certified mesh do not
+/// intersect, so one vertex decides for the whole component. Only components whose bounding box lies inside B's
+/// are tested against B. The winding number is counted along a ray from the vertex parallel to x (the signed
+/// number of B's triangles it crosses), for all of B's candidates in one pass over B's triangles with the vertices
+/// bucketed on the yz plane: O(triangles of B + crossings) per enclosing B. A ray that meets an edge or a vertex
+/// of B within a relative 1e-10 is decided by the generalised winding number instead (the sum of the signed solid
+/// angles of B's triangles over 4π: no ray, hence no such case; O(triangles of B) per point). Summing solid angles
+/// for every pair, as before, took 150 s of 200 on the 1,082,160-atom capsid (its outer surface holds hundreds of
+/// cavities, each tested against 5 million triangles).
 
 #include <cstdint>
 #include <vector>

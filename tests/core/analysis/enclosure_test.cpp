@@ -14,6 +14,9 @@ namespace {
 using testing::append;
 using testing::icosphere;
 using testing::reverse_orientation;
+using testing::tetrahedron;
+using testing::torus;
+using testing::translate;
 
 /// An outer sphere (radius 10), the inward-facing surface of a cavity in it (radius 6), a small outward sphere
 /// inside the cavity (radius 2: an island, enclosed though its volume is positive), and a separate sphere beside
@@ -71,6 +74,82 @@ TEST(EnclosedComponents, FlagsCavitiesAndIslandsInThemButNotOuterOrSeparateSurfa
   EXPECT_TRUE(enclosed[island]) << "enclosed although its volume is positive";
   EXPECT_FALSE(report.components[island].cavity);
   EXPECT_FALSE(enclosed[beside]);
+}
+
+/// An axis-aligned box [lo, hi], 12 triangles, counter-clockwise from outside. Each face is split along the
+/// diagonal from its first corner, so the face x = hi along y − lo.y = z − lo.z.
+surface_mesh box_mesh(const vec3& lo, const vec3& hi) {
+  surface_mesh mesh;
+  for (int i = 0; i < 8; ++i) {
+    mesh.positions.push_back({(i & 1) ? hi.x : lo.x, (i & 2) ? hi.y : lo.y, (i & 4) ? hi.z : lo.z});
+  }
+  // Faces as quads a, b, c, d counter-clockwise from outside, split along a–c.
+  const std::uint32_t quads[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                                     {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+  for (const auto& q : quads) {
+    mesh.triangles.push_back({q[0], q[1], q[2]});
+    mesh.triangles.push_back({q[0], q[2], q[3]});
+  }
+  return mesh;
+}
+
+TEST(EnclosedComponents, RaysThroughEdgesAndVerticesAreDecidedByTheWindingNumber) {
+  // Boxes whose first vertex (the one tested) has y = z: the rays along x from the two inside the outer box run
+  // along the diagonal edge of its face x = 10; the ray from the one outside runs along its edge y = z = −10.
+  surface_mesh mesh = box_mesh({-10, -10, -10}, {10, 10, 10});
+  ASSERT_TRUE(analyze_mesh(mesh).topologically_certified());
+  append(mesh, box_mesh({-2, -2, -2}, {2, 2, 2}));
+  append(mesh, box_mesh({3, 3, 3}, {4, 4, 4}));
+  append(mesh, box_mesh({-12, -10, -10}, {-11, -9, -9}));
+  const mesh_report report = labelled_report(mesh);
+  ASSERT_EQ(report.components.size(), 4u);
+  ASSERT_TRUE(report.topologically_certified());
+  const std::vector<bool> enclosed = enclosed_components(mesh, report);
+  // Vertex 8k is the first vertex of box k.
+  EXPECT_FALSE(enclosed[report.vertex_component[0]]);
+  EXPECT_TRUE(enclosed[report.vertex_component[8]]);
+  EXPECT_TRUE(enclosed[report.vertex_component[16]]);
+  EXPECT_FALSE(enclosed[report.vertex_component[24]]);
+}
+
+TEST(EnclosedComponents, AgreesWithTheWindingNumberForHundredsOfIslands) {
+  // An outer sphere and a torus beside it, and 0.3 Å tetrahedra on a 1.5 Å lattice around both: each tetrahedron
+  // is enclosed exactly when the winding number of the sphere or of the torus at its first vertex says so.
+  surface_mesh mesh = icosphere(3, 10.0);
+  const std::size_t sphere_end = mesh.triangles.size();
+  surface_mesh ring = torus(6.0, 2.0, 48, 24);
+  translate(ring, {25, 0, 0});
+  append(mesh, ring);
+  std::vector<std::uint32_t> sphere_triangles, torus_triangles;
+  for (std::uint32_t t = 0; t < mesh.triangles.size(); ++t) {
+    (t < sphere_end ? sphere_triangles : torus_triangles).push_back(t);
+  }
+  std::vector<std::size_t> first_vertex;
+  for (double x = -12.25; x < 36; x += 1.5) {
+    for (double y = -12.25; y < 12.5; y += 1.5) {
+      for (double z = -3.25; z < 3.5; z += 1.5) {
+        const vec3 p{x, y, z};
+        const double ring_distance = std::hypot(std::hypot(x - 25, y) - 6.0, z);
+        if (std::abs(norm(p) - 10) < 0.8 || std::abs(ring_distance - 2) < 0.8) continue;  // clear of the shells
+        first_vertex.push_back(mesh.positions.size());
+        append(mesh, tetrahedron(p, p + vec3{0.3, 0, 0}, p + vec3{0, 0.3, 0}, p + vec3{0, 0, 0.3}));
+      }
+    }
+  }
+  ASSERT_GT(first_vertex.size(), 300u);
+  const mesh_report report = labelled_report(mesh);
+  ASSERT_EQ(report.components.size(), first_vertex.size() + 2);
+  const std::vector<bool> enclosed = enclosed_components(mesh, report);
+  std::size_t inside = 0;
+  for (const std::size_t v : first_vertex) {
+    const vec3& p = mesh.positions[v];
+    const bool expected = std::abs(winding_number(mesh, sphere_triangles, p)) > 0.5 ||
+                          std::abs(winding_number(mesh, torus_triangles, p)) > 0.5;
+    inside += expected ? 1 : 0;
+    EXPECT_EQ(enclosed[report.vertex_component[v]], expected) << "tetrahedron at " << p.x << " " << p.y << " " << p.z;
+  }
+  EXPECT_GT(inside, 50u);
+  EXPECT_LT(inside, first_vertex.size() - 50);
 }
 
 TEST(RemoveComponents, KeepsTheOthersWholeWithTheirVertexAttributes) {
