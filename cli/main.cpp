@@ -11,6 +11,7 @@
 #include "cli/options.hpp"
 #include "cli/progress_bar.hpp"
 #include "cli/run.hpp"
+#include "core/tbb_under_thread_sanitizer.hpp"
 
 namespace {
 
@@ -61,6 +62,7 @@ int run_and_report(const tracemesh::cli::cli_options& options) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const tracemesh::tbb_under_thread_sanitizer tbb_checkable;  // ThreadSanitizer builds only
   const tracemesh::cli::parsed_command_line parsed = tracemesh::cli::parse_command_line(argc, argv);
   if (!parsed.options) {
     std::fputs(parsed.standard_output.c_str(), stdout);

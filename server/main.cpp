@@ -9,6 +9,7 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
 
+#include "core/tbb_under_thread_sanitizer.hpp"
 #include "server/logging.hpp"
 #include "server/redis/redis_url.hpp"
 #include "server/service.hpp"
@@ -247,6 +248,7 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
 int main(int argc, char** argv) {
   command_line line;
   if (auto exit_code = parse_command_line(argc, argv, line)) return *exit_code;
+  const tracemesh::tbb_under_thread_sanitizer tbb_checkable;  // ThreadSanitizer builds only
 
   auto log = tracemesh::server::make_json_logger("tracemeshd");
   log->set_level(spdlog::level::from_str(line.log_level));

@@ -201,7 +201,7 @@ class TracemeshdTest : public ::testing::Test {
 
   temp_dir work_;
   temp_dir cache_;
-  int calls_ = 0;
+  std::atomic<int> calls_{0};  // curl() runs on several threads in some tests
 };
 
 TEST_F(TracemeshdTest, OffAndDracoRoundTripsOnRealMolecules) {
