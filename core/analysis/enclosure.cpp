@@ -55,6 +55,23 @@ double orient_yz(const vec3& u, const vec3& v, const vec3& p) {
   return (v.y - u.y) * (p.z - u.z) - (v.z - u.z) * (p.y - u.y);
 }
 
+/// Coordinates in which rays run along +x: (dot(p, along), dot(p, across1), dot(p, across2)) for an orthonormal
+/// basis. The identity frame (rays along x) gives the coordinates themselves, bit for bit.
+struct ray_frame {
+  vec3 along{1, 0, 0}, across1{0, 1, 0}, across2{0, 0, 1};
+  vec3 operator()(const vec3& p) const { return {dot(p, along), dot(p, across1), dot(p, across2)}; }
+};
+
+/// A direction in no lattice plane or line: trace meshes have many vertices on common lines parallel to x (the
+/// line roots), so rays along x from them meet other components' vertices exactly.
+ray_frame skewed_frame() {
+  ray_frame frame;
+  frame.along = normalized(vec3{1, 0.3141592653589793, 0.2718281828459045});
+  frame.across1 = normalized(cross(frame.along, vec3{0, 0, 1}));
+  frame.across2 = cross(frame.along, frame.across1);
+  return frame;
+}
+
 /// A ray from a point along +x, and what the triangles of one closed component did to it.
 struct ray_count {
   int signed_crossings = 0;  ///< +1 per triangle crossed facing +x, −1 facing −x: the winding number
@@ -137,7 +154,9 @@ class yz_point_grid {
 /// The rays from `points` along +x against the surface `triangles`, in one pass over the triangles (in parallel;
 /// the counts are integer sums, so the result does not depend on the thread count).
 std::vector<ray_count> cast_rays(const surface_mesh& mesh, const std::vector<std::uint32_t>& triangles,
-                                 const std::vector<vec3>& points) {
+                                 const std::vector<vec3>& original_points, const ray_frame& frame) {
+  std::vector<vec3> points(original_points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) points[k] = frame(original_points[k]);
   const yz_point_grid grid(points);
   tbb::enumerable_thread_specific<std::vector<ray_count>> partial(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096),
@@ -145,7 +164,8 @@ std::vector<ray_count> cast_rays(const surface_mesh& mesh, const std::vector<std
                       std::vector<ray_count>& counts = partial.local();
                       for (std::size_t i = range.begin(); i != range.end(); ++i) {
                         const auto& [ia, ib, ic] = mesh.triangles[triangles[i]];
-                        const vec3 &a = mesh.positions[ia], &b = mesh.positions[ib], &c = mesh.positions[ic];
+                        const vec3 a = frame(mesh.positions[ia]), b = frame(mesh.positions[ib]),
+                                   c = frame(mesh.positions[ic]);
                         box bounds;
                         bounds.add(a);
                         bounds.add(b);
@@ -195,19 +215,34 @@ std::vector<bool> enclosed_components(const surface_mesh& mesh, const mesh_repor
       }
     }
   });
-  // One pass over each enclosing candidate's triangles casts the rays of all its candidates at once; a ray that
-  // met an edge or a vertex is decided by the winding number instead, which has no such case.
+  // One pass over each enclosing candidate's triangles casts the rays of all its candidates at once, along x.
+  // The rays that met an edge or a vertex are cast again together along a skewed direction; a ray degenerate both
+  // ways is decided by the winding number, which has no such case.
+  const ray_frame skewed = skewed_frame();
   std::vector<char> enclosed(count, 0);
   for (std::size_t b = 0; b < count; ++b) {
     if (candidates[b].empty()) continue;
     std::vector<vec3> points;
     points.reserve(candidates[b].size());
     for (const std::uint32_t a : candidates[b]) points.push_back(mesh.positions[representative[a]]);
-    const std::vector<ray_count> rays = cast_rays(mesh, triangles[b], points);
+    const std::vector<ray_count> rays = cast_rays(mesh, triangles[b], points, ray_frame{});
+    std::vector<std::uint32_t> again;  // candidates whose ray along x was degenerate
+    std::vector<vec3> again_points;
     for (std::size_t k = 0; k < rays.size(); ++k) {
-      const bool inside = rays[k].degenerate ? std::abs(winding_number(mesh, triangles[b], points[k])) > 0.5
-                                             : rays[k].signed_crossings != 0;
-      if (inside) enclosed[candidates[b][k]] = 1;
+      if (rays[k].degenerate) {
+        again.push_back(candidates[b][k]);
+        again_points.push_back(points[k]);
+      } else if (rays[k].signed_crossings != 0) {
+        enclosed[candidates[b][k]] = 1;
+      }
+    }
+    if (again.empty()) continue;
+    const std::vector<ray_count> skewed_rays = cast_rays(mesh, triangles[b], again_points, skewed);
+    for (std::size_t k = 0; k < skewed_rays.size(); ++k) {
+      const bool inside = skewed_rays[k].degenerate
+                              ? std::abs(winding_number(mesh, triangles[b], again_points[k])) > 0.5
+                              : skewed_rays[k].signed_crossings != 0;
+      if (inside) enclosed[again[k]] = 1;
     }
   }
   return {enclosed.begin(), enclosed.end()};

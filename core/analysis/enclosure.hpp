@@ -8,9 +8,11 @@
 /// intersect, so one vertex decides for the whole component. Only components whose bounding box lies inside B's
 /// are tested against B. The winding number is counted along a ray from the vertex parallel to x (the signed
 /// number of B's triangles it crosses), for all of B's candidates in one pass over B's triangles with the vertices
-/// bucketed on the yz plane: O(triangles of B + crossings) per enclosing B. A ray that meets an edge or a vertex
-/// of B within a relative 1e-10 is decided by the generalised winding number instead (the sum of the signed solid
-/// angles of B's triangles over 4π: no ray, hence no such case; O(triangles of B) per point). Summing solid angles
+/// bucketed on the yz plane: O(triangles of B + crossings) per enclosing B. The rays that meet an edge or a vertex
+/// of B within a relative 1e-10 (common on the trace path, whose line roots share lines parallel to x) are cast
+/// again together along a skewed direction; one degenerate both ways is decided by the generalised winding number
+/// (the sum of the signed solid angles of B's triangles over 4π: no ray, hence no such case; O(triangles of B) per
+/// point). Summing solid angles
 /// for every pair, as before, took 150 s of 200 on the 1,082,160-atom capsid (its outer surface holds hundreds of
 /// cavities, each tested against 5 million triangles).
 
