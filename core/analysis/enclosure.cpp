@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
 
 namespace tracemesh {
 namespace {
@@ -218,31 +219,28 @@ std::vector<bool> enclosed_components(const surface_mesh& mesh, const mesh_repor
   // One pass over each enclosing candidate's triangles casts the rays of all its candidates at once, along x.
   // The rays that met an edge or a vertex are cast again together along a skewed direction; a ray degenerate both
   // ways is decided by the winding number, which has no such case.
-  const ray_frame skewed = skewed_frame();
+  const ray_frame frames[] = {ray_frame{}, skewed_frame()};
   std::vector<char> enclosed(count, 0);
   for (std::size_t b = 0; b < count; ++b) {
-    if (candidates[b].empty()) continue;
-    std::vector<vec3> points;
-    points.reserve(candidates[b].size());
-    for (const std::uint32_t a : candidates[b]) points.push_back(mesh.positions[representative[a]]);
-    const std::vector<ray_count> rays = cast_rays(mesh, triangles[b], points, ray_frame{});
-    std::vector<std::uint32_t> again;  // candidates whose ray along x was degenerate
-    std::vector<vec3> again_points;
-    for (std::size_t k = 0; k < rays.size(); ++k) {
-      if (rays[k].degenerate) {
-        again.push_back(candidates[b][k]);
-        again_points.push_back(points[k]);
-      } else if (rays[k].signed_crossings != 0) {
-        enclosed[candidates[b][k]] = 1;
+    std::vector<std::uint32_t> undecided = candidates[b];
+    for (const ray_frame& frame : frames) {
+      if (undecided.empty()) break;
+      std::vector<vec3> points;
+      points.reserve(undecided.size());
+      for (const std::uint32_t a : undecided) points.push_back(mesh.positions[representative[a]]);
+      const std::vector<ray_count> rays = cast_rays(mesh, triangles[b], points, frame);
+      std::vector<std::uint32_t> degenerate;
+      for (std::size_t k = 0; k < rays.size(); ++k) {
+        if (rays[k].degenerate) {
+          degenerate.push_back(undecided[k]);
+        } else if (rays[k].signed_crossings != 0) {
+          enclosed[undecided[k]] = 1;
+        }
       }
+      undecided = std::move(degenerate);
     }
-    if (again.empty()) continue;
-    const std::vector<ray_count> skewed_rays = cast_rays(mesh, triangles[b], again_points, skewed);
-    for (std::size_t k = 0; k < skewed_rays.size(); ++k) {
-      const bool inside = skewed_rays[k].degenerate
-                              ? std::abs(winding_number(mesh, triangles[b], again_points[k])) > 0.5
-                              : skewed_rays[k].signed_crossings != 0;
-      if (inside) enclosed[again[k]] = 1;
+    for (const std::uint32_t a : undecided) {
+      if (std::abs(winding_number(mesh, triangles[b], mesh.positions[representative[a]])) > 0.5) enclosed[a] = 1;
     }
   }
   return {enclosed.begin(), enclosed.end()};

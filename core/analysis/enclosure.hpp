@@ -12,9 +12,8 @@
 /// of B within a relative 1e-10 (common on the trace path, whose line roots share lines parallel to x) are cast
 /// again together along a skewed direction; one degenerate both ways is decided by the generalised winding number
 /// (the sum of the signed solid angles of B's triangles over 4π: no ray, hence no such case; O(triangles of B) per
-/// point). Summing solid angles
-/// for every pair, as before, took 150 s of 200 on the 1,082,160-atom capsid (its outer surface holds hundreds of
-/// cavities, each tested against 5 million triangles).
+/// point). Summing solid angles for every pair, as before, took 150 s of 203 on the 1,082,160-atom capsid (942
+/// cavities inside the box of its outer surface, each tested against its 5 million triangles).
 
 #include <cstdint>
 #include <vector>

@@ -112,7 +112,7 @@ TEST(EnclosedComponents, RaysThroughEdgesAndVerticesAreDecidedByTheWindingNumber
   EXPECT_FALSE(enclosed[report.vertex_component[24]]);
 }
 
-TEST(EnclosedComponents, AgreesWithTheWindingNumberForHundredsOfIslands) {
+TEST(EnclosedComponents, AgreesWithTheWindingNumberForThousandsOfIslands) {
   // An outer sphere and a torus beside it, and 0.3 Å tetrahedra on a 1.5 Å lattice around both: each tetrahedron
   // is enclosed exactly when the winding number of the sphere or of the torus at its first vertex says so.
   surface_mesh mesh = icosphere(3, 10.0);
