@@ -28,7 +28,7 @@ test-sanitize: deps
 # ThreadSanitizer on the server: tracemeshd and the server and integration test executables only, with clang-14
 # like the fuzz build (gcc 12's -Wtsan on atomic_thread_fence would be an error under -Werror). Reports go to
 # $(TSAN_DIR)/tsan-report.<pid> (the integration tests' tracemeshd children too) and fail the target.
-# tests/tsan.supp lists third-party false positives only, each with its reason. Not in .ci/run (time; README).
+# tests/tsan.supp lists third-party false positives only, each with its reason. .ci/run runs it last.
 TSAN_OPTIONS_ALL = halt_on_error=1 second_deadlock_stack=1 history_size=4 suppressions=$(CURDIR)/tests/tsan.supp log_path=$(CURDIR)/$(TSAN_DIR)/tsan-report
 test-tsan: deps
 	CXX=clang++-14 cmake -S . -B $(TSAN_DIR) -DCMAKE_BUILD_TYPE=CI -DTRACEMESH_SANITIZE=thread -DTRACEMESH_BUILD_BENCH=OFF $(CMAKE_FLAGS)

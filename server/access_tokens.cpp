@@ -9,6 +9,7 @@
 
 #include "server/content_hash.hpp"
 #include "server/detail/durable_file.hpp"
+#include "server/detail/http_text.hpp"
 
 namespace tracemesh::server {
 
@@ -16,11 +17,8 @@ namespace {
 
 constexpr std::size_t min_bearer_token_length = 16;
 
-std::string_view trim(std::string_view text) {
-  while (!text.empty() && (text.front() == ' ' || text.front() == '\t' || text.front() == '\r')) text.remove_prefix(1);
-  while (!text.empty() && (text.back() == ' ' || text.back() == '\t' || text.back() == '\r')) text.remove_suffix(1);
-  return text;
-}
+/// A token file line or an Authorization value without its blanks (a line may end in CRLF).
+std::string_view without_blanks(std::string_view text) { return detail::trim(text, " \t\r"); }
 
 }  // namespace
 
@@ -43,7 +41,7 @@ result<bearer_tokens> bearer_tokens::from_file(const std::filesystem::path& path
   std::istringstream lines(*text);
   std::string line;
   while (std::getline(lines, line)) {
-    const std::string_view token = trim(line);
+    const std::string_view token = without_blanks(line);
     if (token.empty() || token.front() == '#') continue;
     if (token.size() < min_bearer_token_length) {
       return status(errc::invalid_input, "--auth-token-file " + path.string() + ": a token is shorter than " +
@@ -70,7 +68,7 @@ bool bearer_tokens::accepts(std::string_view authorization) const {
       return false;
     }
   }
-  const std::string presented = token_digest(trim(authorization.substr(scheme.size())));
+  const std::string presented = token_digest(without_blanks(authorization.substr(scheme.size())));
   bool accepted = false;
   for (const std::string& digest : digests_) accepted = digests_equal(presented, digest) || accepted;
   return accepted;

@@ -29,15 +29,16 @@
 
 namespace tracemesh::server {
 
-namespace {
-
-using clock = std::chrono::steady_clock;
-
 // ---- routing ------------------------------------------------------------------------------------------------
 
+// Outside the anonymous namespace: api_handlers::upload_request, a class with linkage, holds one.
 enum class route_id {
   healthz, readyz, metrics, openapi, web_page, favicon, web_asset, mesh, jobs, job, job_mesh, job_events, unknown
 };
+
+namespace {
+
+using clock = std::chrono::steady_clock;
 
 struct route_match {
   route_id id = route_id::unknown;

@@ -2,15 +2,12 @@
 
 #include <limits>
 
+#include "server/detail/http_text.hpp"
+
 namespace tracemesh::server {
 namespace {
 
-std::string_view trim(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t");
-  return text.substr(first, last - first + 1);
-}
+using detail::trim;
 
 /// 1DIGIT+ as a number; nullopt for anything else or past 2^64 - 1.
 std::optional<std::uint64_t> parse_number(std::string_view text) {

@@ -7,8 +7,13 @@
 #include <brotli/encode.h>
 #include <zlib.h>
 
+#include "server/detail/http_text.hpp"
+
 namespace tracemesh::server {
 namespace {
+
+using detail::iequals;
+using detail::trim;
 
 constexpr int gzip_level = 6;
 constexpr int brotli_quality = 4;
@@ -24,22 +29,6 @@ struct coding_weights {
   weight br = unnamed;
   weight any = unnamed;  // "*"
 };
-
-std::string_view trim(std::string_view text) {
-  const auto first = text.find_first_not_of(" \t");
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(" \t");
-  return text.substr(first, last - first + 1);
-}
-
-bool iequals(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const auto lower = [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; };
-    if (lower(a[i]) != lower(b[i])) return false;
-  }
-  return true;
-}
 
 /// RFC 9110 §12.4.2 qvalue: "0" ["." 0*3DIGIT] / "1" ["." 0*3("0")], in thousandths; nullopt when malformed.
 std::optional<weight> parse_qvalue(std::string_view text) {

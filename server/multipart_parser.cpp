@@ -4,29 +4,15 @@
 #include <cstring>
 #include <utility>
 
+#include "server/detail/http_text.hpp"
+
 namespace tracemesh::server {
 namespace {
 
-constexpr std::string_view whitespace = " \t";
+using detail::iequals;
+using detail::trim;
 
 bool is_space_or_tab(char c) { return c == ' ' || c == '\t'; }
-
-char to_lower_ascii(char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; }
-
-bool iequals(std::string_view a, std::string_view b) {
-  if (a.size() != b.size()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    if (to_lower_ascii(a[i]) != to_lower_ascii(b[i])) return false;
-  }
-  return true;
-}
-
-std::string_view trim(std::string_view text) {
-  const auto first = text.find_first_not_of(whitespace);
-  if (first == std::string_view::npos) return {};
-  const auto last = text.find_last_not_of(whitespace);
-  return text.substr(first, last - first + 1);
-}
 
 // RFC 7230 tchar: the characters of a token (header names, parameter names, unquoted values).
 bool is_token_char(char c) {

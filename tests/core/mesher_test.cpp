@@ -6,6 +6,8 @@
 #include <cstring>
 #include <numbers>
 
+#include "support/atom_list.hpp"
+
 namespace tracemesh {
 namespace {
 
@@ -17,7 +19,7 @@ result<mesh_output> mesh(const molecule& mol, double density, unsigned threads =
   return mesh_molecule(mol, params, {}, progress);
 }
 
-molecule atoms(std::initializer_list<atom> list) { return molecule{std::vector<atom>(list), 0}; }
+using testing::atoms;
 
 // Vertices lie on the sphere, so the flat triangles cut corners: area and volume fall short by about (L/r)²/12 and
 // (L/r)²/6 (L the edge length). At density 2 (L ≈ 0.76 Å) that is within 0.5% for r ≥ 7 Å; smaller atoms converge

@@ -12,6 +12,7 @@
 
 #include "proto/api_types.hpp"
 #include "proto/report_json.hpp"
+#include "support/json_keys.hpp"
 
 namespace tracemesh::proto {
 namespace {
@@ -22,11 +23,7 @@ const nlohmann::json& schema(const nlohmann::json& doc, const std::string& name)
   return doc.at("components").at("schemas").at(name);
 }
 
-std::set<std::string> keys_of(const nlohmann::json& object) {
-  std::set<std::string> keys;
-  for (const auto& item : object.items()) keys.insert(item.key());
-  return keys;
-}
+using testing::keys_of;
 
 std::set<std::string> strings_of(const nlohmann::json& array) {
   std::set<std::string> strings;

@@ -6,6 +6,8 @@
 #include <set>
 #include <string>
 
+#include "support/json_keys.hpp"
+
 namespace tracemesh::proto {
 namespace {
 
@@ -58,11 +60,7 @@ mesh_params sample_params() {
   return params;
 }
 
-std::set<std::string> keys_of(const nlohmann::json& object) {
-  std::set<std::string> keys;
-  for (const auto& item : object.items()) keys.insert(item.key());
-  return keys;
-}
+using testing::keys_of;
 
 TEST(ReportJson, HasExactlyTheDocumentedTopLevelFields) {
   const nlohmann::json json = report_to_json(sample_output(), sample_params());

@@ -20,12 +20,13 @@
 #include "core/mesh.hpp"
 #include "core/mesher.hpp"
 #include "core/molecule.hpp"
+#include "support/atom_list.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {
 namespace {
 
-molecule atoms(std::vector<atom> list) { return molecule{std::move(list), 0}; }
+using testing::atoms;
 
 /// Roots of φ = t0 on line (j, k) for x ∈ [lo, hi]: sign changes among samples 0.005 Å apart, refined by bisection.
 std::vector<line_point> sampled_roots(const gaussian_field& field, double y, double z, double lo, double hi) {

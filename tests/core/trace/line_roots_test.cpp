@@ -27,7 +27,7 @@ block_line_roots roots_of_block(const gaussian_field& field, const lattice& lat,
 }
 
 /// y and z of line (j, k) of a block, as the lattice computes them.
-vec3 line_point(const lattice& lat, const lattice_index& block, int j, int k, double x) {
+vec3 point_on_line(const lattice& lat, const lattice_index& block, int j, int k, double x) {
   vec3 p = lat.point({0, block.j * lattice::block_cells + j, block.k * lattice::block_cells + k});
   p.x = x;
   return p;
@@ -54,7 +54,7 @@ void expect_sphere_roots(const molecule& mol, double d, double t0, double h, std
         const box3 box = lat.block_box(block);
         for (int k = 0; k < lattice::block_cells; ++k) {
           for (int j = 0; j < lattice::block_cells; ++j) {
-            const vec3 p = line_point(lat, block, j, k, 0);
+            const vec3 p = point_on_line(lat, block, j, k, 0);
             std::vector<line_root> expected;
             for (const atom& a : mol.atoms) {
               const double big_r2 = a.radius * a.radius * (1 + std::log(t0) / d);
@@ -138,7 +138,7 @@ void check_block(const gaussian_field& field, const lattice& lat, const lattice_
     const auto roots = line_of(found, line);
     const int j = line % 8, k = line / 8;
     for (std::size_t n = 0; n < roots.size(); ++n) {
-      const vec3 p = line_point(lat, block, j, k, roots[n].x);
+      const vec3 p = point_on_line(lat, block, j, k, roots[n].x);
       const double value = field.value(p);
       check.worst_residual = std::max(check.worst_residual, std::abs(value - t0) / t0);
       EXPECT_LE(std::abs(value - t0), 1e-9 * t0) << "x = " << roots[n].x;
@@ -154,7 +154,7 @@ void check_block(const gaussian_field& field, const lattice& lat, const lattice_
     }
     check.roots += roots.size();
     if (scan_samples == 0) continue;
-    const vec3 p = line_point(lat, block, j, k, 0);
+    const vec3 p = point_on_line(lat, block, j, k, 0);
     for (const auto& [lo, hi] : scan_line(field, p, box.lo.x, box.hi.x, scan_samples)) {
       ++check.scanned;
       const bool has_root = std::any_of(roots.begin(), roots.end(),

@@ -17,6 +17,7 @@
 
 #include "core/io/pqr_reader.hpp"
 #include "core/mesher.hpp"
+#include "support/atom_list.hpp"
 #include "support/mesh_expectations.hpp"
 #include "support/test_paths.hpp"
 
@@ -35,7 +36,7 @@ result<mesh_output> mesh_trace(const molecule& mol, double density, refine_mode 
   return mesh_molecule(mol, params, {}, progress);
 }
 
-molecule atoms(std::vector<atom> list) { return molecule{std::move(list), 0}; }
+using testing::atoms;
 
 /// Every clause of the certificate, one by one (so a failure says which).
 void expect_certified(const result<mesh_output>& out) {

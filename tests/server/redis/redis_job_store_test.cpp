@@ -14,7 +14,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const std::string job_id(64, '7');
+const std::string stored_job_id(64, '7');
 
 surface_mesh tetrahedron() {
   surface_mesh mesh;
@@ -27,7 +27,7 @@ surface_mesh tetrahedron() {
 
 stored_job sync_job() {
   stored_job record;
-  record.id = job_id;
+  record.id = stored_job_id;
   record.parameters = "density=1";
   record.accepted_ms = unix_millis();
   return record;
@@ -70,52 +70,52 @@ class RedisJobStore : public SharedRedis {
 };
 
 TEST_F(RedisJobStore, AMeshCompletedByOneReplicaIsFoundByAnother) {
-  EXPECT_EQ(b_->mesh(job_id), nullptr);
+  EXPECT_EQ(b_->mesh(stored_job_id), nullptr);
   const auto report = std::make_shared<const std::string>(R"({"triangles":4})");
-  ASSERT_TRUE(a_->complete(job_id, sync_job(), tetrahedron(), report).ok());
+  ASSERT_TRUE(a_->complete(stored_job_id, sync_job(), tetrahedron(), report).ok());
 
-  const std::optional<stored_job> record = b_->find(job_id);
+  const std::optional<stored_job> record = b_->find(stored_job_id);
   ASSERT_TRUE(record.has_value());
   EXPECT_EQ(record->state, job_state::done);
-  const auto mesh = b_->mesh(job_id);
+  const auto mesh = b_->mesh(stored_job_id);
   ASSERT_NE(mesh, nullptr);
   EXPECT_EQ(mesh->positions, tetrahedron().positions);
   EXPECT_EQ(mesh->triangles, tetrahedron().triangles);
-  ASSERT_TRUE(b_->record_encoding(job_id, "off", {{"bytes", 42}}).ok());
-  EXPECT_NE(a_->find(job_id)->report->find("\"bytes\":42"), std::string::npos);
+  ASSERT_TRUE(b_->record_encoding(stored_job_id, "off", {{"bytes", 42}}).ok());
+  EXPECT_NE(a_->find(stored_job_id)->report->find("\"bytes\":42"), std::string::npos);
 }
 
 TEST_F(RedisJobStore, AReplicaWaitsOnAnothersRunAndTakesItsResult) {
   progress_token token_a, token_b;
-  ASSERT_TRUE(*a_->claim_run(job_id, token_a));
-  auto waiting = std::async(std::launch::async, [&] { return b_->claim_run(job_id, token_b); });
+  ASSERT_TRUE(*a_->claim_run(stored_job_id, token_a));
+  auto waiting = std::async(std::launch::async, [&] { return b_->claim_run(stored_job_id, token_b); });
   EXPECT_EQ(waiting.wait_for(100ms), std::future_status::timeout) << "B waits while A meshes";
   a_->renew_leases();  // A's heartbeat keeps its lease past the ttl
-  ASSERT_TRUE(a_->complete(job_id, sync_job(), tetrahedron(), std::make_shared<const std::string>("{}")).ok());
-  a_->end_run(job_id);
+  ASSERT_TRUE(a_->complete(stored_job_id, sync_job(), tetrahedron(), std::make_shared<const std::string>("{}")).ok());
+  a_->end_run(stored_job_id);
   const result<bool> claimed = waiting.get();
   ASSERT_TRUE(claimed.ok());
   EXPECT_FALSE(*claimed) << "B takes A's result instead of meshing";
-  EXPECT_NE(b_->mesh(job_id), nullptr);
-  EXPECT_EQ(lease_a_->holder(job_id)->has_value(), false) << "A released its lease";
+  EXPECT_NE(b_->mesh(stored_job_id), nullptr);
+  EXPECT_EQ(lease_a_->holder(stored_job_id)->has_value(), false) << "A released its lease";
 }
 
 TEST_F(RedisJobStore, TheLeaseOfADeadReplicaExpiresAndAnotherMeshes) {
   progress_token token_a, token_b;
-  ASSERT_TRUE(*a_->claim_run(job_id, token_a));  // A never renews nor releases: it died
+  ASSERT_TRUE(*a_->claim_run(stored_job_id, token_a));  // A never renews nor releases: it died
   const auto started = std::chrono::steady_clock::now();
-  const result<bool> claimed = b_->claim_run(job_id, token_b);
+  const result<bool> claimed = b_->claim_run(stored_job_id, token_b);
   ASSERT_TRUE(claimed.ok());
   EXPECT_TRUE(*claimed);
   EXPECT_GE(std::chrono::steady_clock::now() - started, 200ms) << "B waited for the lease to expire";
-  EXPECT_EQ(**lease_b_->holder(job_id), "B");
+  EXPECT_EQ(**lease_b_->holder(stored_job_id), "B");
 }
 
 TEST_F(RedisJobStore, AWaitEndsWhenTheJobIsCancelled) {
   progress_token token_a, token_b;
-  ASSERT_TRUE(*a_->claim_run(job_id, token_a));
+  ASSERT_TRUE(*a_->claim_run(stored_job_id, token_a));
   token_b.cancel();
-  const result<bool> claimed = b_->claim_run(job_id, token_b);
+  const result<bool> claimed = b_->claim_run(stored_job_id, token_b);
   ASSERT_FALSE(claimed.ok());
   EXPECT_EQ(claimed.error().code(), errc::cancelled);
 }
