@@ -6,13 +6,17 @@ Kinds (share of the requests):
   small      25%  POST /mesh of gly or adp at a random density and t0 (mostly new jobs)
   bad_input  20%  a PQR line with a missing column, a negative radius, density=abc, no file part: a 4xx
   slow_body  15%  POST /mesh of adp whose body arrives in 8 pieces over ~SLOW_SECONDS
-Every request runs on its own connection (Connection: close), timed from connect to the last response byte.
+Every request runs on its own connection (Connection: close), timed from connect to the last response byte. The
+requests come from CLIENTS loopback addresses in turn (127.0.0.2, 127.0.0.3, ...; a lab's users, so the per-client
+limits see several clients, not one; only against a loopback server). Like curl, a client whose write fails still
+reads the response (a refused upload is answered before its body is read).
 Prints a Markdown table (per kind: count, statuses, p50, p99, max in ms). Exit status 1 when any response is a
 5xx, or no complete response arrived, or a kind got a status class it must never get (bad_input 2xx, others
 4xx other than 408/429), so the benchmark is a test too. Standard library only (Debian's python3).
 
 Usage: load_bench.py --daemon build/bin/tracemeshd [--molecules DIR] [--requests 1000] [--concurrency 64]
-                     [--seed N] [--slow-seconds 1.0] [--url http://host:port (an already running server)]
+                     [--seed N] [--slow-seconds 1.0] [--clients 16]
+                     [--url http://host:port (an already running server)]
 """
 import argparse
 import asyncio
@@ -81,19 +85,24 @@ class Plan:
         return (kind, *post("/mesh", rng.choice(bodies), self.host))
 
 
-async def exchange(host: str, port: int, head: bytes, body: bytes, pieces: int, slow_seconds: float):
-    """One request on a fresh connection: (status or 0, seconds). The body is sent in `pieces` spread over
-    slow_seconds when pieces > 1."""
+async def exchange(host: str, port: int, head: bytes, body: bytes, pieces: int, slow_seconds: float,
+                   client: str = None):
+    """One request on a fresh connection from address `client` (None: any): (status or 0, seconds). The body is
+    sent in `pieces` spread over slow_seconds when pieces > 1."""
     start = time.monotonic()
     try:
-        reader, writer = await asyncio.open_connection(host, port)
-        writer.write(head)
-        step = max(1, -(-len(body) // pieces))
-        for offset in range(0, len(body), step):
-            writer.write(body[offset:offset + step])
-            await writer.drain()
-            if pieces > 1 and offset + step < len(body):
-                await asyncio.sleep(slow_seconds / pieces)
+        local = (client, 0) if client else None
+        reader, writer = await asyncio.open_connection(host, port, local_addr=local)
+        try:
+            writer.write(head)
+            step = max(1, -(-len(body) // pieces))
+            for offset in range(0, len(body), step):
+                writer.write(body[offset:offset + step])
+                await writer.drain()
+                if pieces > 1 and offset + step < len(body):
+                    await asyncio.sleep(slow_seconds / pieces)
+        except OSError:
+            pass  # answered and closed before the whole body was sent: the answer is still to be read
         response = await asyncio.wait_for(reader.read(), timeout=600)
         writer.close()
         match = re.match(rb"HTTP/1\.[01] (\d{3})", response)
@@ -141,20 +150,23 @@ async def run(args, host: str, port: int):
             sys.exit(f"load_bench: warm-up request answered {status}")
     limit = asyncio.Semaphore(args.concurrency)
     results = []
+    clients = [f"127.0.0.{2 + n}" for n in range(args.clients)] if host.startswith("127.") else [None]
 
-    async def one(kind, head, body):
+    async def one(number, kind, head, body):
         async with limit:
             pieces = 8 if kind == "slow_body" else 1
-            status, seconds = await exchange(host, port, head, body, pieces, args.slow_seconds)
+            client = clients[number % len(clients)]
+            status, seconds = await exchange(host, port, head, body, pieces, args.slow_seconds, client)
             results.append((kind, status, seconds))
 
     wall = time.monotonic()
-    await asyncio.gather(*(one(*request) for request in plan.requests))
+    await asyncio.gather(*(one(number, *request) for number, request in enumerate(plan.requests)))
     return results, time.monotonic() - wall
 
 
 def report(results, wall_seconds, args) -> int:
-    print(f"{len(results)} requests, {args.concurrency} concurrent, seed {args.seed}, {wall_seconds:.1f} s wall\n")
+    print(f"{len(results)} requests, {args.concurrency} concurrent from {args.clients} clients, seed {args.seed}, "
+          f"{wall_seconds:.1f} s wall\n")
     print("| kind | requests | 2xx | 4xx | 5xx | no reply | p50 ms | p99 ms | max ms |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     failures = []
@@ -185,8 +197,11 @@ def main() -> int:
     parser.add_argument("--concurrency", type=int, default=64)
     parser.add_argument("--seed", type=int, default=12)
     parser.add_argument("--slow-seconds", type=float, default=1.0)
+    parser.add_argument("--clients", type=int, default=16, help="loopback client addresses (1 to 250)")
     parser.add_argument("--url", help="an already running server, http://host:port")
     args = parser.parse_args()
+    if not 1 <= args.clients <= 250:
+        parser.error("--clients must be within 1 to 250")
     workdir = tempfile.mkdtemp(prefix="tracemesh-load-")
     process = None
     try:

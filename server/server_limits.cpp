@@ -74,6 +74,7 @@ nlohmann::json config_to_json(const server_config& config) {
       {"header_timeout_s", seconds(limits.header_timeout)},
       {"request_timeout_s", seconds(limits.request_timeout)},
       {"write_timeout_s", seconds(limits.write_timeout)},
+      {"linger_time_s", seconds(limits.linger_time)},
       {"shutdown_grace_s", seconds(limits.shutdown_grace)},
       {"retry_after_s", limits.retry_after_seconds},
       {"cache_memory_bytes", limits.cache_memory_bytes},

@@ -143,6 +143,9 @@ struct server_limits {
   std::chrono::milliseconds request_timeout{std::chrono::minutes(5)};
   /// Deadline of each response write (a client that never reads is dropped).
   std::chrono::milliseconds write_timeout{std::chrono::seconds(60)};
+  /// After a response that closes the connection, what the client still sends (the rest of a refused upload) is
+  /// read and dropped for at most this long, so that the client reads the response instead of a reset.
+  std::chrono::milliseconds linger_time{std::chrono::seconds(2)};
   /// SIGTERM grace period: running and queued jobs may finish within it; what is left is cancelled.
   std::chrono::milliseconds shutdown_grace{std::chrono::seconds(20)};
   /// Retry-After (seconds) sent with 429 and 503.

@@ -44,9 +44,13 @@ struct stream_transport<beast::tcp_stream> {
   /// Ends the pending read or write with operation_aborted, leaving the connection open (to answer 408).
   static void cancel(beast::tcp_stream& s) { s.cancel(); }
   static void close(beast::tcp_stream& s) {
+    shutdown_send(s);
+    s.close();
+  }
+  /// Sends FIN and leaves the receiving side open (lingering_close below).
+  static void shutdown_send(beast::tcp_stream& s) {
     beast::error_code ignored;
     s.socket().shutdown(net::ip::tcp::socket::shutdown_send, ignored);
-    s.close();
   }
   /// Bytes received by the socket and not yet read (an "idle" connection whose request is arriving).
   static bool has_unread_bytes(beast::tcp_stream& s) {
@@ -650,8 +654,32 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     end_request();
     response_.reset();
     response_body_.reset();
-    if (ec || !keep_alive) return close();
+    if (ec) return close();
+    if (!keep_alive) return parser_done() && !transport::has_unread_bytes(stream_) ? close() : lingering_close();
     read_header();
+  }
+
+  /// Ends the connection after a response that closes it while the request's body may still be on its way (an
+  /// upload refused with 413 or 429 before it was read, a slow body cut with 408). Closing a socket with unread bytes
+  /// makes the kernel send RST, and a client still sending then loses the response it had not yet read: it sees
+  /// "connection reset" instead of the status. So, as RFC 9112 §9.6 asks and nginx's lingering close does: send
+  /// FIN, read and drop what the client still sends until it closes or limits.linger_time has passed, then close.
+  void lingering_close() {
+    stop_rate_check();
+    stop_being_idle();
+    end_request();
+    plan_.ticket.reset();  // the upload budget and slot go back now, not after the linger
+    transport::shutdown_send(stream_);
+    transport::expire_at(stream_, clock::now() + context_.limits.linger_time);
+    chunk_.resize(body_chunk_bytes);
+    drop_until_closed();
+  }
+
+  void drop_until_closed() {
+    stream_.async_read_some(net::buffer(chunk_), [self = this->shared_from_this()](beast::error_code ec, std::size_t) {
+      if (ec) return self->close();  // the client closed (eof), or linger_time passed
+      self->drop_until_closed();
+    });
   }
 
   void end_request() {

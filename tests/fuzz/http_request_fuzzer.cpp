@@ -48,6 +48,7 @@ struct stream_transport<boost::beast::test::stream> {
   static void expire_never(boost::beast::test::stream&) {}
   static void cancel(boost::beast::test::stream& s) { s.close(); }
   static void close(boost::beast::test::stream& s) { s.close(); }
+  static void shutdown_send(boost::beast::test::stream& s) { s.close(); }
   static std::string client_address(boost::beast::test::stream&) { return "test-stream"; }
   static bool has_unread_bytes(boost::beast::test::stream&) { return false; }
 };

@@ -37,8 +37,8 @@ TEST(ServerLimits, StartupJsonNamesEveryLimit) {
   EXPECT_EQ(json.at("max_upload_bytes"), config.limits.max_upload_bytes);
   EXPECT_EQ(json.at("listen"), "127.0.0.1:8080");
   for (const char* key : {"max_atoms", "max_header_bytes", "max_connections", "job_timeout_s", "request_timeout_s",
-                          "write_timeout_s", "header_timeout_s", "shutdown_grace_s", "cache_disk_bytes",
-                          "redis_connect_timeout_ms", "redis_command_timeout_ms"}) {
+                          "write_timeout_s", "linger_time_s", "header_timeout_s", "shutdown_grace_s",
+                          "cache_disk_bytes", "redis_connect_timeout_ms", "redis_command_timeout_ms"}) {
     EXPECT_TRUE(json.contains(key)) << key;
   }
 }
