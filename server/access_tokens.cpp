@@ -62,12 +62,8 @@ bearer_tokens bearer_tokens::from_tokens(const std::vector<std::string>& tokens)
 bool bearer_tokens::accepts(std::string_view authorization) const {
   constexpr std::string_view scheme = "Bearer ";
   if (authorization.size() <= scheme.size()) return false;
-  for (std::size_t i = 0; i < scheme.size(); ++i) {  // the scheme is case-insensitive (RFC 9110 §11.1)
-    if (std::tolower(static_cast<unsigned char>(authorization[i])) !=
-        std::tolower(static_cast<unsigned char>(scheme[i]))) {
-      return false;
-    }
-  }
+  // The scheme is case-insensitive (RFC 9110 §11.1).
+  if (!detail::iequals(authorization.substr(0, scheme.size()), scheme)) return false;
   const std::string presented = token_digest(without_blanks(authorization.substr(scheme.size())));
   bool accepted = false;
   for (const std::string& digest : digests_) accepted = digests_equal(presented, digest) || accepted;

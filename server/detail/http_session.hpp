@@ -665,10 +665,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   /// "connection reset" instead of the status. So, as RFC 9112 §9.6 asks and nginx's lingering close does: send
   /// FIN, read and drop what the client still sends until it closes or limits.linger_time has passed, then close.
   void lingering_close() {
-    stop_rate_check();
-    stop_being_idle();
-    end_request();
-    plan_.ticket.reset();  // the upload budget and slot go back now, not after the linger
+    release_request();  // the upload budget and slot go back now, not after the linger
     transport::shutdown_send(stream_);
     transport::expire_at(stream_, clock::now() + context_.limits.linger_time);
     chunk_.resize(body_chunk_bytes);
@@ -688,11 +685,17 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   void close() {
+    release_request();
+    transport::close(stream_);
+  }
+
+  /// What a connection holds for its current request: the rate check, its idle entry, the busy count, the upload
+  /// ticket. Released once the connection is ending, whether it closes at once or lingers.
+  void release_request() {
     stop_rate_check();
     stop_being_idle();
     end_request();
     plan_.ticket.reset();
-    transport::close(stream_);
   }
 
   Stream stream_;

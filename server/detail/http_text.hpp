@@ -19,7 +19,8 @@ constexpr std::string_view trim(std::string_view text, std::string_view blanks =
 
 constexpr char to_lower_ascii(char c) { return (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c; }
 
-/// Case-insensitive equality of ASCII text (header names, codings, parameter names; RFC 9110 §5.1).
+/// Case-insensitive equality of ASCII text (header names, codings, parameter names; RFC 9110 §5.1). For
+/// std::string_view: boost::beast::iequals, used on Beast's own header values, takes boost::string_view.
 constexpr bool iequals(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
   for (std::size_t i = 0; i < a.size(); ++i) {
