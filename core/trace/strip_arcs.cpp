@@ -16,6 +16,16 @@ constexpr double retry_cos_bound = 0.984807753012208;  // cos 10°
 constexpr double end_match_fraction = 0.25;
 /// Extreme points closer than this × the resampling spacing (along the arc) to another kept point are not kept.
 constexpr double min_extreme_gap = 0.1;
+/// Extreme points closer than this × h̃ to a line of their strip are not kept. Where the surface's silhouette in x
+/// passes near a line, each of the two planes through that line has an extreme point next to it, and the two were
+/// joined by an edge all but degenerate: such pairs made 49 of the 65 raw triangles with an edge ratio below 0.2 on
+/// fas2 at 1 v/Å² (README "Deviations"). The arc still keeps points about h̃ apart.
+constexpr double extreme_line_clearance = 0.2;
+/// A resampled point within extreme_line_clearance of a line moves this × the spacing along its arc, towards −x on
+/// xy arcs and +x on xz arcs: where an arc runs along a line, the arc of the perpendicular plane through that line
+/// often does too, and two points at the same x there would make the same near-degenerate edge (gly at 1 v/Å²: the
+/// raw triangles below an edge ratio of 0.2 went from 3 to 2 of 268).
+constexpr double crowded_line_shift = 0.25;
 /// The first step from a root is at most this × the distance to the next root of its line, so that a walk from one
 /// root of a near-tangency cannot step over the other.
 constexpr double first_step_fraction = 0.5;
@@ -43,11 +53,78 @@ std::vector<double> arc_lengths(const std::vector<surface_sample>& points) {
   return length;
 }
 
-/// Indices (strictly between the ends, increasing) of the traced points kept as vertices: every extreme point, and
-/// between consecutive kept points about one point per `spacing` of arc length, at equal arc-length fractions
-/// (method.md §7.7). An arc whose ends are on one line keeps at least its point farthest from that line.
-std::vector<std::uint32_t> resample(const std::vector<surface_sample>& points, double spacing, bool same_line,
-                                    int v_axis, double line_v) {
+/// The lines v = low and v = high of a strip, in the plane's in-plane axis v.
+struct strip_lines {
+  int v_axis = 1;
+  double low = 0, high = 0;
+  double distance_to_nearest(const vec3& p) const {
+    return std::min(std::abs(p[v_axis] - low), std::abs(p[v_axis] - high));
+  }
+};
+
+/// A vertex an arc keeps: a walk point or a point interpolated between two, and the walk point nearest to it (kept
+/// instead when an interpolated point cannot be polished onto the contour).
+struct kept_point {
+  surface_sample sample;
+  std::uint32_t walk_point = 0;
+};
+
+/// The point at fraction t of the walk's segment n → n + 1 (position and gradient linear: within the chord's sagitta
+/// of the contour, polished onto it when kept).
+kept_point interpolate(const std::vector<surface_sample>& points, std::size_t n, double t) {
+  const surface_sample &a = points[n], &b = points[n + 1];
+  return {{a.position + (b.position - a.position) * t, a.gradient + (b.gradient - a.gradient) * t, false},
+          static_cast<std::uint32_t>(t < 0.5 ? n : n + 1)};
+}
+
+/// The point at arc length s (cumulative `length`, strictly inside the walk).
+kept_point point_at_length(const std::vector<surface_sample>& points, const std::vector<double>& length, double s) {
+  const auto after = std::upper_bound(length.begin() + 1, length.end() - 1, s);
+  const auto n = static_cast<std::size_t>(after - length.begin()) - 1;
+  const double segment = length[n + 1] - length[n];
+  return interpolate(points, n, segment > 0 ? std::clamp((s - length[n]) / segment, 0.0, 1.0) : 0.5);
+}
+
+/// The vertex of an arc whose ends are both on the line v = line_v and which keeps no other: its point farthest from
+/// the line, unless the arc bounds a thin lens (below).
+kept_point return_arc_point(const std::vector<surface_sample>& points, int v_axis, double line_v, double h) {
+  std::size_t farthest = 1;
+  for (std::size_t n = 1; n + 1 < points.size(); ++n) {
+    if (std::abs(points[n].position[v_axis] - line_v) > std::abs(points[farthest].position[v_axis] - line_v)) {
+      farthest = n;
+    }
+  }
+  // A short return arc (x-span s) that gets no farther than b from its line bounds a thin lens with the return arc
+  // of the perpendicular plane through the same two roots. At their farthest points, both arcs have their vertex at
+  // the lens's middle: the lens's two triangles share an edge of about √2·b (edge ratio about 2√2·b/s), and the
+  // cells outside the lens get edges of s/2 against neighbours about h̃ away (s/(2h̃)). With the xy arc's vertex at a
+  // third of the span and the xz arc's at two thirds, the lens's triangles have a ratio of about 1/2 and the outer
+  // edges are s/3. The placement whose worse ratio is the better is taken.
+  const double reach = std::abs(points[farthest].position[v_axis] - line_v);
+  const double x0 = points.front().position.x, x1 = points.back().position.x;
+  const double span = std::abs(x1 - x0);
+  const double worst_at_middle = std::min(2 * std::sqrt(2.0) * reach / span, span / (2 * h));
+  const double worst_at_thirds = std::min(0.5, span / (3 * h));
+  if (!(worst_at_thirds > worst_at_middle)) return {points[farthest], static_cast<std::uint32_t>(farthest)};
+  const double target = std::min(x0, x1) + (v_axis == 1 ? 1.0 / 3 : 2.0 / 3) * span;
+  for (std::size_t n = 0; n + 1 < points.size(); ++n) {
+    const double a = points[n].position.x, b = points[n + 1].position.x;
+    if ((target - a) * (target - b) > 0) continue;  // not between them
+    return interpolate(points, n, b != a ? (target - a) / (b - a) : 0.5);
+  }
+  return {points[farthest], static_cast<std::uint32_t>(farthest)};
+}
+
+/// The vertices an arc keeps strictly between its ends, in walk order: every extreme point not within
+/// extreme_line_clearance of a line, and between consecutive kept points about one point per `spacing` of arc
+/// length, at equal arc-length fractions (method.md §7.7), interpolated along the walk. Such a point within the
+/// clearance of a line moves by crowded_line_shift (see there). An arc whose ends are on the line v = line_v and
+/// which keeps nothing else keeps return_arc_point().
+std::vector<kept_point> resample(const std::vector<surface_sample>& points, double spacing, bool same_line,
+                                 const strip_lines& lines, double line_v) {
+  const int v_axis = lines.v_axis;
+  const double h = lines.high - lines.low;
+  const double clearance = extreme_line_clearance * h;
   const std::vector<double> length = arc_lengths(points);
   const std::size_t last = points.size() - 1;
   std::vector<std::uint32_t> forced{0};
@@ -66,35 +143,33 @@ std::vector<std::uint32_t> resample(const std::vector<surface_sample>& points, d
     }
     const bool near_start = length[best] - length[forced.back()] < min_gap;
     const bool near_end = length[last] - length[best] < min_gap;
-    if (!near_start && !near_end) forced.push_back(static_cast<std::uint32_t>(best));
+    const bool near_line = lines.distance_to_nearest(points[best].position) < clearance;
+    if (!near_start && !near_end && !near_line) forced.push_back(static_cast<std::uint32_t>(best));
   }
   forced.push_back(static_cast<std::uint32_t>(last));
-  std::vector<std::uint32_t> kept;
+  std::vector<kept_point> kept;
   for (std::size_t f = 0; f + 1 < forced.size(); ++f) {
     const std::uint32_t a = forced[f], b = forced[f + 1];
-    if (f > 0) kept.push_back(a);
+    if (f > 0) kept.push_back({points[a], a});
     const double span = length[b] - length[a];
     const auto pieces = static_cast<long>(std::max(1.0, std::round(span / spacing)));
-    std::uint32_t next = a + 1;
     for (long q = 1; q < pieces; ++q) {
       const double target = length[a] + span * static_cast<double>(q) / static_cast<double>(pieces);
-      while (next + 1 < b && length[next + 1] <= target) ++next;
-      std::uint32_t pick = next;
-      if (next + 1 < b && length[next + 1] - target < target - length[next]) pick = next + 1;
-      if (pick >= b || (!kept.empty() && pick <= kept.back()) || pick <= a) continue;
-      kept.push_back(pick);
-      next = pick + 1;
-    }
-  }
-  if (same_line && kept.empty() && points.size() > 2) {
-    std::uint32_t farthest = 1;
-    for (std::uint32_t n = 1; n < last; ++n) {
-      if (std::abs(points[n].position[v_axis] - line_v) > std::abs(points[farthest].position[v_axis] - line_v)) {
-        farthest = n;
+      const kept_point p = point_at_length(points, length, target);
+      if (lines.distance_to_nearest(p.sample.position) >= clearance) {
+        kept.push_back(p);
+        continue;
       }
+      // Pieces are at least 2/3 of the spacing (and the span at least 1.5 spacings), so the move keeps the order.
+      const double step = crowded_line_shift * spacing;
+      const double x_growth = point_at_length(points, length, std::min(target + step, length[b])).sample.position.x -
+                              point_at_length(points, length, std::max(target - step, length[a])).sample.position.x;
+      const double towards = (v_axis == 1 ? -1.0 : 1.0) * (x_growth >= 0 ? 1.0 : -1.0);
+      const double moved = std::clamp(target + towards * step, length[a] + min_gap, length[b] - min_gap);
+      kept.push_back(point_at_length(points, length, moved));
     }
-    kept.push_back(farthest);
   }
+  if (same_line && kept.empty() && points.size() > 2) kept.push_back(return_arc_point(points, v_axis, line_v, h));
   return kept;
 }
 
@@ -120,14 +195,14 @@ std::int64_t end_root(std::span<const line_point> roots, double x, int phi_x_sig
   return best;
 }
 
-/// Puts a walk point (within the corrector's tolerance of the contour) onto it to 1e-11 Å, keeping its flags.
-void polish(const gaussian_field& field, const trace_plane& plane, surface_sample& p, double h,
+/// Puts a point near the contour onto it to 1e-11 Å, keeping its flags; false (p unchanged) when that fails.
+bool polish(const gaussian_field& field, const trace_plane& plane, surface_sample& p, double h,
             std::size_t& evaluations) {
   surface_sample polished;
-  if (correct_in_plane(field, plane, p.position, h, polished, evaluations)) {
-    polished.extreme = p.extreme;
-    p = polished;
-  }
+  if (!correct_in_plane(field, plane, p.position, h, polished, evaluations)) return false;
+  polished.extreme = p.extreme;
+  p = polished;
+  return true;
 }
 
 /// Distance from root i to the nearest other root of its line (infinity when alone).
@@ -203,8 +278,9 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
       } else {
         out.late_roots.push_back({line_ids[end_side], {end_x, arc.points.back().gradient, true}});
       }
-      const std::vector<std::uint32_t> kept =
-          resample(arc.points, settings.resample_spacing, end_side == side, v, side == 0 ? step.v_low : step.v_high);
+      const double line_v = side == 0 ? step.v_low : step.v_high;
+      const std::vector<kept_point> kept = resample(arc.points, settings.resample_spacing, end_side == side,
+                                                       strip_lines{v, step.v_low, step.v_high}, line_v);
       strip_arc stored;
       stored.first_interior = static_cast<std::uint32_t>(out.interior.size());
       stored.interior_count = static_cast<std::uint32_t>(kept.size());
@@ -213,8 +289,12 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
       stored.start = canonical ? from : to;
       stored.end = canonical ? to : from;
       for (std::size_t n = 0; n < kept.size(); ++n) {
-        surface_sample p = arc.points[kept[canonical ? n : kept.size() - 1 - n]];
-        polish(field, plane, p, h, out.evaluations);
+        const kept_point& k = kept[canonical ? n : kept.size() - 1 - n];
+        surface_sample p = k.sample;
+        if (!polish(field, plane, p, h, out.evaluations)) {  // a walk point is within the corrector's tolerance
+          p = arc.points[k.walk_point];
+          polish(field, plane, p, h, out.evaluations);
+        }
         out.interior.push_back(p);
         if (p.extreme) ++out.extreme_points;
       }

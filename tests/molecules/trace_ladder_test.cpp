@@ -83,7 +83,8 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     expect_certified(*raw);
     EXPECT_EQ(raw->method, mesh_method::trace);
     EXPECT_EQ(raw->refine, refine_mode::none);
-    EXPECT_GE(r.quality.edge_ratio_mean, 0.62);
+    EXPECT_GE(r.quality.edge_ratio_mean, 0.65);
+    EXPECT_LT(r.quality.fraction_below_0_2, 0.01);  // issue 10's target for the raw mesh
     EXPECT_NEAR(r.achieved_density, c.density, 0.2 * c.density);
     // The reference is itself off: on mache at density 1 the converged area (lattice, density 8) is 20,257 Å²; the
     // raw trace mesh has 20,177 (−0.4%) and the refined lattice reference 19,878 (−1.9%). Hence 2.5% here.
@@ -105,6 +106,10 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     EXPECT_EQ(refined->refine, refine_mode::full);
     EXPECT_GE(r.quality.edge_ratio_mean, 0.80);
     EXPECT_LT(r.quality.fraction_below_0_2, 0.005);
+    // Issue 10 aims at 0.1; villin at 2 v/Å² keeps one edge of 0.099 × the median in a crease where the field normal
+    // turns by 60° within one edge, which no collapse there can follow. mache at 2 v/Å² had 0.075 before arcs kept
+    // their points clear of the lines (strip_arcs.cpp).
+    EXPECT_GE(r.quality.shortest_edge, 0.09 * r.quality.median_edge);
     EXPECT_NEAR(r.achieved_density, c.density, 0.2 * c.density);
     EXPECT_NEAR(r.area, area, 0.015 * area);
     EXPECT_NEAR(r.volume, volume, 0.015 * volume);

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -27,8 +28,8 @@ molecule one_atom() {
 }
 
 /// x of the roots of line (j, k) in closed form (empty when the line misses the sphere).
-std::vector<double> exact_roots(std::int64_t j, std::int64_t k) {
-  const double y = static_cast<double>(j) * h, z = static_cast<double>(k) * h;
+std::vector<double> exact_roots(std::int64_t j, std::int64_t k, double spacing = h) {
+  const double y = static_cast<double>(j) * spacing, z = static_cast<double>(k) * spacing;
   const double rest = radius * radius - y * y - z * z;
   if (rest <= 0) return {};
   const double x = std::sqrt(rest);
@@ -40,14 +41,15 @@ struct skipped_root {
   line_id line;
   double x;
 };
-trace_lines exact_lines(const gaussian_field& field, std::optional<skipped_root> skip = std::nullopt) {
+trace_lines exact_lines(const gaussian_field& field, std::optional<skipped_root> skip = std::nullopt,
+                        double spacing = h) {
   std::vector<trace_lines::entry> entries;
   for (std::int64_t j = -grid; j <= grid; ++j) {
     for (std::int64_t k = -grid; k <= grid; ++k) {
-      for (const double x : exact_roots(j, k)) {
+      for (const double x : exact_roots(j, k, spacing)) {
         if (skip && skip->line == line_id{j, k} && std::abs(skip->x - x) < 1e-12) continue;
         line_point p{x, {}, false};
-        field.value_and_gradient({x, static_cast<double>(j) * h, static_cast<double>(k) * h}, p.gradient);
+        field.value_and_gradient({x, static_cast<double>(j) * spacing, static_cast<double>(k) * spacing}, p.gradient);
         entries.push_back({{j, k}, p});
       }
     }
@@ -55,12 +57,21 @@ trace_lines exact_lines(const gaussian_field& field, std::optional<skipped_root>
   return trace_lines(std::move(entries));
 }
 
-strip_settings settings() {
+strip_settings settings(double spacing = h) {
   strip_settings s;
-  s.spacing = h;
-  s.max_step = 0.5 * h;
-  s.resample_spacing = h;
+  s.spacing = spacing;
+  s.max_step = 0.5 * spacing;
+  s.resample_spacing = spacing;
   return s;
+}
+
+/// The smallest distance between a point of `a` and one of `b`.
+double closest_pair(const std::vector<surface_sample>& a, const std::vector<surface_sample>& b) {
+  double closest = std::numeric_limits<double>::infinity();
+  for (const surface_sample& p : a) {
+    for (const surface_sample& q : b) closest = std::min(closest, distance(p.position, q.position));
+  }
+  return closest;
 }
 
 int normal_axis(const strip_id& strip) { return strip.orientation == 0 ? 2 : 1; }
@@ -272,6 +283,51 @@ TEST(strip_arcs, a_root_missing_on_the_start_line_comes_back_as_a_late_root_of_t
   EXPECT_TRUE(trace.late_roots[0].point.late);
   ASSERT_EQ(trace.arcs.size(), 1u);
   EXPECT_GE(trace.arcs[0].interior_count, 1u);
+}
+
+// The sphere's silhouette in x (the great circle x = 0) passes 0.01 Å outside line (1, 1): the arc of the xy plane
+// z = h̃ and that of the xz plane y = h̃ each turn back in x right beside that line, at an extreme point. Both points
+// were kept, 0.02 Å apart, and the cell between the two walls joined them by an edge. With a resampling spacing
+// that divides each arc in two, the resampled points land there too, and must move apart along their arcs.
+TEST(strip_arcs, no_two_points_of_perpendicular_arcs_crowd_beside_a_line) {
+  const double spacing = (radius + 0.01) / std::sqrt(2.0);
+  const gaussian_field field(one_atom(), -1, 1);
+  const trace_lines lines = exact_lines(field, std::nullopt, spacing);
+  ASSERT_TRUE(lines.roots_of({1, 1}).empty());
+  for (const double resample_spacing : {spacing, 2.0}) {
+    SCOPED_TRACE(::testing::Message() << "resampling every " << resample_spacing << " Å");
+    strip_settings s = settings(spacing);
+    s.resample_spacing = resample_spacing;
+    const strip_trace xy = trace_strip(field, lines, {0, 0, 1}, s);
+    const strip_trace xz = trace_strip(field, lines, {1, 1, 0}, s);
+    ASSERT_EQ(xy.arcs.size(), 1u);
+    ASSERT_EQ(xz.arcs.size(), 1u);
+    EXPECT_GT(closest_pair(xy.interior, xz.interior), 0.1 * spacing);
+    for (const strip_trace* t : {&xy, &xz}) {
+      for (const surface_sample& p : t->interior) EXPECT_NEAR(norm(p.position), radius, 1e-9);
+    }
+  }
+}
+
+// Line (2, 1) cuts 0.005 Å into the sphere: a thin lens between two roots 0.27 Å apart, bounded by a return arc of
+// the xy plane z = h̃ and one of the xz plane y = 2h̃, which get 0.006 and 0.011 Å from the line. Both kept their
+// point farthest from it, 0.012 Å apart, and the lens's two triangles shared that edge.
+TEST(strip_arcs, the_two_arcs_of_a_thin_lens_keep_their_points_apart) {
+  const double spacing = (radius - 0.005) / std::sqrt(5.0);
+  const gaussian_field field(one_atom(), -1, 1);
+  const trace_lines lines = exact_lines(field, std::nullopt, spacing);
+  const std::vector<double> roots = exact_roots(2, 1, spacing);
+  ASSERT_EQ(roots.size(), 2u);
+  const double span = roots[1] - roots[0];
+  const strip_trace xy = trace_strip(field, lines, {0, 2, 1}, settings(spacing));
+  const strip_trace xz = trace_strip(field, lines, {1, 2, 1}, settings(spacing));
+  for (const strip_trace* t : {&xy, &xz}) {
+    ASSERT_EQ(t->arcs.size(), 1u);
+    EXPECT_EQ(t->arcs[0].start.side, t->arcs[0].end.side);
+    ASSERT_EQ(t->interior.size(), 1u);
+    EXPECT_NEAR(norm(t->interior[0].position), radius, 1e-9);
+  }
+  EXPECT_GT(closest_pair(xy.interior, xz.interior), span / 8);
 }
 
 TEST(strip_arcs, a_strip_whose_lines_hold_no_root_is_empty) {
