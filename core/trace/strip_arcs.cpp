@@ -21,11 +21,6 @@ constexpr double min_extreme_gap = 0.1;
 /// joined by an edge all but degenerate: such pairs made 49 of the 65 raw triangles with an edge ratio below 0.2 on
 /// fas2 at 1 v/Å² (README "Deviations"). The arc still keeps points about h̃ apart.
 constexpr double extreme_line_clearance = 0.2;
-/// A resampled point within extreme_line_clearance of a line moves this × the spacing along its arc, towards −x on
-/// xy arcs and +x on xz arcs: where an arc runs along a line, the arc of the perpendicular plane through that line
-/// often does too, and two points at the same x there would make the same near-degenerate edge (gly at 1 v/Å²: the
-/// raw triangles below an edge ratio of 0.2 went from 3 to 2 of 268).
-constexpr double crowded_line_shift = 0.25;
 /// The first step from a root is at most this × the distance to the next root of its line, so that a walk from one
 /// root of a near-tangency cannot step over the other.
 constexpr double first_step_fraction = 0.5;
@@ -117,9 +112,8 @@ kept_point return_arc_point(const std::vector<surface_sample>& points, int v_axi
 
 /// The vertices an arc keeps strictly between its ends, in walk order: every extreme point not within
 /// extreme_line_clearance of a line, and between consecutive kept points about one point per `spacing` of arc
-/// length, at equal arc-length fractions (method.md §7.7), interpolated along the walk. Such a point within the
-/// clearance of a line moves by crowded_line_shift (see there). An arc whose ends are on the line v = line_v and
-/// which keeps nothing else keeps return_arc_point().
+/// length, at equal arc-length fractions (method.md §7.7), interpolated along the walk. An arc whose ends are on the
+/// line v = line_v and which keeps nothing else keeps return_arc_point().
 std::vector<kept_point> resample(const std::vector<surface_sample>& points, double spacing, bool same_line,
                                  const strip_lines& lines, double line_v) {
   const int v_axis = lines.v_axis;
@@ -155,18 +149,7 @@ std::vector<kept_point> resample(const std::vector<surface_sample>& points, doub
     const auto pieces = static_cast<long>(std::max(1.0, std::round(span / spacing)));
     for (long q = 1; q < pieces; ++q) {
       const double target = length[a] + span * static_cast<double>(q) / static_cast<double>(pieces);
-      const kept_point p = point_at_length(points, length, target);
-      if (lines.distance_to_nearest(p.sample.position) >= clearance) {
-        kept.push_back(p);
-        continue;
-      }
-      // Pieces are at least 2/3 of the spacing (and the span at least 1.5 spacings), so the move keeps the order.
-      const double step = crowded_line_shift * spacing;
-      const double x_growth = point_at_length(points, length, std::min(target + step, length[b])).sample.position.x -
-                              point_at_length(points, length, std::max(target - step, length[a])).sample.position.x;
-      const double towards = (v_axis == 1 ? -1.0 : 1.0) * (x_growth >= 0 ? 1.0 : -1.0);
-      const double moved = std::clamp(target + towards * step, length[a] + min_gap, length[b] - min_gap);
-      kept.push_back(point_at_length(points, length, moved));
+      kept.push_back(point_at_length(points, length, target));
     }
   }
   if (same_line && kept.empty() && points.size() > 2) kept.push_back(return_arc_point(points, v_axis, line_v, h));

@@ -287,25 +287,19 @@ TEST(strip_arcs, a_root_missing_on_the_start_line_comes_back_as_a_late_root_of_t
 
 // The sphere's silhouette in x (the great circle x = 0) passes 0.01 Å outside line (1, 1): the arc of the xy plane
 // z = h̃ and that of the xz plane y = h̃ each turn back in x right beside that line, at an extreme point. Both points
-// were kept, 0.02 Å apart, and the cell between the two walls joined them by an edge. With a resampling spacing
-// that divides each arc in two, the resampled points land there too, and must move apart along their arcs.
-TEST(strip_arcs, no_two_points_of_perpendicular_arcs_crowd_beside_a_line) {
+// were kept, 0.02 Å apart, and the cell between the two walls joined them by an edge.
+TEST(strip_arcs, extreme_points_beside_a_line_are_not_kept) {
   const double spacing = (radius + 0.01) / std::sqrt(2.0);
   const gaussian_field field(one_atom(), -1, 1);
   const trace_lines lines = exact_lines(field, std::nullopt, spacing);
   ASSERT_TRUE(lines.roots_of({1, 1}).empty());
-  for (const double resample_spacing : {spacing, 2.0}) {
-    SCOPED_TRACE(::testing::Message() << "resampling every " << resample_spacing << " Å");
-    strip_settings s = settings(spacing);
-    s.resample_spacing = resample_spacing;
-    const strip_trace xy = trace_strip(field, lines, {0, 0, 1}, s);
-    const strip_trace xz = trace_strip(field, lines, {1, 1, 0}, s);
-    ASSERT_EQ(xy.arcs.size(), 1u);
-    ASSERT_EQ(xz.arcs.size(), 1u);
-    EXPECT_GT(closest_pair(xy.interior, xz.interior), 0.1 * spacing);
-    for (const strip_trace* t : {&xy, &xz}) {
-      for (const surface_sample& p : t->interior) EXPECT_NEAR(norm(p.position), radius, 1e-9);
-    }
+  const strip_trace xy = trace_strip(field, lines, {0, 0, 1}, settings(spacing));
+  const strip_trace xz = trace_strip(field, lines, {1, 1, 0}, settings(spacing));
+  ASSERT_EQ(xy.arcs.size(), 1u);
+  ASSERT_EQ(xz.arcs.size(), 1u);
+  EXPECT_GT(closest_pair(xy.interior, xz.interior), 0.1 * spacing);
+  for (const strip_trace* t : {&xy, &xz}) {
+    for (const surface_sample& p : t->interior) EXPECT_NEAR(norm(p.position), radius, 1e-9);
   }
 }
 
