@@ -85,8 +85,8 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     EXPECT_EQ(raw->method, mesh_method::trace);
     EXPECT_EQ(raw->refine, refine_mode::none);
     EXPECT_GE(r.quality.edge_ratio_mean, 0.65);
-    // Issue 10's target for the raw mesh is under 1%; gly at density 1 has 3 of its 268 triangles there (two arcs
-    // dip to 0.03 h̃ of one line at the same x), hence "or 3 triangles" for the smallest meshes.
+    // Issue 10's target for the raw mesh is under 1%; on the smallest meshes a few triangles are a large share (gly
+    // at density 1: 2 of its 268, where two arcs dip to 0.03 h̃ of one line at the same x), hence "or 3 triangles".
     const double below = r.quality.fraction_below_0_2 * static_cast<double>(r.triangles);
     EXPECT_LE(below, std::max(0.01 * static_cast<double>(r.triangles), 3.0));
     EXPECT_NEAR(r.achieved_density, c.density, 0.2 * c.density);

@@ -303,27 +303,6 @@ TEST(strip_arcs, extreme_points_beside_a_line_are_not_kept) {
   }
 }
 
-// Line (2, 1) cuts 0.005 Å into the sphere: a thin lens between two roots 0.27 Å apart, bounded by a return arc of
-// the xy plane z = h̃ and one of the xz plane y = 2h̃, which get 0.006 and 0.011 Å from the line. Both kept their
-// point farthest from it, 0.012 Å apart, and the lens's two triangles shared that edge.
-TEST(strip_arcs, the_two_arcs_of_a_thin_lens_keep_their_points_apart) {
-  const double spacing = (radius - 0.005) / std::sqrt(5.0);
-  const gaussian_field field(one_atom(), -1, 1);
-  const trace_lines lines = exact_lines(field, std::nullopt, spacing);
-  const std::vector<double> roots = exact_roots(2, 1, spacing);
-  ASSERT_EQ(roots.size(), 2u);
-  const double span = roots[1] - roots[0];
-  const strip_trace xy = trace_strip(field, lines, {0, 2, 1}, settings(spacing));
-  const strip_trace xz = trace_strip(field, lines, {1, 2, 1}, settings(spacing));
-  for (const strip_trace* t : {&xy, &xz}) {
-    ASSERT_EQ(t->arcs.size(), 1u);
-    EXPECT_EQ(t->arcs[0].start.side, t->arcs[0].end.side);
-    ASSERT_EQ(t->interior.size(), 1u);
-    EXPECT_NEAR(norm(t->interior[0].position), radius, 1e-9);
-  }
-  EXPECT_GT(closest_pair(xy.interior, xz.interior), span / 8);
-}
-
 TEST(strip_arcs, a_strip_whose_lines_hold_no_root_is_empty) {
   const gaussian_field field(one_atom(), -1, 1);
   const trace_lines lines = exact_lines(field);
