@@ -64,20 +64,16 @@ struct kept_point {
   std::uint32_t walk_point = 0;
 };
 
-/// The point at fraction t of the walk's segment n → n + 1 (position and gradient linear: within the chord's sagitta
-/// of the contour, polished onto it when kept).
-kept_point interpolate(const std::vector<surface_sample>& points, std::size_t n, double t) {
-  const surface_sample &a = points[n], &b = points[n + 1];
-  return {{a.position + (b.position - a.position) * t, a.gradient + (b.gradient - a.gradient) * t, false},
-          static_cast<std::uint32_t>(t < 0.5 ? n : n + 1)};
-}
-
-/// The point at arc length s (cumulative `length`, strictly inside the walk).
+/// The point at arc length s (cumulative `length`, strictly inside the walk), interpolated between its two walk
+/// points (position and gradient linear: within the chord's sagitta of the contour, polished onto it when kept).
 kept_point point_at_length(const std::vector<surface_sample>& points, const std::vector<double>& length, double s) {
   const auto after = std::upper_bound(length.begin() + 1, length.end() - 1, s);
   const auto n = static_cast<std::size_t>(after - length.begin()) - 1;
   const double segment = length[n + 1] - length[n];
-  return interpolate(points, n, segment > 0 ? std::clamp((s - length[n]) / segment, 0.0, 1.0) : 0.5);
+  const double t = segment > 0 ? std::clamp((s - length[n]) / segment, 0.0, 1.0) : 0.5;
+  const surface_sample &a = points[n], &b = points[n + 1];
+  return {{a.position + (b.position - a.position) * t, a.gradient + (b.gradient - a.gradient) * t, false},
+          static_cast<std::uint32_t>(t < 0.5 ? n : n + 1)};
 }
 
 /// The vertex of an arc whose ends are both on the line v = line_v and which keeps no other: its point farthest from
