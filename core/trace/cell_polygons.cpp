@@ -318,13 +318,27 @@ void triangulate_from(const gaussian_field& field, const std::vector<numbered_ve
   out = loop_mesh{};
 }
 
-/// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test: method.md §7.8 —
-/// with admissible triangulations, triangles of different cells meet only along shared arcs, so this per-cell test
-/// covers the whole mesh).
-std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<numbered_vertex>>& loops,
-                                            const std::vector<loop_mesh>& meshes) {
+/// The cell's triangles as one small mesh, for the intersection test: positions, corners as indices into them (a
+/// vertex shared by two loops, a root or an arc point, gets one index), the loop of each triangle and its bounding
+/// box. Kept per thread, so a cell costs no allocation once the buffers have grown.
+struct cell_triangles {
   std::vector<vec3> positions;
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> numbers;  // (vertex key, local index)
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> numbers;  // (vertex key, index into positions)
+  std::vector<std::array<std::uint32_t, 3>> corners;
+  std::vector<std::size_t> owner;
+  std::vector<box3> boxes;
+
+  void gather(const std::vector<std::vector<numbered_vertex>>& loops, const std::vector<loop_mesh>& meshes);
+};
+
+void cell_triangles::gather(const std::vector<std::vector<numbered_vertex>>& loops,
+                            const std::vector<loop_mesh>& meshes) {
+  positions.clear();
+  numbers.clear();
+  corners.clear();
+  owner.clear();
+  boxes.clear();
+  // Steiner points are numbered per loop; loop + 1 in the high half keeps them apart from the mesh's vertex ids.
   const auto key = [](std::size_t loop, std::uint32_t id) {
     return id >= steiner_vertex ? (static_cast<std::uint64_t>(loop + 1) << 32) | (id - steiner_vertex) : std::uint64_t{id};
   };
@@ -340,25 +354,40 @@ std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<number
     }
   }
   std::sort(numbers.begin(), numbers.end());
-  std::vector<std::array<std::uint32_t, 3>> local;
-  std::vector<std::size_t> owner;
   for (std::size_t l = 0; l < loops.size(); ++l) {
     for (const auto& t : meshes[l].triangles) {
-      std::array<std::uint32_t, 3> lt{};
-      for (int c = 0; c < 3; ++c) {
-        const auto it = std::lower_bound(numbers.begin(), numbers.end(), std::make_pair(key(l, t[c]), 0u));
-        lt[c] = it->second;
+      std::array<std::uint32_t, 3> c{};
+      for (int i = 0; i < 3; ++i) {
+        c[i] = std::lower_bound(numbers.begin(), numbers.end(), std::make_pair(key(l, t[i]), 0u))->second;
       }
-      local.push_back(lt);
+      const vec3 &a = positions[c[0]], &b = positions[c[1]], &d = positions[c[2]];
+      boxes.push_back({{std::min({a.x, b.x, d.x}), std::min({a.y, b.y, d.y}), std::min({a.z, b.z, d.z})},
+                       {std::max({a.x, b.x, d.x}), std::max({a.y, b.y, d.y}), std::max({a.z, b.z, d.z})}});
+      corners.push_back(c);
       owner.push_back(l);
     }
   }
+}
+
+bool boxes_overlap(const box3& a, const box3& b) {
+  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
+         b.lo.z <= a.hi.z;
+}
+
+/// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test: method.md §7.8 —
+/// with admissible triangulations, triangles of different cells meet only along shared arcs, so this per-cell test
+/// covers the whole mesh). Triangles whose bounding boxes are apart cannot meet and are not tested.
+std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<numbered_vertex>>& loops,
+                                            const std::vector<loop_mesh>& meshes) {
+  thread_local cell_triangles cell;
+  cell.gather(loops, meshes);
   std::vector<std::size_t> hit;
-  for (std::size_t a = 0; a < local.size(); ++a) {
-    for (std::size_t b = a + 1; b < local.size(); ++b) {
-      if (detail::mesh_triangles_intersect(positions, local[a], local[b])) {
-        hit.push_back(owner[a]);
-        hit.push_back(owner[b]);
+  for (std::size_t a = 0; a < cell.corners.size(); ++a) {
+    for (std::size_t b = a + 1; b < cell.corners.size(); ++b) {
+      if (boxes_overlap(cell.boxes[a], cell.boxes[b]) &&
+          detail::mesh_triangles_intersect(cell.positions, cell.corners[a], cell.corners[b])) {
+        hit.push_back(cell.owner[a]);
+        hit.push_back(cell.owner[b]);
       }
     }
   }
@@ -373,9 +402,8 @@ std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<number
 void resolve_intersections(const gaussian_field& field, const std::vector<std::vector<numbered_vertex>>& loops,
                            const cell_id& cell, double h, std::vector<loop_mesh>& meshes, cell_mesh& out) {
   constexpr int max_rounds = 16;
-  for (int round = 0; round < max_rounds; ++round) {
-    const std::vector<std::size_t> hit = intersecting_loops(loops, meshes);
-    if (hit.empty()) break;
+  std::vector<std::size_t> hit = intersecting_loops(loops, meshes);
+  for (int round = 0; round < max_rounds && !hit.empty(); ++round) {
     bool fixed = false;
     for (const std::size_t l : hit) {
       const loop_mesh kept = meshes[l];
@@ -391,16 +419,18 @@ void resolve_intersections(const gaussian_field& field, const std::vector<std::v
       if (fixed) break;
       meshes[l] = kept;
     }
-    if (fixed) continue;
-    bool changed = false;
-    for (const std::size_t l : hit) {
-      if (meshes[l].strategy >= loop_strategy::none) continue;
-      triangulate_from(field, loops[l], cell, h, next(meshes[l].strategy), meshes[l], out.evaluations);
-      changed = true;
+    if (!fixed) {
+      bool changed = false;
+      for (const std::size_t l : hit) {
+        if (meshes[l].strategy >= loop_strategy::none) continue;
+        triangulate_from(field, loops[l], cell, h, next(meshes[l].strategy), meshes[l], out.evaluations);
+        changed = true;
+      }
+      if (!changed) break;
     }
-    if (!changed) break;
+    hit = intersecting_loops(loops, meshes);
   }
-  out.intersecting = !intersecting_loops(loops, meshes).empty();
+  out.intersecting = !hit.empty();
 }
 
 }  // namespace

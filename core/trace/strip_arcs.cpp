@@ -104,7 +104,7 @@ std::vector<kept_point> resample(const std::vector<surface_sample>& points, doub
   std::vector<std::uint32_t> forced{0};
   const auto phi_x = [&](std::size_t n) {  // |φ_x| / |g| in the plane
     const vec3& g = points[n].gradient;
-    return std::abs(g.x) / std::hypot(g.x, g[v_axis]);
+    return std::abs(g.x) / std::sqrt(g.x * g.x + g[v_axis] * g[v_axis]);
   };
   // One extreme point per run of consecutive ones (near a tangency every walk point qualifies), the flattest, and
   // none closer than min_extreme_gap × spacing to a kept end: a shorter edge would be all but degenerate.

@@ -21,7 +21,7 @@ bool converged(double residual, double gradient_norm, double t0, double distance
 /// The in-plane components (φ_x, φ_v) of a gradient.
 struct planar {
   double x, v;
-  double norm() const { return std::hypot(x, v); }
+  double norm() const { return std::sqrt(x * x + v * v); }  // not std::hypot: slow, and no overflow to fear here
 };
 planar in_plane(const vec3& gradient, int v_axis) { return {gradient.x, gradient[v_axis]}; }
 
@@ -106,7 +106,7 @@ bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec
       return true;
     }
     double dx = g.x * residual / g2, dv = g.v * residual / g2;  // Newton along the in-plane gradient (step 3)
-    const double length = std::hypot(dx, dv);
+    const double length = std::sqrt(dx * dx + dv * dv);
     if (length > 0.5 * max_move) {  // damped far from the contour
       dx *= 0.5 * max_move / length;
       dv *= 0.5 * max_move / length;
