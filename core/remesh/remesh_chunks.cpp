@@ -22,6 +22,12 @@ namespace {
 /// 12: against 16, 3j6r_asu meshed 8% faster and the other molecules from 10⁴ atoms up 0-2% (their few chunks per
 /// colour balance better over the threads), the capsids the same; 8 was slower (more seams to redo).
 constexpr std::int64_t cells_per_chunk = 12;
+/// Where cells grow beyond their natural size (make_grid), a chunk holds fewer of them, so that it stays about
+/// chunk_edges·L wide, but never fewer than this: grown patches of one colour stay 2·6 − (6 + 2) = 4 cells apart.
+/// With 12 grown cells, the trace path's input (whose long diagonals double the cells) made 8 times fewer, larger
+/// patches: 17 instead of 67 on 2buk_capsid at 1 v/Å², and a patch that failed a round redid 1/17 of the mesh
+/// (quality pass 4.6-5.5 s; 2.8-3.1 s with 6 cells a chunk, for the same edge ratio: README "Method").
+constexpr std::int64_t min_cells_per_chunk = 6;
 /// A chunk's patch reaches this many cells beyond it; its context this many more.
 constexpr std::int64_t patch_growth = 1;
 constexpr std::int64_t context_growth = 1;
@@ -89,8 +95,11 @@ bool meets(const box3& b, const vec3& p, const vec3& q, const vec3& r) {
 /// The cubic cells that chunks are made of, numbered from a corner below every vertex.
 class cell_grid {
  public:
-  cell_grid(const vec3& origin, double size) : origin_(origin), size_(size) {}
+  cell_grid(const vec3& origin, double size, std::int64_t chunk_cells)
+      : origin_(origin), size_(size), chunk_cells_(chunk_cells) {}
   double size() const { return size_; }
+  /// Cells along a chunk's edge.
+  std::int64_t chunk_cells() const { return chunk_cells_; }
   cell of(const vec3& p) const {
     cell c{};
     for (int axis = 0; axis < 3; ++axis) {
@@ -116,6 +125,7 @@ class cell_grid {
  private:
   vec3 origin_;
   double size_;
+  std::int64_t chunk_cells_;
 };
 
 /// The mesh being remeshed: the caller's arrays, triangles replaced by patches marked dead until the end, and the
@@ -147,7 +157,8 @@ class chunked_mesh {
     std::vector<std::uint64_t> keys;
     for (const auto& [key, triangles] : cells_) {
       const cell c = unpack(key);
-      keys.push_back(cell_grid::key({c[0] / cells_per_chunk, c[1] / cells_per_chunk, c[2] / cells_per_chunk}));
+      const std::int64_t n = grid_.chunk_cells();
+      keys.push_back(cell_grid::key({c[0] / n, c[1] / n, c[2] / n}));
     }
     std::sort(keys.begin(), keys.end());
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
@@ -189,8 +200,8 @@ class chunked_mesh {
                std::vector<std::uint8_t>& boundary, std::vector<std::uint32_t>& scratch) const {
     cell lo{}, hi{}, outer_lo{}, outer_hi{};
     for (int axis = 0; axis < 3; ++axis) {
-      lo[axis] = chunk[axis] * cells_per_chunk - patch_growth;
-      hi[axis] = (chunk[axis] + 1) * cells_per_chunk + patch_growth;
+      lo[axis] = chunk[axis] * grid_.chunk_cells() - patch_growth;
+      hi[axis] = (chunk[axis] + 1) * grid_.chunk_cells() + patch_growth;
       outer_lo[axis] = lo[axis] - context_growth;
       outer_hi[axis] = hi[axis] + context_growth;
     }
@@ -382,7 +393,7 @@ class chunked_mesh {
 
 /// Cells of chunk_edges·L / cells_per_chunk (and at least twice the longest edge the quality pass leaves unsplit),
 /// grown to twice the longest triangle edge but at most to twice that natural size, and few enough per axis for the
-/// packed keys. A context of one cell then holds every triangle that may meet a patch, but for the triangles with an
+/// packed keys; chunks of as many cells as keep them chunk_edges·L wide (at least min_cells_per_chunk). A context of one cell then holds every triangle that may meet a patch, but for the triangles with an
 /// edge longer than half a cell: those stay out of every patch, as they are, and join every context they reach.
 /// Such edges are the trace path's few long triangulation diagonals (up to 7.2 Å on 2buk_capsid at 1 v/Å², whose
 /// triangles face away from the surface normals, so that the quality pass could not split them anyway). Before,
@@ -411,7 +422,9 @@ cell_grid make_grid(const surface_mesh& mesh, const remesh_options& options) {
     size = std::max(size, (bounds.hi[axis] - bounds.lo[axis]) / static_cast<double>(max_coordinate - 4));
   }
   // Two cells of room below every vertex: patches and contexts of the first chunks reach there.
-  return cell_grid(bounds.lo - vec3{2 * size, 2 * size, 2 * size}, size);
+  const auto chunk_cells = std::clamp(static_cast<std::int64_t>(std::lround(cells_per_chunk * natural / size)),
+                                      min_cells_per_chunk, cells_per_chunk);
+  return cell_grid(bounds.lo - vec3{2 * size, 2 * size, 2 * size}, size, chunk_cells);
 }
 
 /// The output vertices of a patch that are done: neither frozen nor within boundary_rings rings of its boundary.

@@ -3,16 +3,17 @@
 /// The quality pass over a whole closed mesh, cut into chunks so that it runs in parallel, checks and redoes work
 /// locally, and never copies the whole mesh.
 ///
-/// Space is cut into cubic chunks of edge C = options.chunk_edges · L, each made of 12³ cells (a cell is at least
-/// twice the longest triangle edge, up to twice its natural size C/12, so C may come out larger; triangles with an
-/// edge longer than half a cell are never in a patch, only in contexts). A chunk's patch is every other triangle
-/// whose centroid lies in the chunk grown by one cell on every side; the vertices that also
-/// have triangles outside the patch are its boundary and stay frozen (remesh_patch.hpp). The growth makes every
-/// vertex an interior vertex of its own chunk's patch, so one pass over the chunks reaches the whole surface, and
-/// the band along a chunk's faces is remeshed by both neighbours in turn. Chunks are processed in 8 colours (the
-/// parities of their coordinates): the grown chunks of one colour are 10 cells apart, so their patches run in
-/// parallel without meeting; their results are merged in chunk order after each colour. Every patch is checked
-/// against the triangles around it (its context), so the mesh stays free of self-intersections throughout.
+/// Space is cut into cubic chunks of edge C = options.chunk_edges · L, each made of 12³ cells of natural size C/12.
+/// A cell is at least twice the longest triangle edge, up to twice its natural size; a chunk of grown cells holds
+/// fewer of them, down to 6³, so that C stays about the same. Triangles with an edge longer than half a cell are
+/// never in a patch, only in contexts. A chunk's patch is every other triangle whose centroid lies in the chunk grown
+/// by one cell on every side; the vertices that also have triangles outside the patch are its boundary and stay
+/// frozen (remesh_patch.hpp). The growth makes every vertex an interior vertex of its own chunk's patch, so one pass
+/// over the chunks reaches the whole surface, and the band along a chunk's faces is remeshed by both neighbours in
+/// turn. Chunks are processed in 8 colours (the parities of their coordinates): the grown chunks of one colour are at
+/// least 4 cells apart (10 with 12 cells a chunk), so their patches run in parallel without meeting; their results
+/// are merged in chunk order after each colour. Every patch is checked against the triangles around it (its
+/// context), so the mesh stays free of self-intersections throughout.
 ///
 /// Deterministic: patches are extracted in index order, remeshed alone and merged in chunk order.
 /// Memory: the mesh once (positions, normals, triangles, a cell index) plus one patch per worker.
