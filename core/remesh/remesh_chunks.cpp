@@ -393,8 +393,9 @@ class chunked_mesh {
 
 /// Cells of chunk_edges·L / cells_per_chunk (and at least twice the longest edge the quality pass leaves unsplit),
 /// grown to twice the longest triangle edge but at most to twice that natural size, and few enough per axis for the
-/// packed keys; chunks of as many cells as keep them chunk_edges·L wide (at least min_cells_per_chunk). A context of one cell then holds every triangle that may meet a patch, but for the triangles with an
-/// edge longer than half a cell: those stay out of every patch, as they are, and join every context they reach.
+/// packed keys; chunks of as many cells as keep them chunk_edges·L wide (at least min_cells_per_chunk). A context of
+/// one cell then holds every triangle that may meet a patch, but for the triangles with an edge longer than half a
+/// cell: those stay out of every patch, as they are, and join every context they reach.
 /// Such edges are the trace path's few long triangulation diagonals (up to 7.2 Å on 2buk_capsid at 1 v/Å², whose
 /// triangles face away from the surface normals, so that the quality pass could not split them anyway). Before,
 /// cells were always twice the longest edge: 2buk_capsid made 8 patches, a patch that failed a round redid an eighth
@@ -421,9 +422,9 @@ cell_grid make_grid(const surface_mesh& mesh, const remesh_options& options) {
   for (int axis = 0; axis < 3; ++axis) {
     size = std::max(size, (bounds.hi[axis] - bounds.lo[axis]) / static_cast<double>(max_coordinate - 4));
   }
-  // Two cells of room below every vertex: patches and contexts of the first chunks reach there.
   const auto chunk_cells = std::clamp(static_cast<std::int64_t>(std::lround(cells_per_chunk * natural / size)),
                                       min_cells_per_chunk, cells_per_chunk);
+  // Two cells of room below every vertex: patches and contexts of the first chunks reach there.
   return cell_grid(bounds.lo - vec3{2 * size, 2 * size, 2 * size}, size, chunk_cells);
 }
 
