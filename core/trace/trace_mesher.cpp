@@ -185,7 +185,37 @@ std::vector<cell_id> cells_of(const traced_surface& surface) {
   return cells;
 }
 
-/// The mesh: roots, then interior points, then the cells' Steiner points; triangles cell by cell.
+/// Renumbers the vertices in the order the triangles (cell by cell) first use them, so that a triangle's corners are
+/// close in memory. Numbered as assembled (all roots, then every strip's points), a triangle's corners lay 1.9·10⁵
+/// indices apart on average on 2buk_capsid at 2 v/Å² (2·10³ once renumbered; 1·10⁴ in the lattice path's refined
+/// mesh), and every later stage that walks the mesh (quality pass, certificate, encoders) paid in cache misses. Vertices no triangle uses keep their order
+/// after the others (the certificate reports them).
+void number_vertices_by_first_use(surface_mesh& mesh) {
+  constexpr std::uint32_t unnumbered = ~std::uint32_t{0};
+  std::vector<std::uint32_t> number(mesh.positions.size(), unnumbered);
+  std::uint32_t next = 0;
+  for (const auto& t : mesh.triangles) {
+    for (const std::uint32_t v : t) {
+      if (number[v] == unnumbered) number[v] = next++;
+    }
+  }
+  for (std::uint32_t& n : number) {
+    if (n == unnumbered) n = next++;
+  }
+  std::vector<vec3> positions(mesh.positions.size()), normals(mesh.normals.size());
+  for (std::size_t v = 0; v < number.size(); ++v) {
+    positions[number[v]] = mesh.positions[v];
+    normals[number[v]] = mesh.normals[v];
+  }
+  mesh.positions.swap(positions);
+  mesh.normals.swap(normals);
+  for (auto& t : mesh.triangles) {
+    for (std::uint32_t& v : t) v = number[v];
+  }
+}
+
+/// The mesh: roots, then interior points, then the cells' Steiner points, numbered by first use; triangles cell by
+/// cell.
 surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cells) {
   surface_mesh mesh;
   const double h = surface.spacing;
@@ -216,6 +246,7 @@ surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cel
     }
     std::vector<std::array<std::uint32_t, 3>>().swap(cell.triangles);
   }
+  number_vertices_by_first_use(mesh);
   return mesh;
 }
 
