@@ -84,7 +84,8 @@ struct mesh_output {
 result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
                                   progress_token& progress);
 
-/// Version of the engine's output; part of every cache key. Bump when the mesh for a given input changes.
-inline constexpr const char* engine_version = "tracemesh-engine-4";
+/// Version of the engine's output; part of every cache key. Bump when the mesh for a given input changes (5: the trace
+/// path's vertex placement, vertex numbering and the quality pass's chunks, 2026-11-27).
+inline constexpr const char* engine_version = "tracemesh-engine-5";
 
 }  // namespace tracemesh
