@@ -188,8 +188,8 @@ std::vector<cell_id> cells_of(const traced_surface& surface) {
 /// Renumbers the vertices in the order the triangles (cell by cell) first use them, so that a triangle's corners are
 /// close in memory. Numbered as assembled (all roots, then every strip's points), a triangle's corners lay 1.9·10⁵
 /// indices apart on average on 2buk_capsid at 2 v/Å² (2·10³ once renumbered; 1·10⁴ in the lattice path's refined
-/// mesh), and every later stage that walks the mesh (quality pass, certificate, encoders) paid in cache misses. Vertices no triangle uses keep their order
-/// after the others (the certificate reports them).
+/// mesh), and every later stage that walks the mesh (quality pass, certificate, encoders) paid in cache misses.
+/// Vertices no triangle uses keep their order after the others (the certificate reports them).
 void number_vertices_by_first_use(surface_mesh& mesh) {
   constexpr std::uint32_t unnumbered = ~std::uint32_t{0};
   std::vector<std::uint32_t> number(mesh.positions.size(), unnumbered);

@@ -672,8 +672,8 @@ std::vector<std::array<vec3, 3>> triangles_with_an_edge_over(const surface_mesh&
 
 TEST(RemeshSurface, TrianglesLongerThanHalfACellStayOutOfThePatches) {
   // A coarse input (edges up to √3 · 0.9 Å) remeshed to L = 0.35 Å: natural cells of 48 L / 12 = 1.4 Å, grown to
-  // at most 2.8 Å (chunks of 6 such cells), so the triangles with an edge over 1.4 Å (57 of 5,840) stay as they are and every other one is
-  // remeshed.
+  // at most 2.8 Å (chunks of 6 such cells), so the triangles with an edge over 1.4 Å (57 of 5,840) stay as they are
+  // and every other one is remeshed.
   const gaussian_field field = chain_field();
   const surface_mesh input = marching_tetrahedra(field, 0.9);
   const mesh_report before = analyze_mesh(input);
