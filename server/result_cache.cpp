@@ -31,6 +31,9 @@ constexpr std::size_t fixed_header_bytes = 8 + 8 + sha256::digest_size + 4;
 constexpr std::size_t max_suffix_length = 16;
 constexpr std::size_t max_coding_length = 24;
 constexpr std::string_view temp_prefix = ".tmp-";
+// A temporary file can be removed by another process's open() before its writer locks it (see write_to_disk);
+// each such loss costs one more attempt. Losing this many in a row means something else is deleting our files.
+constexpr int max_temp_file_attempts = 4;
 
 std::uint64_t entry_file_bytes(const std::string& key, std::size_t payload_bytes) {
   return fixed_header_bytes + key.size() + payload_bytes;
@@ -103,6 +106,12 @@ class unique_fd {
  private:
   int fd_;
 };
+
+/// True while the open file still has a name (nobody unlinked it since it was opened).
+bool is_linked(int fd) {
+  struct stat info {};
+  return ::fstat(fd, &info) == 0 && info.st_nlink > 0;
+}
 
 enum class read_outcome { complete, short_file, error };
 
@@ -340,8 +349,7 @@ std::shared_ptr<const std::string> result_cache::read_from_disk(const std::strin
 
   ::futimens(fd.get(), nullptr);  // last use survives restarts (LRU order); best effort
   // Index the entry unless it was evicted (unlinked) while we read it: the bytes are still good to serve.
-  const bool still_linked = ::fstat(fd.get(), &info) == 0 && info.st_nlink > 0;
-  if (still_linked) {
+  if (is_linked(fd.get())) {
     std::lock_guard lock(disk_mutex_);
     index_disk_entry_locked(key, file_bytes);
     evict_disk_locked();
@@ -386,19 +394,27 @@ status result_cache::write_to_disk(const std::string& key, std::string_view byte
   if (io_step_fails()) return io_failure("mkdir", shard, 0);
   if (::mkdir(shard.c_str(), 0755) != 0 && errno != EEXIST) return io_failure("mkdir", shard, errno);
 
-  const fs::path temp = shard / (std::string(temp_prefix) + key + "-" + std::to_string(::getpid()) + "-" +
-                                 std::to_string(temp_sequence_.fetch_add(1)));
-  if (io_step_fails()) return io_failure("create", temp, 0);
-  unique_fd fd(open_retrying(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644));
-  if (!fd) return io_failure("create", temp, errno);
-
+  fs::path temp;
+  unique_fd fd;
   const auto abandon = [&](std::string_view what, int error_number) {
     fd.reset();
     ::unlink(temp.c_str());
     return io_failure(what, temp, error_number);
   };
-  // The lock marks the file as live: open() in any process removes only temporary files nobody holds.
-  if (::flock(fd.get(), LOCK_EX | LOCK_NB) != 0) return abandon("lock", errno);
+  for (int attempt = 1;; ++attempt) {
+    temp = shard / (std::string(temp_prefix) + key + "-" + std::to_string(::getpid()) + "-" +
+                    std::to_string(temp_sequence_.fetch_add(1)));
+    if (io_step_fails()) return io_failure("create", temp, 0);
+    fd = unique_fd(open_retrying(temp.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0644));
+    if (!fd) return io_failure("create", temp, errno);
+    // The lock marks the file as live: open() in any process removes only temporary files nobody holds. It waits:
+    // an open() elsewhere holds a temporary file's lock only while it removes the file.
+    if (::flock(fd.get(), LOCK_EX) != 0) return abandon("lock", errno);
+    if (is_linked(fd.get())) break;
+    // An open() in another process found the file between its creation and the lock, took it for a dead writer's
+    // and removed it. Start again under a new name.
+    if (attempt == max_temp_file_attempts) return abandon("lock", ENOENT);
+  }
   const std::string header = encode_header(key, bytes);
   if (io_step_fails()) return abandon("write", 0);
   if (!write_all(fd.get(), header)) return abandon("write", errno);
