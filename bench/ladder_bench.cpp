@@ -185,6 +185,10 @@ void measure(const options& opt, row& r) {
       if (opt.runs > 1) r.error += " (run " + std::to_string(run + 1) + " of " + std::to_string(opt.runs) + ")";
       return;
     }
+    if (!out->fallback_reason.empty()) {  // a lattice mesh: not a measurement of the trace path
+      r.error = "the trace path failed and the lattice path meshed instead: " + out->fallback_reason;
+      return;
+    }
     std::map<mesh_stage, double> this_run;
     for (const auto& timing : out->timings) this_run[timing.stage] += timing.seconds;
     for (const auto& [stage, seconds] : this_run) stage_runs[stage].push_back(seconds);

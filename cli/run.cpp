@@ -51,7 +51,7 @@ void print_summary(const mesh_output& output) {
   for (const stage_timing& timing : output.timings) {
     std::fprintf(stderr, "tracemesh: %-13s %9.3f s\n", stage_name(timing.stage), timing.seconds);
   }
-  if (output.method == mesh_method::trace) {
+  if (method_used(output.method, output) == mesh_method::trace) {
     const trace_stats& t = output.trace;
     std::fprintf(stderr,
                  "tracemesh: trace: %zu lines, %zu polygons, %zu fallback loops, %zu raw vertices, %.1f field "
@@ -62,7 +62,7 @@ void print_summary(const mesh_output& output) {
   }
   std::fprintf(stderr, "tracemesh: %zu atoms, %zu vertices, %zu triangles, area %.2f Å², volume %.2f Å³, %s %s, %s\n",
                output.atoms_meshed, output.report.vertices, output.report.triangles, output.report.area,
-               output.report.volume, method_name(output.method), refine_name(output.refine),
+               output.report.volume, method_name(method_used(output.method, output)), refine_name(output.refine),
                output.certified ? "certified" : "NOT certified");
 }
 
@@ -81,6 +81,10 @@ status run(const cli_options& options, progress_token& progress) {
   result<mesh_output> meshed = mesh_molecule(*mol, options.params, limits, progress);
   if (!meshed) return meshed.error();
   mesh_output& output = *meshed;
+  if (!output.fallback_reason.empty()) {
+    std::fprintf(stderr, "tracemesh: warning: the trace path failed (%s); the lattice path made this mesh\n",
+                 output.fallback_reason.c_str());
+  }
   output.timings.insert(output.timings.begin(), {mesh_stage::reading, reading_seconds});
 
   start = clock_type::now();

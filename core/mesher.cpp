@@ -157,6 +157,26 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   return out;
 }
 
+/// The trace path's internal errors (a cell it could not close, a mesh that failed the certificate) are the
+/// engine's, not the input's: the lattice path meshes the molecule instead (mesh_molecule).
+bool trace_failed(const mesh_params& params, const result<mesh_output>& out) {
+  return params.method == mesh_method::trace && !out && out.error().code() == errc::internal_error;
+}
+
+result<mesh_output> mesh_by_lattice_instead(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
+                                            progress_token& progress, const status& trace_error) {
+  mesh_params lattice_params = params;
+  lattice_params.method = mesh_method::lattice;
+  result<mesh_output> out = run_pipeline(mol, lattice_params, limits, progress);
+  if (!out && out.error().code() == errc::internal_error) {
+    return status{errc::internal_error, trace_error.message() + "; the lattice path: " + out.error().message()};
+  }
+  if (!out) return out;
+  out->method = params.method;
+  out->fallback_reason = trace_error.message();
+  return out;
+}
+
 }  // namespace
 
 const char* method_name(mesh_method method) noexcept {
@@ -219,7 +239,10 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
   const int threads = params.threads == 0 ? tbb::task_arena::automatic : static_cast<int>(params.threads);
   tbb::task_arena arena(threads);
   result<mesh_output> out = status{errc::internal_error, "not run"};
-  arena.execute([&] { out = run_pipeline(mol, params, limits, progress); });
+  arena.execute([&] {
+    out = run_pipeline(mol, params, limits, progress);
+    if (trace_failed(params, out)) out = mesh_by_lattice_instead(mol, params, limits, progress, out.error());
+  });
   return out;
 }
 

@@ -48,7 +48,9 @@ struct mesh_params {
   double density = 1.0;  ///< requested vertices per Å² (sets the sampling step h̃ ≈ 1/√density)
   double d = -1.0;       ///< kernel decay rate, < 0
   double t0 = 1.0;       ///< isovalue, > 0
-  mesh_method method = mesh_method::lattice;
+  /// trace since 2026-11-27: certified on the whole ladder, within 1.25× of the lattice path's time (README
+  /// "Benchmarks", the default rule).
+  mesh_method method = mesh_method::trace;
   refine_mode refine = refine_mode::full;
   cavity_mode cavities = cavity_mode::keep;
   trace_parameters trace;  ///< used by mesh_method::trace only
@@ -67,7 +69,10 @@ struct mesh_output {
   double max_surface_distance = 0;     ///< max over vertices of |φ(v) − t0| / |∇φ(v)|, Å
   double field_cutoff_error = 0;       ///< bound on |φ_cutoff − φ| relative to t0 (see gaussian_field.hpp)
   bool certified = false;              ///< report.topologically_certified() and max_surface_distance ≤ 1e-3 Å
-  mesh_method method = mesh_method::lattice;  ///< as requested
+  mesh_method method = mesh_method::trace;    ///< as requested
+  /// Why the trace path gave way to the lattice path (its internal_error: a cell it could not close, or a mesh that
+  /// failed the certificate); empty when it did not. `trace` then holds nothing (method_used()).
+  std::string fallback_reason;
   refine_mode refine = refine_mode::full;     ///< as requested
   cavity_mode cavities = cavity_mode::keep;   ///< as requested
   /// cavity_mode::drop: the enclosed components removed (before the certificate), and their triangles.
@@ -76,11 +81,19 @@ struct mesh_output {
   trace_stats trace;                   ///< filled by mesh_method::trace
 };
 
+/// The path whose polygons `out.mesh` holds: `requested` (out.method, or the parameters a report echoes), or lattice
+/// when the trace path fell back.
+inline mesh_method method_used(mesh_method requested, const mesh_output& out) {
+  return out.fallback_reason.empty() ? requested : mesh_method::lattice;
+}
+
 /// Meshes the Gaussian surface {φ = t0} of `mol`. Deterministic: the same input gives the same mesh whatever
-/// params.threads is. Errors: invalid_argument (params), nothing_to_mesh (no atom with radius > 0),
-/// limit_exceeded (extent or size over `limits`), unresolvable_input (an atom below
+/// params.threads is. A trace job that ends in internal_error is meshed again by the lattice path, and the output
+/// says so (method_used, fallback_reason): a user gets a certified mesh of any molecule the engine can mesh, and
+/// never a lattice mesh labelled as a traced one. Errors: invalid_argument (params), nothing_to_mesh (no atom with
+/// radius > 0), limit_exceeded (extent or size over `limits`), unresolvable_input (an atom below
 /// parameter_ranges::min_atom_surface_radius_per_edge, see atom_resolution.hpp), cancelled (token),
-/// internal_error (certificate failed).
+/// internal_error (certificate failed, on the lattice path too for a trace job).
 result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
                                   progress_token& progress);
 

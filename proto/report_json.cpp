@@ -102,14 +102,18 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
   const mesh_report& report = output.report;
   nlohmann::json components = nlohmann::json::array();
   for (const component_report& component : report.components) components.push_back(component_to_json(component));
+  const mesh_method used = method_used(params.method, output);
   return {
       {"engine_version", engine_version},
       {"parameters", parameters_to_json(params)},
       {"method", method_name(params.method)},
+      {"method_used", method_name(used)},
+      {"fallback", output.fallback_reason.empty() ? nlohmann::json() : nlohmann::json(output.fallback_reason)},
       {"refine", refine_name(params.refine)},
       {"cavity_mode", cavity_mode_name(params.cavities)},
       {"dropped_components", output.dropped_components},
-      {"trace", params.method == mesh_method::trace ? trace_to_json(params.trace, output.trace) : nlohmann::json()},
+      {"trace",
+       used == mesh_method::trace ? trace_to_json(params.trace, output.trace) : nlohmann::json()},
       {"atoms_meshed", output.atoms_meshed},
       {"zero_radius_atoms", output.zero_radius_atoms},
       {"vertices", report.vertices},

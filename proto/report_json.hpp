@@ -11,9 +11,11 @@
 
 namespace tracemesh::proto {
 
-/// Report of one meshing run: engine_version, parameters {density, d, t0}, method ("trace" | "lattice"), refine
-/// ("none" | "full"), cavity_mode ("keep" | "drop", params.cavities), dropped_components (enclosed components
-/// removed by cavities=drop), trace (trace_to_json when params.method is trace, else null), atoms_meshed,
+/// Report of one meshing run: engine_version, parameters {density, d, t0}, method ("trace" | "lattice"),
+/// method_used (method_used(): lattice when a trace job fell back), fallback (output.fallback_reason, null
+/// when empty), refine ("none" | "full"), cavity_mode ("keep" | "drop", params.cavities), dropped_components
+/// (enclosed components removed by cavities=drop), trace (trace_to_json when the trace path made the mesh, else
+/// null), atoms_meshed,
 /// zero_radius_atoms, vertices, triangles, area, volume, components [{vertices, triangles, area, volume, genus,
 /// euler_characteristic, cavity, enclosed}, ...], cavities, genus, euler_characteristic, certificate {...},
 /// quality {...}, achieved_density and timings {<stage name>: seconds, ..., total}.

@@ -108,6 +108,10 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
   const auto started = std::chrono::steady_clock::now();
   result<mesh_output> meshed = context.mesher(input.mol, params, context.limits, token);
   if (!meshed.ok()) return meshed.error();
+  if (!meshed->fallback_reason.empty()) {
+    context.stats.count_trace_fallback();
+    log_event(context.log, spdlog::level::warn, "trace_fallback", {{"job", id}, {"reason", meshed->fallback_reason}});
+  }
   if (!token.report(mesh_stage::encoding, 0.0)) return status(errc::cancelled, "cancelled");
   nlohmann::json report_doc = proto::report_to_json(*meshed, input.params);
   // Filled as formats are first encoded (encoded_result). A result made again after the store lost its mesh keeps
@@ -140,6 +144,7 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
              {"atoms", input.mol.atoms.size()},
              {"vertices", meshed->mesh.vertex_count()},
              {"triangles", meshed->mesh.triangle_count()},
+             {"method", method_name(method_used(meshed->method, *meshed))},
              {"certified", meshed->certified},
              {"seconds", seconds}});
   return job_output{std::make_shared<const surface_mesh>(std::move(meshed->mesh)), std::move(report), false};

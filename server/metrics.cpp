@@ -104,6 +104,10 @@ std::string metrics::render(const metrics_gauges& gauges) const {
   family(out, "tracemesh_mesher_runs_total", "counter", "Real runs of the mesher (coalesced and cached jobs excluded).");
   sample(out, "tracemesh_mesher_runs_total", mesher_runs_.load(std::memory_order_relaxed));
 
+  family(out, "tracemesh_trace_fallbacks_total", "counter",
+         "Trace jobs the trace path failed and the lattice path meshed instead (their reports say why).");
+  sample(out, "tracemesh_trace_fallbacks_total", trace_fallbacks_.load(std::memory_order_relaxed));
+
   family(out, "tracemesh_jobs_finished_total", "counter", "Jobs that reached a final state, by state.");
   for (const auto& [state, count] : jobs_finished_) {
     sample(out, "tracemesh_jobs_finished_total{state=\"" + label_value(state) + "\"}", count);

@@ -43,6 +43,8 @@ class metrics {
   void count_mesher_run() { mesher_runs_.fetch_add(1, std::memory_order_relaxed); }
   /// A job reached a final state ("done", "failed", "cancelled") after `seconds` of work.
   void count_job_finished(std::string_view state, double seconds);
+  /// A trace job whose mesh the lattice path made (mesh_output::fallback_reason): an engine failure to look into.
+  void count_trace_fallback() { trace_fallbacks_.fetch_add(1, std::memory_order_relaxed); }
   /// A response served from the result cache without running or waiting for a job.
   void count_cache_response() { cache_responses_.fetch_add(1, std::memory_order_relaxed); }
   /// A mesh encoding compressed for a response, with gzip (`brotli` false) or br.
@@ -73,6 +75,7 @@ class metrics {
   std::uint64_t job_seconds_count_ = 0;
   double job_seconds_sum_ = 0;
   std::atomic<std::uint64_t> mesher_runs_{0};
+  std::atomic<std::uint64_t> trace_fallbacks_{0};
   std::atomic<std::uint64_t> cache_responses_{0};
   std::atomic<std::uint64_t> gzip_compressions_{0};
   std::atomic<std::uint64_t> br_compressions_{0};

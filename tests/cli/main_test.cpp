@@ -425,6 +425,22 @@ TEST_F(TracemeshCli, TraceMethodGivesCertifiedMeshesWithTraceReports) {
   }
 }
 
+// fas2 with a sharp kernel leaves a cell the trace path cannot close (tests/core/mesher_test.cpp): the CLI still
+// writes a certified mesh, made by the lattice path, warns in one line and says so in the report.
+TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheReport) {
+  const fs::path off = path("fas2.off");
+  const run_result result = run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-20",
+                                 "--t0", "0.3", "--method", "trace", "--report", "-"});
+  const nlohmann::json report = certified_report(result, read_file(off));
+  ASSERT_FALSE(report.empty());
+  EXPECT_EQ(report.at("method"), "trace");
+  EXPECT_EQ(report.at("method_used"), "lattice");
+  EXPECT_NE(report.at("fallback").get<std::string>().find("could not be closed"), std::string::npos);
+  EXPECT_TRUE(report.at("trace").is_null());
+  EXPECT_EQ(line_count(result.err), 1u) << result.err;
+  EXPECT_EQ(result.err.rfind("tracemesh: warning: the trace path failed (", 0), 0u) << result.err;
+}
+
 TEST_F(TracemeshCli, TraceMethodTakesItsParametersAndPrintsTheTracingStage) {
   const fs::path off = path("gly.off");
   const run_result result =

@@ -1,10 +1,12 @@
-// Every molecule of the shared ladder up to ~35k atoms, at densities 1 and 2: the mesh must carry the certificate
-// (closed, oriented, manifold, no self-intersection, vertices on the surface) and meet the quality targets.
+// Every molecule of the shared ladder up to ~35k atoms, at densities 1 and 2, by both paths (trace and lattice, each
+// with the quality pass): the mesh must carry the certificate (closed, oriented, manifold, no self-intersection,
+// vertices on the surface) and meet the quality targets.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <ostream>
 #include <string>
+#include <tuple>
 
 #include "core/mesher.hpp"
 #include "core/io/pqr_reader.hpp"
@@ -19,10 +21,12 @@ using testing::ladder_case;
 
 bool sanitized_build() { return std::getenv("TRACEMESH_SANITIZED") != nullptr; }
 
-/// Meshes `mol` with default parameters but `density` and `threads` (0: all), expecting success.
-result<mesh_output> mesh_at(const molecule& mol, double density, unsigned threads = 0) {
+/// Meshes `mol` with default parameters but `density`, `method` and `threads` (0: all), expecting success.
+result<mesh_output> mesh_at(const molecule& mol, double density, mesh_method method = mesh_params{}.method,
+                            unsigned threads = 0) {
   mesh_params params;
   params.density = density;
+  params.method = method;
   params.threads = threads;
   progress_token progress;
   auto out = mesh_molecule(mol, params, {}, progress);
@@ -30,14 +34,21 @@ result<mesh_output> mesh_at(const molecule& mol, double density, unsigned thread
   return out;
 }
 
-class molecule_ladder : public ::testing::TestWithParam<ladder_case> {};
+using ladder_run = std::tuple<ladder_case, mesh_method>;
+
+std::string run_name(const ::testing::TestParamInfo<ladder_run>& info) {
+  const auto& [c, method] = info.param;
+  return case_name(::testing::TestParamInfo<ladder_case>(c, info.index)) + "_" + method_name(method);
+}
+
+class molecule_ladder : public ::testing::TestWithParam<ladder_run> {};
 
 TEST_P(molecule_ladder, mesh_is_certified_and_well_shaped) {
-  const ladder_case& c = GetParam();
+  const auto& [c, method] = GetParam();
   auto mol = read_pqr_file(testing::molecule_path(c.file));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
   if (sanitized_build() && mol->atoms.size() > 10000) GTEST_SKIP() << "large molecules run in the Release suite only";
-  auto out = mesh_at(*mol, c.density);
+  auto out = mesh_at(*mol, c.density, method);
   ASSERT_TRUE(out.ok());
   const mesh_report& r = out->report;
   testing::expect_certified_output(*out);
@@ -49,30 +60,35 @@ TEST_P(molecule_ladder, mesh_is_certified_and_well_shaped) {
 
 INSTANTIATE_TEST_SUITE_P(
     ladder, molecule_ladder,
-    ::testing::Values(ladder_case{"gly.pqr", 1}, ladder_case{"gly.pqr", 2}, ladder_case{"adp.pqr", 1},
-                      ladder_case{"adp.pqr", 2}, ladder_case{"villin_1vii.pqr", 1}, ladder_case{"villin_1vii.pqr", 2},
-                      ladder_case{"fas2.pqr", 1}, ladder_case{"fas2.pqr", 2}, ladder_case{"mache.pqr", 1},
-                      ladder_case{"mache.pqr", 2}, ladder_case{"achbp.pqr", 1}, ladder_case{"achbp.pqr", 2},
-                      ladder_case{"3j6r_asu.pqr", 1}, ladder_case{"3j6r_asu.pqr", 2}, ladder_case{"1ihm_asu.pqr", 1},
-                      ladder_case{"1ihm_asu.pqr", 2}, ladder_case{"2buk_12asu.pqr", 1},
-                      ladder_case{"2buk_12asu.pqr", 2}),
-    case_name);
+    ::testing::Combine(
+        ::testing::Values(ladder_case{"gly.pqr", 1}, ladder_case{"gly.pqr", 2}, ladder_case{"adp.pqr", 1},
+                          ladder_case{"adp.pqr", 2}, ladder_case{"villin_1vii.pqr", 1},
+                          ladder_case{"villin_1vii.pqr", 2}, ladder_case{"fas2.pqr", 1}, ladder_case{"fas2.pqr", 2},
+                          ladder_case{"mache.pqr", 1}, ladder_case{"mache.pqr", 2}, ladder_case{"achbp.pqr", 1},
+                          ladder_case{"achbp.pqr", 2}, ladder_case{"3j6r_asu.pqr", 1}, ladder_case{"3j6r_asu.pqr", 2},
+                          ladder_case{"1ihm_asu.pqr", 1}, ladder_case{"1ihm_asu.pqr", 2},
+                          ladder_case{"2buk_12asu.pqr", 1}, ladder_case{"2buk_12asu.pqr", 2}),
+        ::testing::Values(mesh_method::trace, mesh_method::lattice)),
+    run_name);
 
 // mache at density 1 is large enough to be remeshed in chunks (remesh_chunks.hpp): patches run on whichever
 // thread is free, yet the mesh must not depend on the thread count (the service's cache keys on it).
 TEST(mesh_determinism, chunked_molecule_is_identical_whatever_the_thread_count) {
   auto mol = read_pqr_file(testing::molecule_path("mache.pqr"));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
-  const auto run = [&](unsigned threads) {
-    auto out = mesh_at(*mol, 1.0, threads);
-    return out.ok() ? std::move(out->mesh) : surface_mesh{};
-  };
-  const surface_mesh one = run(1), two = run(2);
-  ASSERT_GT(one.triangles.size(), 30000u);
-  EXPECT_EQ(one.positions, two.positions);  // bitwise
-  EXPECT_EQ(one.triangles, two.triangles);
-  EXPECT_EQ(one.normals, two.normals);
-  EXPECT_EQ(one.atom_index, two.atom_index);
+  for (const mesh_method method : {mesh_method::trace, mesh_method::lattice}) {
+    SCOPED_TRACE(method_name(method));
+    const auto run = [&](unsigned threads) {
+      auto out = mesh_at(*mol, 1.0, method, threads);
+      return out.ok() ? std::move(out->mesh) : surface_mesh{};
+    };
+    const surface_mesh one = run(1), two = run(2);
+    ASSERT_GT(one.triangles.size(), 30000u);
+    EXPECT_EQ(one.positions, two.positions);  // bitwise
+    EXPECT_EQ(one.triangles, two.triangles);
+    EXPECT_EQ(one.normals, two.normals);
+    EXPECT_EQ(one.atom_index, two.atom_index);
+  }
 }
 
 // Area and volume converge to a much finer reference as the density grows (fas2, 906 atoms).

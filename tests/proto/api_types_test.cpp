@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <string>
 #include <string_view>
@@ -181,7 +182,10 @@ TEST(ParseMeshParams, CavitiesIsKeepOrDropAndPartOfTheCanonicalSpellingOnlyWhenD
   EXPECT_EQ(defaults->cavities, cavity_mode::keep);
   EXPECT_EQ(drop->cavities, cavity_mode::drop);
   EXPECT_EQ(canonical_parameters(*keep), canonical_parameters(*defaults)) << "keep is the default";
-  EXPECT_EQ(canonical_parameters(*drop), canonical_parameters(*defaults) + ";cavities=drop");
+  std::string drop_spelling = canonical_parameters(*drop);
+  const std::size_t dropped = drop_spelling.find(";cavities=drop");
+  ASSERT_NE(dropped, std::string::npos) << drop_spelling;
+  EXPECT_EQ(drop_spelling.erase(dropped, std::strlen(";cavities=drop")), canonical_parameters(*defaults));
   for (const char* text : {"Drop", "remove", "", "drop "}) {
     expect_invalid_naming(parse_mesh_params(fields({{"cavities", text}})), "cavities");
   }

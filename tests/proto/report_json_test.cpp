@@ -64,7 +64,8 @@ using testing::keys_of;
 
 TEST(ReportJson, HasExactlyTheDocumentedTopLevelFields) {
   const nlohmann::json json = report_to_json(sample_output(), sample_params());
-  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "method", "refine", "cavity_mode",
+  EXPECT_EQ(keys_of(json), (std::set<std::string>{"engine_version", "parameters", "method", "method_used",
+                                                  "fallback", "refine", "cavity_mode",
                                                   "dropped_components", "trace",
                                                   "atoms_meshed", "zero_radius_atoms", "vertices", "triangles",
                                                   "area", "volume", "components", "cavities", "genus",
@@ -115,6 +116,25 @@ TEST(ReportJson, EchoesMethodAndRefine) {
       EXPECT_EQ(json.at("trace").is_null(), method == mesh_method::lattice) << json.at("trace");
     }
   }
+}
+
+TEST(ReportJson, ATraceJobMeshedByTheLatticePathSaysSo) {
+  mesh_output output = sample_output();
+  output.method = mesh_method::trace;
+  output.trace = sample_trace_stats();  // what the failed trace counted: not this mesh's
+  mesh_params params = trace_params();
+  params.method = mesh_method::trace;
+  const nlohmann::json as_traced = report_to_json(output, params);
+  EXPECT_EQ(as_traced.at("method_used"), "trace");
+  EXPECT_TRUE(as_traced.at("fallback").is_null());
+  EXPECT_FALSE(as_traced.at("trace").is_null());
+
+  output.fallback_reason = "trace polygons could not be closed: 0 roots without an arc, 1 cells ...";
+  const nlohmann::json fell_back = report_to_json(output, params);
+  EXPECT_EQ(fell_back.at("method"), "trace");
+  EXPECT_EQ(fell_back.at("method_used"), "lattice");
+  EXPECT_EQ(fell_back.at("fallback"), output.fallback_reason);
+  EXPECT_TRUE(fell_back.at("trace").is_null());
 }
 
 TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {

@@ -80,6 +80,7 @@ TEST(Metrics, CountersEndInTotalAndGaugesComeFromTheCaller) {
   metrics m;
   m.count_mesher_run();
   m.count_mesher_run();
+  m.count_trace_fallback();
   metrics_gauges gauges;
   gauges.queue_depth = 3;
   gauges.running_jobs = 1;
@@ -90,6 +91,7 @@ TEST(Metrics, CountersEndInTotalAndGaugesComeFromTheCaller) {
   const auto values = samples(text, typed);
   EXPECT_EQ(values.at("tracemesh_mesher_runs_total"), 2);
   EXPECT_EQ(m.mesher_runs(), 2u);
+  EXPECT_EQ(values.at("tracemesh_trace_fallbacks_total"), 1);
   EXPECT_EQ(values.at("tracemesh_queue_depth"), 3);
   EXPECT_EQ(values.at("tracemesh_running_jobs"), 1);
   EXPECT_EQ(values.at("tracemesh_cache_hits_total"), 7);

@@ -10,9 +10,11 @@
 
 namespace tracemesh::testing {
 
-/// Each condition of the certificate, the field normals and atom indices of every vertex.
+/// Each condition of the certificate, the field normals and atom indices of every vertex; and the requested path
+/// made the mesh (no fallback from trace to lattice).
 inline void expect_certified_output(const mesh_output& out) {
   const mesh_report& r = out.report;
+  EXPECT_TRUE(out.fallback_reason.empty()) << out.fallback_reason;
   EXPECT_TRUE(out.certified);
   EXPECT_TRUE(r.topologically_certified());
   EXPECT_EQ(r.boundary_edges, 0u);
