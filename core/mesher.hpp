@@ -97,8 +97,9 @@ inline mesh_method method_used(mesh_method requested, const mesh_output& out) {
 result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
                                   progress_token& progress);
 
-/// Version of the engine's output; part of every cache key. Bump when the mesh for a given input changes (5: the trace
-/// path's vertex placement, vertex numbering and the quality pass's chunks, 2026-11-27).
-inline constexpr const char* engine_version = "tracemesh-engine-5";
+/// Version of the engine's output; part of every cache key. Bump when the mesh or the report for a given input
+/// changes (5: the trace path's vertex placement, vertex numbering and the quality pass's chunks; 6: the lattice
+/// fallback of trace jobs and the report's method_used and fallback; both 2026-11-27).
+inline constexpr const char* engine_version = "tracemesh-engine-6";
 
 }  // namespace tracemesh

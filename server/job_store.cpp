@@ -345,7 +345,7 @@ status job_store::complete(const std::string& id, const stored_job& record_if_ne
   if (!durable()) {
     auto shared = std::make_shared<const surface_mesh>(mesh);
     memory_used_ += mesh_bytes(mesh) + report->size();
-    meshes_[id] = std::move(shared);
+    meshes_[id] = held_mesh{std::move(shared), ++completions_};
   }
   records_[id] = std::move(record);
   enforce_memory_bound_locked();
@@ -426,7 +426,7 @@ std::shared_ptr<const surface_mesh> job_store::mesh(const std::string& id) {
   if (!durable()) {
     std::lock_guard lock(mutex_);
     const auto it = meshes_.find(id);
-    return it == meshes_.end() ? nullptr : it->second;
+    return it == meshes_.end() ? nullptr : it->second.mesh;
   }
   const std::optional<std::string> sealed = detail::read_whole_file(file_path(id, result_extension));
   const std::optional<std::string> bytes = sealed ? detail::unseal(result_magic, *sealed) : std::nullopt;
@@ -457,7 +457,7 @@ bool job_store::expired(const stored_job& record, std::int64_t now_ms) const {
 void job_store::forget_locked(const std::string& id) {
   records_.erase(id);
   if (const auto it = meshes_.find(id); it != meshes_.end()) {
-    memory_used_ -= std::min(memory_used_, mesh_bytes(*it->second));
+    memory_used_ -= std::min(memory_used_, mesh_bytes(*it->second.mesh));
     meshes_.erase(it);
   }
   if (!durable()) return;
@@ -473,7 +473,7 @@ void job_store::enforce_memory_bound_locked() {
     // The oldest finished job goes first.
     auto oldest = meshes_.begin();
     for (auto it = meshes_.begin(); it != meshes_.end(); ++it) {
-      if (records_[it->first].finished_ms < records_[oldest->first].finished_ms) oldest = it;
+      if (it->second.completion < oldest->second.completion) oldest = it;
     }
     const std::string id = oldest->first;
     if (const auto& report = records_[id].report) memory_used_ -= std::min(memory_used_, report->size());

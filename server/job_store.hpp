@@ -122,8 +122,14 @@ class job_store final : public job_record_store {
   std::mutex write_mutex_;
   mutable std::mutex mutex_;  // the index below
   std::map<std::string, stored_job> records_;
-  // Memory store only: the meshes of done jobs and their bytes.
-  std::map<std::string, std::shared_ptr<const surface_mesh>> meshes_;
+  // Memory store only: the meshes of done jobs, numbered in the order they were completed (finished_ms has
+  // millisecond ties), and their bytes.
+  struct held_mesh {
+    std::shared_ptr<const surface_mesh> mesh;
+    std::uint64_t completion = 0;
+  };
+  std::map<std::string, held_mesh> meshes_;
+  std::uint64_t completions_ = 0;
   std::size_t memory_used_ = 0;
   std::vector<unfinished_job> unfinished_;
   std::vector<std::string> lost_;
