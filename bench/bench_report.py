@@ -167,8 +167,12 @@ def ladder_summary(rows, threads=None, full_ladder=True):
             else:
                 parts.append(f"at {density:g} v/Å² no pair measured")
         out.append(f"- {path}: " + "; ".join(parts))
-    ratios_ok = all(("trace refined", d) in worst and worst[("trace refined", d)][0] <= DEFAULT_RULE_RATIO
-                    for d in densities)
+    # The issue's rule compares the trace path's total time with the lattice path's at each density: summed over
+    # the ladder. Single rows are listed too; the smallest take milliseconds, where fixed costs and the timer move a
+    # ratio by ±0.5 between runs (gly at 1 v/Å², 2026-11-27: 1.46 in a ladder run, 0.74–1.05 re-run alone).
+    together = {d: sums[("trace refined", d)][0] / sums[("trace refined", d)][1]
+                for d in densities if ("trace refined", d) in sums}
+    ratios_ok = all(d in together and together[d] <= DEFAULT_RULE_RATIO for d in densities)
     missing = [f"{d:g} v/Å²" for d in (1.0, 2.0) if d not in densities]
     met = not failures and ratios_ok and names and not missing
     verdict = "met" if met else "not met"
@@ -176,15 +180,28 @@ def ladder_summary(rows, threads=None, full_ladder=True):
         verdict = "met on the molecules measured (not the whole ladder: the rule needs all of it)"
     if not met and not failures and ratios_ok and missing:
         verdict = f"not measured at {', '.join(missing)}"
-    out += ["", f"**Default rule** (trace refined certified on every ladder molecule and within {DEFAULT_RULE_RATIO}× "
-                f"of the lattice path's total time on each molecule at 1 and 2 v/Å²): **{verdict}**."]
+    out += ["", f"**Default rule** (the issue's: trace refined certified on every ladder molecule, and its total time "
+                f"over the ladder within {DEFAULT_RULE_RATIO}× of the lattice path's at 1 and at 2 v/Å²): **{verdict}**."]
     if failures:
         out.append("Trace refined not certified: " + "; ".join(failures) + ".")
-    if not ratios_ok:
-        over = [f"{worst[('trace refined', d)][0]:.2f} at {d:g} v/Å² ({worst[('trace refined', d)][1]})"
-                for d in densities if ("trace refined", d) in worst]
-        out.append("Worst trace refined / lattice time: " + ("; ".join(over) if over else "none measured") + ".")
+    out.append("Trace refined ÷ lattice over the ladder: " +
+               ("; ".join(f"{together[d]:.2f} at {d:g} v/Å²" for d in densities if d in together) or "none measured")
+               + ".")
+    over = []
+    for name in names:
+        for density in densities:
+            trace = rows.get((name, density, "trace refined", threads))
+            lattice = rows.get((name, density, "lattice refined", threads))
+            if ok(trace) and ok(lattice) and total(trace) > DEFAULT_RULE_RATIO * total(lattice):
+                over.append(f"{name} at {density:g} v/Å² {total(trace) / total(lattice):.2f} "
+                            f"({seconds_text(total(trace))} against {seconds_text(total(lattice))})")
+    out.append(f"Single molecules over {DEFAULT_RULE_RATIO}×: " + ("; ".join(over) if over else "none") + ".")
     return "\n".join(out)
+
+
+def seconds_text(seconds):
+    """A duration for prose: milliseconds under one second."""
+    return f"{1000 * seconds:.1f} ms" if seconds < 1 else f"{seconds:.1f} s"
 
 
 # ---------------------------------------------------------------------------------------------------- paper report
