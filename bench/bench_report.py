@@ -180,8 +180,9 @@ def ladder_summary(rows, threads=None, full_ladder=True):
         verdict = "met on the molecules measured (not the whole ladder: the rule needs all of it)"
     if not met and not failures and ratios_ok and missing:
         verdict = f"not measured at {', '.join(missing)}"
-    out += ["", f"**Default rule** (the issue's: trace refined certified on every ladder molecule, and its total time "
-                f"over the ladder within {DEFAULT_RULE_RATIO}× of the lattice path's at 1 and at 2 v/Å²): **{verdict}**."]
+    out += ["", f"**Default rule** (the issue's: trace refined certified on every ladder molecule, and its total "
+                f"time over the ladder within {DEFAULT_RULE_RATIO}× of the lattice path's at 1 and at 2 v/Å²): "
+                f"**{verdict}**."]
     if failures:
         out.append("Trace refined not certified: " + "; ".join(failures) + ".")
     out.append("Trace refined ÷ lattice over the ladder: " +
