@@ -51,7 +51,8 @@ void print_summary(const mesh_output& output) {
   for (const stage_timing& timing : output.timings) {
     std::fprintf(stderr, "tracemesh: %-13s %9.3f s\n", stage_name(timing.stage), timing.seconds);
   }
-  if (method_used(output.method, output) == mesh_method::trace) {
+  const mesh_method used = method_used(output.method, output);
+  if (used == mesh_method::trace) {
     const trace_stats& t = output.trace;
     std::fprintf(stderr,
                  "tracemesh: trace: %zu lines, %zu polygons, %zu fallback loops, %zu raw vertices, %.1f field "
@@ -62,7 +63,7 @@ void print_summary(const mesh_output& output) {
   }
   std::fprintf(stderr, "tracemesh: %zu atoms, %zu vertices, %zu triangles, area %.2f Å², volume %.2f Å³, %s %s, %s\n",
                output.atoms_meshed, output.report.vertices, output.report.triangles, output.report.area,
-               output.report.volume, method_name(method_used(output.method, output)), refine_name(output.refine),
+               output.report.volume, method_name(used), refine_name(output.refine),
                output.certified ? "certified" : "NOT certified");
 }
 
