@@ -51,13 +51,16 @@ void print_summary(const mesh_output& output) {
   for (const stage_timing& timing : output.timings) {
     std::fprintf(stderr, "tracemesh: %-13s %9.3f s\n", stage_name(timing.stage), timing.seconds);
   }
+  if (output.failed_attempt_seconds > 0) {
+    std::fprintf(stderr, "tracemesh: %-13s %9.3f s\n", "failed tries", output.failed_attempt_seconds);
+  }
   const mesh_method used = method_used(output.method, output);
   if (used == mesh_method::trace) {
     const trace_stats& t = output.trace;
     std::fprintf(stderr,
-                 "tracemesh: trace: %zu lines, %zu polygons, %zu fallback loops, %zu raw vertices, %.1f field "
-                 "evaluations per vertex\n",
-                 t.lines, t.polygons, t.fallback_loops, t.raw_vertices,
+                 "tracemesh: trace: %zu lines, %zu polygons, %zu fallback loops, %zu line grid retries, %zu raw "
+                 "vertices, %.1f field evaluations per vertex\n",
+                 t.lines, t.polygons, t.fallback_loops, t.grid_retries, t.raw_vertices,
                  t.raw_vertices == 0 ? 0.0
                                      : static_cast<double>(t.field_evaluations) / static_cast<double>(t.raw_vertices));
   }

@@ -4,6 +4,8 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -35,6 +37,12 @@ constexpr double trace_walk_tolerance = 1e-3;
 /// Outer iterations of the quality pass on the trace path's polygons, which already have about the output's
 /// density (remesh_options::iterations, 3, is for marching-tetrahedra input): README "Method", quality pass.
 constexpr int trace_refine_iterations = 2;
+
+/// The trace path's line grids, in units of h̃ (trace_stats::line_offset), attempt by attempt. A trace that cannot
+/// close a cell (at sharp kernels, d ≤ −10, a contour can turn within much less than h̃ beside a line) or whose mesh
+/// fails its certificate is tried again on the next grid, and only after the last one meshed by the lattice path.
+/// Each grid is at least h̃/4 away from the others on both axes. README "Method": how often each was needed.
+constexpr std::array<line_grid_offset, 3> trace_line_grids{{{0, 0}, {0.5, 0.5}, {0.25, 0.75}}};
 
 /// Lattice spacing relative to the target edge length (see README "Method": sampling step).
 constexpr double lattice_spacing_factor = 1.0;
@@ -95,8 +103,48 @@ void drop_enclosed_components(mesh_output& out) {
   }
 }
 
+/// The molecule moved by `shift` (Å).
+molecule translated(const molecule& mol, const vec3& shift) {
+  molecule out = mol;
+  for (atom& a : out.atoms) a.center += shift;
+  return out;
+}
+
+/// The raw mesh of `mol` by params.method on the lattice of `spacing` anchored at the origin (stages culling to
+/// triangulating). `field` is mol's.
+result<surface_mesh> raw_mesh_at_origin(const molecule& mol, const gaussian_field& field, const mesh_params& params,
+                                        double spacing, const mesh_limits& limits, progress_token& progress,
+                                        stage_clock& clock, trace_stats& stats) {
+  auto lat = make_lattice(field, spacing, limits);
+  if (!lat) return lat.error();
+  auto blocks = cull_blocks(field, *lat, progress);
+  if (!blocks) return blocks.error();
+  clock.finish(mesh_stage::culling);
+  if (params.method == mesh_method::lattice) return mesh_lattice_blocks(field, *lat, *blocks, limits, progress, clock);
+  const gaussian_field walk_field(mol, params.d, params.t0, trace_walk_tolerance);
+  return mesh_trace_blocks(field, walk_field, *lat, *blocks, params.trace, limits, progress, clock, stats);
+}
+
+/// The raw mesh with the trace path's lines at y = (j + line_offset[0])·h̃, z = (k + line_offset[1])·h̃: the
+/// molecule is meshed moved by −offset·h̃ (the lattice stays anchored at the origin) and the mesh moved back.
+result<surface_mesh> raw_mesh(const molecule& mol, const gaussian_field& field, const mesh_params& params,
+                              double spacing, const line_grid_offset& line_offset, const mesh_limits& limits,
+                              progress_token& progress, stage_clock& clock, trace_stats& stats) {
+  if (line_offset == line_grid_offset{}) {
+    return raw_mesh_at_origin(mol, field, params, spacing, limits, progress, clock, stats);
+  }
+  const vec3 shift{0, -line_offset[0] * spacing, -line_offset[1] * spacing};
+  const molecule moved = translated(mol, shift);
+  const gaussian_field moved_field(moved, params.d, params.t0);
+  result<surface_mesh> raw = raw_mesh_at_origin(moved, moved_field, params, spacing, limits, progress, clock, stats);
+  if (raw) {
+    for (vec3& p : raw->positions) p -= shift;
+  }
+  return raw;
+}
+
 result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
-                                 progress_token& progress) {
+                                 const line_grid_offset& line_offset, progress_token& progress) {
   mesh_output out;
   out.method = params.method;
   out.refine = params.refine;
@@ -113,23 +161,10 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   const double spacing = params.method == mesh_method::trace
                              ? trace_line_spacing(params.density)
                              : edge * lattice_spacing_factor;
-  auto lat = make_lattice(field, spacing, limits);
-  if (!lat) return lat.error();
-  auto blocks = cull_blocks(field, *lat, progress);
-  if (!blocks) return blocks.error();
-  clock.finish(mesh_stage::culling);
-
-  result<surface_mesh> raw = status{errc::internal_error, "no method"};
-  if (params.method == mesh_method::trace) {
-    const gaussian_field walk_field(mol, params.d, params.t0, trace_walk_tolerance);
-    raw = mesh_trace_blocks(field, walk_field, *lat, *blocks, params.trace, limits, progress, clock, out.trace);
-  } else {
-    raw = mesh_lattice_blocks(field, *lat, *blocks, limits, progress, clock);
-  }
+  out.trace.line_offset = line_offset;
+  result<surface_mesh> raw = raw_mesh(mol, field, params, spacing, line_offset, limits, progress, clock, out.trace);
   if (!raw) return raw.error();
   out.mesh = std::move(*raw);
-  blocks->clear();
-  blocks->shrink_to_fit();
   release_freed_memory();
 
   if (params.refine == refine_mode::full) {
@@ -158,22 +193,48 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
 }
 
 /// The trace path's internal errors (a cell it could not close, a mesh that failed the certificate) are the
-/// engine's, not the input's: the lattice path meshes the molecule instead (mesh_molecule).
+/// engine's, not the input's: the trace is tried on other line grids, then the lattice path meshes the molecule.
 bool trace_failed(const mesh_params& params, const result<mesh_output>& out) {
   return params.method == mesh_method::trace && !out && out.error().code() == errc::internal_error;
 }
 
-result<mesh_output> mesh_by_lattice_instead(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
-                                            progress_token& progress, const status& trace_error) {
-  mesh_params lattice_params = params;
-  lattice_params.method = mesh_method::lattice;
-  result<mesh_output> out = run_pipeline(mol, lattice_params, limits, progress);
-  if (!out && out.error().code() == errc::internal_error) {
-    return status{errc::internal_error, trace_error.message() + "; the lattice path: " + out.error().message()};
+/// run_pipeline, adding its wall seconds to `failed_seconds` when it fails.
+result<mesh_output> timed_attempt(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
+                                  const line_grid_offset& line_offset, progress_token& progress,
+                                  double& failed_seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  result<mesh_output> out = run_pipeline(mol, params, limits, line_offset, progress);
+  if (!out) failed_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+/// params.method on its own, then for a trace job that fails inside the engine: the other line grids in turn, and
+/// at last the lattice path (mesh_output::fallback_reason), every failed attempt's time counted.
+result<mesh_output> mesh_with_fallbacks(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
+                                        progress_token& progress) {
+  double failed_seconds = 0;
+  result<mesh_output> out = timed_attempt(mol, params, limits, trace_line_grids[0], progress, failed_seconds);
+  std::size_t retries = 0;
+  while (trace_failed(params, out) && retries + 1 < trace_line_grids.size()) {
+    ++retries;
+    out = timed_attempt(mol, params, limits, trace_line_grids[retries], progress, failed_seconds);
+  }
+  if (trace_failed(params, out)) {
+    const std::string trace_error = out.error().message();
+    mesh_params lattice_params = params;
+    lattice_params.method = mesh_method::lattice;
+    out = timed_attempt(mol, lattice_params, limits, {}, progress, failed_seconds);
+    if (!out && out.error().code() == errc::internal_error) {
+      return status{errc::internal_error, trace_error + "; the lattice path: " + out.error().message()};
+    }
+    if (!out) return out;
+    out->method = params.method;
+    out->fallback_reason =
+        trace_error + " (the last of " + std::to_string(trace_line_grids.size()) + " line grids tried)";
   }
   if (!out) return out;
-  out->method = params.method;
-  out->fallback_reason = trace_error.message();
+  out->trace.grid_retries = retries;
+  out->failed_attempt_seconds = failed_seconds;
   return out;
 }
 
@@ -240,8 +301,7 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
   tbb::task_arena arena(threads);
   result<mesh_output> out = status{errc::internal_error, "not run"};
   arena.execute([&] {
-    out = run_pipeline(mol, params, limits, progress);
-    if (trace_failed(params, out)) out = mesh_by_lattice_instead(mol, params, limits, progress, out.error());
+    out = mesh_with_fallbacks(mol, params, limits, progress);
   });
   return out;
 }

@@ -73,6 +73,9 @@ struct mesh_output {
   /// Why the trace path gave way to the lattice path (its internal_error: a cell it could not close, or a mesh that
   /// failed the certificate); empty when it did not. `trace` then holds nothing (method_used()).
   std::string fallback_reason;
+  /// Wall seconds of the attempts whose mesh was not delivered (trace attempts on other line grids, the trace before
+  /// a lattice fallback); `timings` are the delivered attempt's.
+  double failed_attempt_seconds = 0;
   refine_mode refine = refine_mode::full;     ///< as requested
   cavity_mode cavities = cavity_mode::keep;   ///< as requested
   /// cavity_mode::drop: the enclosed components removed (before the certificate), and their triangles.
@@ -88,8 +91,9 @@ inline mesh_method method_used(mesh_method requested, const mesh_output& out) {
 }
 
 /// Meshes the Gaussian surface {φ = t0} of `mol`. Deterministic: the same input gives the same mesh whatever
-/// params.threads is. A trace job that ends in internal_error is meshed again by the lattice path, and the output
-/// says so (method_used, fallback_reason): a user gets a certified mesh of any molecule the engine can mesh, and
+/// params.threads is. A trace job that ends in internal_error is traced again on other line grids
+/// (trace_stats::grid_retries), then meshed by the lattice path, and the output says so (method_used,
+/// fallback_reason; failed_attempt_seconds): a user gets a certified mesh of any molecule the engine can mesh, and
 /// never a lattice mesh labelled as a traced one. Errors: invalid_argument (params), nothing_to_mesh (no atom with
 /// radius > 0), limit_exceeded (extent or size over `limits`), unresolvable_input (an atom below
 /// parameter_ranges::min_atom_surface_radius_per_edge, see atom_resolution.hpp), cancelled (token),
@@ -99,7 +103,8 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 
 /// Version of the engine's output; part of every cache key. Bump when the mesh or the report for a given input
 /// changes (5: the trace path's vertex placement, vertex numbering and the quality pass's chunks; 6: the lattice
-/// fallback of trace jobs and the report's method_used and fallback; both 2026-11-27).
-inline constexpr const char* engine_version = "tracemesh-engine-6";
+/// fallback of trace jobs and the report's method_used and fallback; both 2026-11-27; 7: the trace retried on other
+/// line grids, the report's line_offset, grid_retries and failed_attempts seconds, 2026-11-28).
+inline constexpr const char* engine_version = "tracemesh-engine-7";
 
 }  // namespace tracemesh

@@ -27,6 +27,8 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
         {"line_spacing", number(stats.line_spacing)},
         {"cos_bound", number(params.cos_bound)},
         {"extreme_tolerance", number(params.extreme_tolerance)}}},
+      {"line_offset", stats.line_offset},
+      {"grid_retries", stats.grid_retries},
       {"lines", stats.lines},
       {"polynomial_roots", stats.polynomial_roots},
       {"late_roots", stats.late_roots},
@@ -86,9 +88,13 @@ nlohmann::json quality_to_json(const quality_report& quality) {
   };
 }
 
-nlohmann::json timings_to_json(const std::vector<stage_timing>& timings) {
+nlohmann::json timings_to_json(const std::vector<stage_timing>& timings, double failed_attempt_seconds) {
   nlohmann::json json = nlohmann::json::object();
   double total = 0;
+  if (failed_attempt_seconds > 0) {
+    json["failed_attempts"] = failed_attempt_seconds;
+    total += failed_attempt_seconds;
+  }
   for (const stage_timing& timing : timings) {
     const char* name = stage_name(timing.stage);
     json[name] = json.value(name, 0.0) + timing.seconds;
@@ -127,7 +133,7 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
       {"certificate", certificate_to_json(output)},
       {"quality", quality_to_json(report.quality)},
       {"achieved_density", number(report.achieved_density)},
-      {"timings", timings_to_json(output.timings)},
+      {"timings", timings_to_json(output.timings, output.failed_attempt_seconds)},
   };
 }
 

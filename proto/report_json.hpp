@@ -27,7 +27,8 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
 /// The parts of report_to_json, for callers that assemble their own documents.
 nlohmann::json parameters_to_json(const mesh_params& params);
 /// The trace path's section: {parameters: {legendre_degree, step_fraction, step (Å, stats.step), line_spacing (Å,
-/// stats.line_spacing), cos_bound, extreme_tolerance}, lines, polynomial_roots, bracketed_roots, late_roots, arcs,
+/// stats.line_spacing), cos_bound, extreme_tolerance}, line_offset ([y, z] in units of h̃), grid_retries, lines,
+/// polynomial_roots, bracketed_roots, late_roots, arcs,
 /// polygons, extreme_points, retraced_arcs, fallback_loops, field_evaluations, raw_vertices, raw_triangles,
 /// field_evaluations_per_vertex (field_evaluations / raw_vertices; 0 without vertices)}.
 nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& stats);
@@ -42,7 +43,8 @@ nlohmann::json quality_to_json(const quality_report& quality);
 /// self_intersections, passed}. A format that refused the mesh gives {"error": {code, message}} instead.
 nlohmann::json encoding_to_json(const encoder_input& input, mesh_format format, const result<std::size_t>& encoded_bytes);
 nlohmann::json delivered_check_to_json(const delivered_check& check);
-/// {<stage name>: seconds summed over entries of that stage, ..., "total": sum of all}.
-nlohmann::json timings_to_json(const std::vector<stage_timing>& timings);
+/// {<stage name>: seconds summed over entries of that stage, ..., "failed_attempts": failed_attempt_seconds (only
+/// when > 0: see mesh_output), "total": sum of all}.
+nlohmann::json timings_to_json(const std::vector<stage_timing>& timings, double failed_attempt_seconds = 0);
 
 }  // namespace tracemesh::proto

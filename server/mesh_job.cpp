@@ -108,6 +108,11 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
   const auto started = std::chrono::steady_clock::now();
   result<mesh_output> meshed = context.mesher(input.mol, params, context.limits, token);
   if (!meshed.ok()) return meshed.error();
+  if (meshed->trace.grid_retries > 0) {
+    context.stats.count_trace_grid_retries(meshed->trace.grid_retries);
+    log_event(context.log, spdlog::level::info, "trace_grid_retries",
+              {{"job", id}, {"retries", meshed->trace.grid_retries}, {"seconds", meshed->failed_attempt_seconds}});
+  }
   if (!meshed->fallback_reason.empty()) {
     context.stats.count_trace_fallback();
     log_event(context.log, spdlog::level::warn, "trace_fallback", {{"job", id}, {"reason", meshed->fallback_reason}});

@@ -108,6 +108,10 @@ std::string metrics::render(const metrics_gauges& gauges) const {
          "Trace jobs the trace path failed and the lattice path meshed instead (their reports say why).");
   sample(out, "tracemesh_trace_fallbacks_total", trace_fallbacks_.load(std::memory_order_relaxed));
 
+  family(out, "tracemesh_trace_grid_retries_total", "counter",
+         "Trace attempts that failed inside the engine and were made again on another line grid.");
+  sample(out, "tracemesh_trace_grid_retries_total", trace_grid_retries_.load(std::memory_order_relaxed));
+
   family(out, "tracemesh_jobs_finished_total", "counter", "Jobs that reached a final state, by state.");
   for (const auto& [state, count] : jobs_finished_) {
     sample(out, "tracemesh_jobs_finished_total{state=\"" + label_value(state) + "\"}", count);

@@ -45,6 +45,8 @@ class metrics {
   void count_job_finished(std::string_view state, double seconds);
   /// A trace job whose mesh the lattice path made (mesh_output::fallback_reason): an engine failure to look into.
   void count_trace_fallback() { trace_fallbacks_.fetch_add(1, std::memory_order_relaxed); }
+  /// `retries` trace attempts that failed and were made again on another line grid (trace_stats::grid_retries).
+  void count_trace_grid_retries(std::size_t retries) { trace_grid_retries_.fetch_add(retries, std::memory_order_relaxed); }
   /// A response served from the result cache without running or waiting for a job.
   void count_cache_response() { cache_responses_.fetch_add(1, std::memory_order_relaxed); }
   /// A mesh encoding compressed for a response, with gzip (`brotli` false) or br.
@@ -76,6 +78,7 @@ class metrics {
   double job_seconds_sum_ = 0;
   std::atomic<std::uint64_t> mesher_runs_{0};
   std::atomic<std::uint64_t> trace_fallbacks_{0};
+  std::atomic<std::uint64_t> trace_grid_retries_{0};
   std::atomic<std::uint64_t> cache_responses_{0};
   std::atomic<std::uint64_t> gzip_compressions_{0};
   std::atomic<std::uint64_t> br_compressions_{0};

@@ -3,6 +3,7 @@
 /// The knobs of the trace path (TMSmesh stage two: paper eq. 6, Algorithms 1 and 2) and what it counts while it
 /// runs. Both appear in the job report, so a mesh can be reproduced from its report alone.
 
+#include <array>
 #include <cstddef>
 
 namespace tracemesh {
@@ -20,8 +21,13 @@ struct trace_parameters {
   double extreme_tolerance = 0.02;
 };
 
+/// Where the lines lie: y = (j + offset[0])·h̃, z = (k + offset[1])·h̃ (mesher.cpp moves them when a trace fails).
+using line_grid_offset = std::array<double, 2>;
+
 /// What the trace path did, for the report (all counts over the whole job).
 struct trace_stats {
+  line_grid_offset line_offset{};       ///< the lines of this attempt, in units of h̃
+  std::size_t grid_retries = 0;         ///< failed attempts on other line grids before this one (mesher.cpp)
   double line_spacing = 0;              ///< h̃, Å
   double step = 0;                      ///< h₁, Å
   std::size_t lines = 0;                ///< line spans (one per surviving block and line) searched for roots

@@ -425,20 +425,45 @@ TEST_F(TracemeshCli, TraceMethodGivesCertifiedMeshesWithTraceReports) {
   }
 }
 
-// fas2 with a sharp kernel leaves a cell the trace path cannot close (tests/core/mesher_test.cpp): the CLI still
-// writes a certified mesh, made by the lattice path, warns in one line and says so in the report.
+// fas2 with a sharp kernel leaves cells the trace path cannot close on any line grid (tests/core/mesher_test.cpp):
+// the CLI still writes a certified mesh, made by the lattice path, warns in one line and says so in the report.
 TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheReport) {
   const fs::path off = path("fas2.off");
-  const run_result result = run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-20",
-                                 "--t0", "0.3", "--method", "trace", "--report", "-"});
+  const run_result result =
+      run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-12", "--t0", "30",
+           "--density", "0.5", "--method", "trace", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method"), "trace");
   EXPECT_EQ(report.at("method_used"), "lattice");
   EXPECT_NE(report.at("fallback").get<std::string>().find("could not be closed"), std::string::npos);
   EXPECT_TRUE(report.at("trace").is_null());
+  EXPECT_GT(report.at("timings").at("failed_attempts").get<double>(), 0.0);
   EXPECT_EQ(line_count(result.err), 1u) << result.err;
   EXPECT_EQ(result.err.rfind("tracemesh: warning: the trace path failed (", 0), 0u) << result.err;
+}
+
+// fas2 at d = −20, t0 = 0.3 leaves a cell open on the first line grid and closes on the second: no warning (the
+// mesh is the trace path's), and the report says where the lines were and how long the failed attempt took.
+TEST_F(TracemeshCli, ATraceRetriedOnAnotherLineGridSaysSoInTheReport) {
+  const fs::path off = path("fas2.off");
+  const run_result result = run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-20",
+                                 "--t0", "0.3", "--method", "trace", "--refine", "none", "--report", "-"});
+  const nlohmann::json report = certified_report(result, read_file(off));
+  ASSERT_FALSE(report.empty());
+  EXPECT_EQ(report.at("method_used"), "trace");
+  EXPECT_TRUE(report.at("fallback").is_null());
+  EXPECT_EQ(report.at("trace").at("grid_retries"), 1);
+  EXPECT_EQ(report.at("trace").at("line_offset"), nlohmann::json::parse("[0.5, 0.5]"));
+  const nlohmann::json& timings = report.at("timings");
+  const double failed = timings.at("failed_attempts").get<double>();
+  EXPECT_GT(failed, 0.0);
+  double sum = 0;
+  for (const auto& [stage, seconds] : timings.items()) {
+    if (stage != "total") sum += seconds.get<double>();
+  }
+  EXPECT_NEAR(timings.at("total").get<double>(), sum, 1e-9) << "the failed attempt is part of the total";
+  EXPECT_TRUE(result.err.empty()) << result.err;
 }
 
 TEST_F(TracemeshCli, TraceMethodTakesItsParametersAndPrintsTheTracingStage) {

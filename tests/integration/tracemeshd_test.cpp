@@ -265,12 +265,14 @@ TEST_F(TracemeshdTest, LatticeMethodWithAndWithoutRefinementGivesCertifiedMeshes
   EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 4);
 }
 
-// A job the trace path cannot close (fas2 with a sharp kernel, tests/core/mesher_test.cpp) is done, not failed: the
-// lattice path's certified mesh, a report that says so, and a counter an operator can alert on.
+// A job the trace path cannot close on any line grid (fas2 with a sharp kernel, tests/core/mesher_test.cpp) is done,
+// not failed: the lattice path's certified mesh, a report that says so, and counters an operator can alert on.
 TEST_F(TracemeshdTest, ATraceJobThatFallsBackIsDoneReportedAndCounted) {
   server_process server(work_.path(), {});
   EXPECT_EQ(metric(server, "tracemesh_trace_fallbacks_total"), 0);
-  const nlohmann::json job = run_job(server, molecule_path("fas2.pqr"), "-F method=trace -F d=-20 -F t0=0.3");
+  EXPECT_EQ(metric(server, "tracemesh_trace_grid_retries_total"), 0);
+  const nlohmann::json job =
+      run_job(server, molecule_path("fas2.pqr"), "-F method=trace -F d=-12 -F t0=30 -F density=0.5");
   const nlohmann::json report = expect_certified_job(server, job);
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method"), "trace");
@@ -278,6 +280,7 @@ TEST_F(TracemeshdTest, ATraceJobThatFallsBackIsDoneReportedAndCounted) {
   EXPECT_TRUE(report.at("fallback").is_string()) << report;
   EXPECT_TRUE(report.at("trace").is_null());
   EXPECT_EQ(metric(server, "tracemesh_trace_fallbacks_total"), 1);
+  EXPECT_EQ(metric(server, "tracemesh_trace_grid_retries_total"), 2);
   const nlohmann::json plain = run_job(server, molecule_path("gly.pqr"), "");
   const nlohmann::json plain_report = expect_certified_job(server, plain);
   ASSERT_FALSE(plain_report.empty());

@@ -90,6 +90,8 @@ trace_stats sample_trace_stats() {
   t.field_evaluations = 2500;
   t.raw_vertices = 100;
   t.raw_triangles = 196;
+  t.line_offset = {0.5, 0.25};
+  t.grid_retries = 2;
   return t;
 }
 
@@ -149,6 +151,8 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                                     {"cos_bound", 0.95},
                                                     {"extreme_tolerance", 0.01}}));
   EXPECT_EQ(trace, (nlohmann::json{{"parameters", trace.at("parameters")},
+                                   {"line_offset", {0.5, 0.25}},
+                                   {"grid_retries", 2},
                                    {"lines", 101},
                                    {"polynomial_roots", 102},
                                    {"late_roots", 3},
@@ -268,6 +272,15 @@ TEST(ReportJson, TimingsSumPerStageAndInTotal) {
   EXPECT_DOUBLE_EQ(timings["sampling"].get<double>(), 1.5);
   EXPECT_DOUBLE_EQ(timings["total"].get<double>(), 2.25);
   EXPECT_EQ(timings_to_json({}), (nlohmann::json{{"total", 0.0}}));
+}
+
+TEST(ReportJson, FailedAttemptsAreTimedApartAndInTheTotal) {
+  mesh_output output = sample_output();
+  output.failed_attempt_seconds = 0.5;
+  const nlohmann::json timings = report_to_json(output, sample_params())["timings"];
+  EXPECT_EQ(keys_of(timings), (std::set<std::string>{"culling", "sampling", "failed_attempts", "total"}));
+  EXPECT_DOUBLE_EQ(timings["failed_attempts"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(timings["total"].get<double>(), 2.75);
 }
 
 TEST(ReportJson, ThreadsAreNotPartOfTheReport) {

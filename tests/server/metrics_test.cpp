@@ -81,6 +81,8 @@ TEST(Metrics, CountersEndInTotalAndGaugesComeFromTheCaller) {
   m.count_mesher_run();
   m.count_mesher_run();
   m.count_trace_fallback();
+  m.count_trace_grid_retries(2);
+  m.count_trace_grid_retries(1);
   metrics_gauges gauges;
   gauges.queue_depth = 3;
   gauges.running_jobs = 1;
@@ -92,6 +94,7 @@ TEST(Metrics, CountersEndInTotalAndGaugesComeFromTheCaller) {
   EXPECT_EQ(values.at("tracemesh_mesher_runs_total"), 2);
   EXPECT_EQ(m.mesher_runs(), 2u);
   EXPECT_EQ(values.at("tracemesh_trace_fallbacks_total"), 1);
+  EXPECT_EQ(values.at("tracemesh_trace_grid_retries_total"), 3);
   EXPECT_EQ(values.at("tracemesh_queue_depth"), 3);
   EXPECT_EQ(values.at("tracemesh_running_jobs"), 1);
   EXPECT_EQ(values.at("tracemesh_cache_hits_total"), 7);
