@@ -289,6 +289,20 @@ component_labels label_components(const surface_mesh& mesh, const std::vector<tr
   return labels;
 }
 
+std::vector<double> component_normal_agreement(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                               const component_labels& labels) {
+  std::vector<double> agreement(labels.count, 0.0);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (labels.of_triangle[t] == no_component || !has_usable_geometry(defects[t])) continue;
+    const std::array<std::uint32_t, 3>& triangle = mesh.triangles[t];
+    const vec3& a = mesh.positions[triangle[0]];
+    const vec3 face_normal = cross(mesh.positions[triangle[1]] - a, mesh.positions[triangle[2]] - a);
+    const vec3 vertex_normals = mesh.normals[triangle[0]] + mesh.normals[triangle[1]] + mesh.normals[triangle[2]];
+    agreement[labels.of_triangle[t]] += dot(face_normal, vertex_normals);
+  }
+  return agreement;
+}
+
 std::vector<std::size_t> count_boundary_loops(const edge_census& census, const component_labels& labels) {
   std::vector<std::size_t> loops(labels.count, 0);
   std::vector<std::uint32_t> vertices;

@@ -70,6 +70,12 @@ struct component_labels {
 
 component_labels label_components(const surface_mesh& mesh, const std::vector<triangle_defect>& defects);
 
+/// Per component label: Σ over its triangles of usable geometry of dot(unnormalised face normal, sum of its three
+/// vertex normals). A component whose sum is not positive is oriented against its normals
+/// (mesh_report::inward_oriented_components). Precondition: one normal per vertex.
+std::vector<double> component_normal_agreement(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                               const component_labels& labels);
+
 /// Per component label: the number of connected chains of boundary edges (holes).
 std::vector<std::size_t> count_boundary_loops(const edge_census& census, const component_labels& labels);
 

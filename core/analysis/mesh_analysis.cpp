@@ -25,7 +25,6 @@ struct component_sums {
   std::size_t triangles = 0;
   double area = 0;
   double volume = 0;
-  double normal_agreement = 0;  ///< Σ dot(unnormalised face normal, sum of its vertex normals)
 };
 
 void count_defects(const std::vector<triangle_defect>& defects, mesh_report& report) {
@@ -64,7 +63,7 @@ vec3 volume_origin(const surface_mesh& mesh) {
   return lo.x <= hi.x ? 0.5 * (lo + hi) : vec3{};
 }
 
-/// Sums vertices, edges, triangles, area, signed volume and normal agreement per component, in triangle order.
+/// Sums vertices, edges, triangles, area and signed volume per component, in triangle order.
 std::vector<component_sums> sum_components(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
                                            const component_labels& labels, const edge_census& census) {
   std::vector<component_sums> sums(labels.count);
@@ -74,7 +73,6 @@ std::vector<component_sums> sum_components(const surface_mesh& mesh, const std::
     sums[labels.of_vertex[v]].edges += census.edges_at_smaller_end[v];  // each edge belongs to its smaller end
   }
   const vec3 origin = volume_origin(mesh);
-  const bool normals_per_vertex = mesh.normals.size() == mesh.positions.size();
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     if (labels.of_triangle[t] == no_component) continue;
     component_sums& sum = sums[labels.of_triangle[t]];
@@ -87,10 +85,6 @@ std::vector<component_sums> sum_components(const surface_mesh& mesh, const std::
     const vec3 face_normal = cross(b - a, c - a);  // length = 2 × area
     sum.area += 0.5 * norm(face_normal);
     sum.volume += dot(a, cross(b, c)) / 6.0;  // signed volume of the tetrahedron (origin, a, b, c)
-    if (normals_per_vertex) {
-      const vec3 vertex_normals = mesh.normals[triangle[0]] + mesh.normals[triangle[1]] + mesh.normals[triangle[2]];
-      sum.normal_agreement += dot(face_normal, vertex_normals);
-    }
   }
   return sums;
 }
@@ -110,11 +104,12 @@ component_report make_component_report(const component_sums& sum, std::size_t bo
 }
 
 /// Components whose orientation the supplied normals do not confirm (see mesh_report).
-std::size_t count_inward_components(const surface_mesh& mesh, const std::vector<component_sums>& sums) {
+std::size_t count_inward_components(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                    const component_labels& labels) {
   if (mesh.normals.empty()) return 0;
-  if (mesh.normals.size() != mesh.positions.size()) return sums.size();
-  return static_cast<std::size_t>(
-      std::count_if(sums.begin(), sums.end(), [](const component_sums& sum) { return !(sum.normal_agreement > 0); }));
+  if (mesh.normals.size() != mesh.positions.size()) return labels.count;
+  const std::vector<double> agreement = detail::component_normal_agreement(mesh, defects, labels);
+  return static_cast<std::size_t>(std::count_if(agreement.begin(), agreement.end(), [](double a) { return !(a > 0); }));
 }
 
 /// The order of the components in the report: largest area first; equal areas keep label order (by first
@@ -158,7 +153,7 @@ void add_components(const surface_mesh& mesh, const std::vector<triangle_defect>
   const std::vector<std::size_t> order = order_by_area(components);
   for (const std::size_t c : order) report.components.push_back(components[c]);
   if (label_vertices) report.vertex_component = vertex_components(labels, order);
-  report.inward_oriented_components = count_inward_components(mesh, sums);
+  report.inward_oriented_components = count_inward_components(mesh, defects, labels);
 }
 
 /// All intersecting pairs: those sharing no vertex through the grid, the others fan by fan.

@@ -151,9 +151,15 @@ offending_finder finder_with(const remesh_patch_context& context, std::uint32_t 
         groups.push_back(fixed_context);
       }
     }
-    std::vector<std::uint32_t> offending = find_offending_triangles(combined, groups);
+    std::vector<std::uint32_t> offending = find_offending_triangles(combined, groups);  // combined has no normals
     const auto own = static_cast<std::uint32_t>(view.triangles.size());
     offending.erase(std::lower_bound(offending.begin(), offending.end(), own), offending.end());
+    const std::vector<std::uint32_t> inward = find_inward_component_triangles(view, classify_triangles(view));
+    if (!inward.empty()) {
+      offending.insert(offending.end(), inward.begin(), inward.end());
+      std::sort(offending.begin(), offending.end());
+      offending.erase(std::unique(offending.begin(), offending.end()), offending.end());
+    }
     return offending;
   };
 }

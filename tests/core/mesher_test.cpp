@@ -238,6 +238,26 @@ TEST_P(mesher, progress_is_reported_through_the_stages) {
   EXPECT_TRUE(std::is_sorted(stages.begin(), stages.end()));
 }
 
+// A sharp kernel leaves dozens of tiny cavities (mache at d = −15, t0 = 1, 0.5 v/Å²: 106 components). The quality
+// pass collapsed one of them to a flat tetrahedron turned inside out, and the job failed its certificate (an inward
+// component) on both paths, found 2026-11-28. The quality pass now treats such a component as a failed check
+// (remesh_intersections.hpp) and keeps that cavity as it was.
+TEST(mesher_sharp_kernel, tiny_cavities_stay_outward_oriented_through_the_quality_pass) {
+  const result<molecule> mol = read_pqr_file(testing::molecule_path("mache.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  mesh_params params;
+  params.method = mesh_method::lattice;
+  params.density = 0.5;
+  params.d = -15;
+  params.t0 = 1;
+  progress_token progress;
+  const result<mesh_output> out = mesh_molecule(*mol, params, {}, progress);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  EXPECT_EQ(out->report.inward_oriented_components, 0u);
+  EXPECT_GT(out->report.cavities, 50u);
+}
+
 /// Vertices that lie on a line y = (j + offset[0])·h, z = (k + offset[1])·h (to 1e-9·h): the roots of the lines.
 std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_grid_offset& offset) {
   const auto on_grid = [&](double coordinate, double shift) {

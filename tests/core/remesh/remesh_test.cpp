@@ -376,6 +376,24 @@ TEST(RemeshIntersections, ListsThePairsTheCertificateCounts) {
   EXPECT_TRUE(detail::find_offending_triangles(testing::icosphere(3, 2.0)).empty());
 }
 
+TEST(RemeshIntersections, ComponentsOrientedAgainstTheirNormalsOffend) {
+  // Two tetrahedra apart: the first with outward vertex normals, the second with inward ones.
+  surface_mesh mesh = testing::tetrahedron({0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {0, 0, 2});
+  testing::append(mesh, testing::tetrahedron({10, 0, 0}, {12, 0, 0}, {10, 2, 0}, {10, 0, 2}));
+  const vec3 centres[2] = {{0.5, 0.5, 0.5}, {10.5, 0.5, 0.5}};
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    const vec3 outward = normalized(mesh.positions[v] - centres[v < 4 ? 0 : 1]);
+    mesh.normals.push_back(v < 4 ? outward : -outward);
+  }
+  const auto defects = detail::classify_triangles(mesh);
+  EXPECT_EQ(detail::find_inward_component_triangles(mesh, defects), (std::vector<std::uint32_t>{4, 5, 6, 7}));
+  EXPECT_EQ(detail::find_offending_triangles(mesh), (std::vector<std::uint32_t>{4, 5, 6, 7}));
+  EXPECT_EQ(analyze_mesh(mesh).inward_oriented_components, 1u) << "the certificate's count";
+  mesh.normals.clear();
+  EXPECT_TRUE(detail::find_inward_component_triangles(mesh, defects).empty()) << "no normals, nothing to compare";
+  EXPECT_TRUE(detail::find_offending_triangles(mesh).empty());
+}
+
 TEST(RemeshIntersections, DegenerateTrianglesOffend) {
   surface_mesh mesh = testing::icosphere(1, 1.0);
   mesh.positions[mesh.triangles[5][1]] = mesh.positions[mesh.triangles[5][0]];  // a zero-length edge
