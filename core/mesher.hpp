@@ -104,7 +104,8 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// Version of the engine's output; part of every cache key. Bump when the mesh or the report for a given input
 /// changes (5: the trace path's vertex placement, vertex numbering and the quality pass's chunks; 6: the lattice
 /// fallback of trace jobs and the report's method_used and fallback; both 2026-11-27; 7: the trace retried on other
-/// line grids, the report's line_offset, grid_retries and failed_attempts seconds, 2026-11-28).
+/// line grids, the report's line_offset, grid_retries and failed_attempts seconds, a strip's root free until an arc
+/// takes it, the quality pass keeping components outward, 2026-11-28).
 inline constexpr const char* engine_version = "tracemesh-engine-7";
 
 }  // namespace tracemesh

@@ -181,8 +181,10 @@ double gap_to_neighbour(std::span<const line_point> roots, std::size_t i) {
 namespace {
 
 /// One pass over the strip's roots with the given step: every root not yet the end of an arc starts one. An arc is
-/// refused (and its root counted in failures) when it fails, ends on a root that already has its arc, or comes back
-/// to its own line without an interior point.
+/// refused when it fails, ends on a root that already has its arc, or comes back to its own line without an interior
+/// point; its root may still be reached by the arc of another root (the walk from the other end of the same piece of
+/// contour: from one end it may die where the contour turns within a hair, and succeed from the other). Roots that
+/// end the pass without an arc are the failures.
 strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
                              const strip_settings& settings) {
   strip_trace out;
@@ -229,11 +231,8 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
         const bool leaves = end_phi_x * end_sign(end_side, sign) > 0;
         accepted = !taken && !bare_return && leaves;
       }
+      if (!accepted) continue;
       covered[side][i] = 1;
-      if (!accepted) {
-        ++out.failures;
-        continue;
-      }
       double end_x = arc.points.back().position.x;
       if (match >= 0) {
         covered[end_side][match] = 1;
@@ -263,6 +262,9 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
       }
       out.arcs.push_back(stored);
     }
+  }
+  for (int side = 0; side < 2; ++side) {
+    out.failures += static_cast<std::size_t>(std::count(covered[side].begin(), covered[side].end(), 0));
   }
   return out;
 }

@@ -430,7 +430,7 @@ TEST_F(TracemeshCli, TraceMethodGivesCertifiedMeshesWithTraceReports) {
 TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheReport) {
   const fs::path off = path("fas2.off");
   const run_result result =
-      run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-12", "--t0", "30",
+      run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-15", "--t0", "10",
            "--density", "0.5", "--method", "trace", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());

@@ -12,7 +12,9 @@
 #include <vector>
 
 #include "core/field/gaussian_field.hpp"
+#include "core/io/pqr_reader.hpp"
 #include "core/molecule.hpp"
+#include "support/test_paths.hpp"
 
 namespace tracemesh {
 namespace {
@@ -311,6 +313,45 @@ TEST(strip_arcs, a_strip_whose_lines_hold_no_root_is_empty) {
   EXPECT_TRUE(trace.interior.empty());
   EXPECT_TRUE(trace.late_roots.empty());
   EXPECT_EQ(trace.failures, 0u);
+}
+
+// mache with a sharp kernel (d = −15, t0 = 1) at 0.5 v/Å² (h̃ = √2 Å): in the xy strip z = −3h̃, y ∈ [−10h̃, −9h̃],
+// a small loop of contour leaves the low line at x ≈ −12.6568 and comes back to it at x ≈ −12.7948. The walk from
+// −12.7948 dies where the loop turns within a hair; the walk from −12.6568 goes round and ends on −12.7948. That
+// root was marked as done by its failed walk, so the good arc was refused too and the cell could not close (found
+// 2026-11-28). A root is now free until an arc takes it, whichever end the walk started from. The roots are the
+// line root finder's (printed to 4 decimals), polished here on the exact field.
+TEST(strip_arcs, a_root_whose_own_walk_dies_is_reached_from_the_other_end_of_its_contour) {
+  const result<molecule> mol = read_pqr_file(testing::molecule_path("mache.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  const gaussian_field field(*mol, -15, 1);
+  const gaussian_field walk_field(*mol, -15, 1, 1e-3);  // as the mesher walks (mesher.cpp: trace_walk_tolerance)
+  const double spacing = std::sqrt(2.0);
+  const strip_id strip{0, -10, -3};
+  const double low[] = {-28.0328, -24.0546, -20.6053, -12.7948, -12.6568, -7.1236, -6.1687, 8.6259, 8.8885, 15.5383};
+  const double high[] = {-33.5822, -28.6807, -27.6546, -23.3139, -20.5889,
+                         -14.5309, -13.5789, -2.2126,  -1.5741,  16.5910};
+  std::vector<trace_lines::entry> entries;
+  const auto add = [&](const line_id& line, double x) {
+    const double y = static_cast<double>(line.j) * spacing, z = static_cast<double>(line.k) * spacing;
+    line_point p{x, {}, false};
+    for (int iteration = 0; iteration < 50; ++iteration) {  // Newton along x on φ − t0
+      const double residual = field.value_and_gradient({p.x, y, z}, p.gradient) - field.t0();
+      p.x -= residual / p.gradient.x;
+    }
+    field.value_and_gradient({p.x, y, z}, p.gradient);
+    ASSERT_NEAR(p.x, x, 1e-4);
+    entries.push_back({line, p});
+  };
+  for (const double x : low) add(strip.low_line(), x);
+  for (const double x : high) add(strip.high_line(), x);
+  const trace_lines lines(std::move(entries));
+  strip_settings s = settings(spacing);
+  s.cos_bound = trace_parameters{}.cos_bound;
+  s.walk_field = &walk_field;
+  const strip_trace trace = trace_strip(field, lines, strip, s);
+  EXPECT_EQ(trace.failures, 0u);
+  expect_each_root_ends_one_arc(lines, trace, strip);
 }
 
 }  // namespace
