@@ -238,20 +238,34 @@ TEST_P(mesher, progress_is_reported_through_the_stages) {
   EXPECT_TRUE(std::is_sorted(stages.begin(), stages.end()));
 }
 
+/// A molecule of ../shared/molecules meshed by `params` (the other parameters default); an unreadable file's error.
+result<mesh_output> mesh_file(const char* name, const mesh_params& params) {
+  const result<molecule> mol = read_pqr_file(testing::molecule_path(name));
+  if (!mol) return mol.error();
+  progress_token progress;
+  return mesh_molecule(*mol, params, {}, progress);
+}
+
+/// Parameters of the sharp-kernel tests.
+mesh_params sharp_params(mesh_method method, double density, double d, double t0, refine_mode refine,
+                         unsigned threads = 0) {
+  mesh_params params;
+  params.method = method;
+  params.density = density;
+  params.d = d;
+  params.t0 = t0;
+  params.refine = refine;
+  params.threads = threads;
+  return params;
+}
+
 // A sharp kernel leaves dozens of tiny cavities (mache at d = −15, t0 = 1, 0.5 v/Å²: 106 components). The quality
 // pass collapsed one of them to a flat tetrahedron turned inside out, and the job failed its certificate (an inward
 // component) on both paths, found 2026-11-28. The quality pass now treats such a component as a failed check
 // (remesh_intersections.hpp) and keeps that cavity as it was.
 TEST(mesher_sharp_kernel, tiny_cavities_stay_outward_oriented_through_the_quality_pass) {
-  const result<molecule> mol = read_pqr_file(testing::molecule_path("mache.pqr"));
-  ASSERT_TRUE(mol.ok()) << mol.error().message();
-  mesh_params params;
-  params.method = mesh_method::lattice;
-  params.density = 0.5;
-  params.d = -15;
-  params.t0 = 1;
-  progress_token progress;
-  const result<mesh_output> out = mesh_molecule(*mol, params, {}, progress);
+  const result<mesh_output> out =
+      mesh_file("mache.pqr", sharp_params(mesh_method::lattice, 0.5, -15, 1, refine_mode::full));
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_TRUE(out->certified);
   EXPECT_EQ(out->report.inward_oriented_components, 0u);
@@ -274,16 +288,8 @@ std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_gri
 // half a spacing in y and z, where every cell closes: the mesh is the trace path's, its roots lie on the moved lines,
 // the failed attempt's time is counted, and it is the same whatever the thread count.
 TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_line_grid) {
-  const result<molecule> mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
-  ASSERT_TRUE(mol.ok()) << mol.error().message();
-  mesh_params params;
-  params.method = mesh_method::trace;
-  params.refine = refine_mode::none;
-  params.d = -20;
-  params.t0 = 0.3;
-  progress_token progress;
-  params.threads = 1;
-  const result<mesh_output> one = mesh_molecule(*mol, params, {}, progress);
+  const result<mesh_output> one =
+      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 0.3, refine_mode::none, 1));
   ASSERT_TRUE(one.ok()) << one.error().message();
   EXPECT_TRUE(one->certified);
   EXPECT_TRUE(one->fallback_reason.empty()) << one->fallback_reason;
@@ -296,8 +302,8 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
   EXPECT_EQ(vertices_on_lines(one->mesh, h, {0.5, 0.5}), one->trace.polynomial_roots + one->trace.bracketed_roots +
                                                              one->trace.late_roots);
 
-  params.threads = 2;
-  const result<mesh_output> two = mesh_molecule(*mol, params, {}, progress);
+  const result<mesh_output> two =
+      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 0.3, refine_mode::none, 2));
   ASSERT_TRUE(two.ok()) << two.error().message();
   EXPECT_EQ(two->trace.grid_retries, 1u);
   EXPECT_EQ(one->mesh.positions, two->mesh.positions);
@@ -306,13 +312,7 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
 
 // A job the trace path meshes on its first grid has no failed attempt.
 TEST(mesher_retry, a_trace_that_closes_every_cell_is_not_retried) {
-  const result<molecule> mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
-  ASSERT_TRUE(mol.ok()) << mol.error().message();
-  mesh_params params;
-  params.method = mesh_method::trace;
-  params.refine = refine_mode::none;
-  progress_token progress;
-  const result<mesh_output> out = mesh_molecule(*mol, params, {}, progress);
+  const result<mesh_output> out = mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -1, 1, refine_mode::none));
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_EQ(out->trace.grid_retries, 0u);
   EXPECT_EQ(out->trace.line_offset, (line_grid_offset{0, 0}));
@@ -326,15 +326,8 @@ TEST(mesher_retry, a_trace_that_closes_every_cell_is_not_retried) {
 // lattice path's very mesh. Should the trace path learn to close these cells, this test needs another input it fails
 // on (tests/cli and tests/integration have the same case).
 TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_lattice_path_and_says_so) {
-  const result<molecule> mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
-  ASSERT_TRUE(mol.ok()) << mol.error().message();
-  mesh_params params;
-  params.method = mesh_method::trace;
-  params.density = 0.5;
-  params.d = -15;
-  params.t0 = 10;
-  progress_token progress;
-  const result<mesh_output> out = mesh_molecule(*mol, params, {}, progress);
+  const result<mesh_output> out =
+      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 0.5, -15, 10, refine_mode::full));
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_TRUE(out->certified);
   EXPECT_EQ(out->method, mesh_method::trace);
@@ -346,8 +339,8 @@ TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_l
   EXPECT_EQ(out->trace.grid_retries, 2u);
   EXPECT_GT(out->failed_attempt_seconds, 0.0);
 
-  params.method = mesh_method::lattice;
-  const result<mesh_output> lattice = mesh_molecule(*mol, params, {}, progress);
+  const result<mesh_output> lattice =
+      mesh_file("fas2.pqr", sharp_params(mesh_method::lattice, 0.5, -15, 10, refine_mode::full));
   ASSERT_TRUE(lattice.ok()) << lattice.error().message();
   EXPECT_TRUE(lattice->fallback_reason.empty());
   EXPECT_EQ(out->mesh.triangles, lattice->mesh.triangles);
