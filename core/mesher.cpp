@@ -174,6 +174,11 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
     if (params.method == mesh_method::trace) refine.iterations = trace_refine_iterations;
     refine.max_triangles = limits.max_triangles;
     auto refined = remesh_surface(out.mesh, field, refine, progress);
+    if (!refined && refined.error().code() == errc::invalid_argument) {
+      // Its input is the engine's own raw mesh and options, never the user's: a refusal is the engine's failure
+      // (a raw trace mesh left non-manifold where a contour pinches), which the trace path's retries then handle.
+      return status{errc::internal_error, "the quality pass refused the raw mesh: " + refined.error().message()};
+    }
     if (!refined) return refined.error();
     clock.finish(mesh_stage::refining);
   }

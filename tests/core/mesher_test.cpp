@@ -272,6 +272,19 @@ TEST(mesher_sharp_kernel, tiny_cavities_stay_outward_oriented_through_the_qualit
   EXPECT_GT(out->report.cavities, 50u);
 }
 
+// mache at d = −15, t0 = 0.01, 1 v/Å²: on the first line grid every cell closed, but where a contour pinches the raw
+// trace mesh came out non-manifold, and the quality pass refused it as invalid input: the job failed as the user's
+// error (CLI exit 2, found 2026-11-28). A refusal of the engine's own raw mesh is now the engine's failure, so the
+// next line grid and then the lattice path take over.
+TEST(mesher_sharp_kernel, a_raw_mesh_the_quality_pass_refuses_is_retried_not_blamed_on_the_input) {
+  const result<mesh_output> out =
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 1, -15, 0.01, refine_mode::full));
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  EXPECT_TRUE(out->trace.grid_retries > 0 || !out->fallback_reason.empty()) << "the first grid's mesh failed";
+  EXPECT_GT(out->failed_attempt_seconds, 0.0);
+}
+
 /// Vertices that lie on a line y = (j + offset[0])·h, z = (k + offset[1])·h (to 1e-9·h): the roots of the lines.
 std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_grid_offset& offset) {
   const auto on_grid = [&](double coordinate, double shift) {
