@@ -39,9 +39,10 @@ constexpr double trace_walk_tolerance = 1e-3;
 constexpr int trace_refine_iterations = 2;
 
 /// The trace path's line grids, in units of h̃ (trace_stats::line_offset), attempt by attempt. A trace that cannot
-/// close a cell (at sharp kernels, d ≤ −10, a contour can turn within much less than h̃ beside a line) or whose mesh
-/// fails its certificate is tried again on the next grid, and only after the last one meshed by the lattice path.
-/// Each grid is at least h̃/4 away from the others on both axes. README "Method": how often each was needed.
+/// close a cell or whose mesh fails a check (at sharp kernels, d ≤ −8 in the README's sweep, a strip plane can pass
+/// within a hair of where the surface is tangent to it, and no walk gets past that point) is tried again on the
+/// next grid, and only after the last one meshed by the lattice path. Each grid is at least h̃/4 away from the
+/// others on both axes. README "Method": how often each was needed.
 constexpr std::array<line_grid_offset, 3> trace_line_grids{{{0, 0}, {0.5, 0.5}, {0.25, 0.75}}};
 
 /// Lattice spacing relative to the target edge length (see README "Method": sampling step).
