@@ -46,7 +46,9 @@ class metrics {
   /// A trace job whose mesh the lattice path made (mesh_output::fallback_reason): an engine failure to look into.
   void count_trace_fallback() { trace_fallbacks_.fetch_add(1, std::memory_order_relaxed); }
   /// `retries` trace attempts that failed and were made again on another line grid (trace_stats::grid_retries).
-  void count_trace_grid_retries(std::size_t retries) { trace_grid_retries_.fetch_add(retries, std::memory_order_relaxed); }
+  void count_trace_grid_retries(std::size_t retries) {
+    trace_grid_retries_.fetch_add(retries, std::memory_order_relaxed);
+  }
   /// A response served from the result cache without running or waiting for a job.
   void count_cache_response() { cache_responses_.fetch_add(1, std::memory_order_relaxed); }
   /// A mesh encoding compressed for a response, with gzip (`brotli` false) or br.
