@@ -38,6 +38,7 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
       {"extreme_points", stats.extreme_points},
       {"retraced_arcs", stats.retraced_arcs},
       {"fallback_loops", stats.fallback_loops},
+      {"level_shifted_strips", stats.level_shifted_strips},
       {"field_evaluations", stats.field_evaluations},
       {"raw_vertices", stats.raw_vertices},
       {"raw_triangles", stats.raw_triangles},

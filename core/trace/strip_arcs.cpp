@@ -1,6 +1,7 @@
 #include "core/trace/strip_arcs.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -12,6 +13,13 @@ namespace {
 constexpr int max_trace_attempts = 3;
 constexpr double retry_step_divisor = 4;
 constexpr double retry_cos_bound = 0.984807753012208;  // cos 10°
+/// Levels t0·(1 + shift) tried, in order, for a strip whose passes above all failed: where a wall is tangent to the
+/// surface at a saddle (or a pinch between two sharp atoms), the contour at t0 crosses itself there (an X) and no
+/// walk gets past; at a level just above or below, it splits into two branches that do not meet. Found on `mache`
+/// at d = −15 (README, "Deviations from the paper").
+constexpr std::array<double, 4> level_shifts{1e-3, -1e-3, 1e-2, -1e-2};
+/// A root moved to a shifted level must stay within this × the gap to its neighbours on the line.
+constexpr double max_shifted_root_move = 0.25;
 /// An arc's crossing is matched to a root of the right φ_x sign within this × h̃ of it.
 constexpr double end_match_fraction = 0.25;
 /// Extreme points closer than this × the resampling spacing (along the arc) to another kept point are not kept.
@@ -185,13 +193,16 @@ namespace {
 /// point; its root may still be reached by the arc of another root (the walk from the other end of the same piece of
 /// contour: from one end it may die where the contour turns within a hair, and succeed from the other). Roots that
 /// end the pass without an arc are the failures.
-strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
-                             const strip_settings& settings) {
+/// `roots` are the strip's low and high lines' roots at the level traced, t0 + level_shift; the kept points are
+/// polished onto φ = t0 whatever the level.
+strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::span<const line_point>, 2>& roots,
+                             const strip_id& strip, const strip_settings& settings, double level_shift = 0) {
   strip_trace out;
   const double h = settings.spacing;
-  const trace_plane plane = plane_of(strip, h);
+  const trace_plane surface_plane = plane_of(strip, h);
+  trace_plane plane = surface_plane;
+  plane.level_shift = level_shift;
   const int v = plane.v_axis();
-  const std::span<const line_point> roots[2] = {lines.roots_of(strip.low_line()), lines.roots_of(strip.high_line())};
   const line_id line_ids[2] = {strip.low_line(), strip.high_line()};
   std::vector<char> covered[2] = {std::vector<char>(roots[0].size(), 0), std::vector<char>(roots[1].size(), 0)};
   trace_step_settings step;
@@ -253,9 +264,9 @@ strip_trace trace_strip_once(const gaussian_field& field, const trace_lines& lin
       for (std::size_t n = 0; n < kept.size(); ++n) {
         const kept_point& k = kept[canonical ? n : kept.size() - 1 - n];
         surface_sample p = k.sample;
-        if (!polish(field, plane, p, h, out.evaluations)) {  // a walk point is within the corrector's tolerance
+        if (!polish(field, surface_plane, p, h, out.evaluations)) {  // a walk point is within the corrector's tolerance
           p = arc.points[k.walk_point];
-          polish(field, plane, p, h, out.evaluations);
+          if (!polish(field, surface_plane, p, h, out.evaluations)) ++out.unpolished;
         }
         out.interior.push_back(p);
         if (p.extreme) ++out.extreme_points;
@@ -286,16 +297,84 @@ std::vector<strip_id> strips_beside(const trace_lines& lines) {
   return strips;
 }
 
+namespace {
+
+/// The roots of one side of `strip` moved along their line to the level t0 + level_shift (Newton in x from each);
+/// false when one has no counterpart there: Newton fails, moves it more than max_shifted_root_move × the gap to a
+/// neighbour, or its φ_x changes sign (the two roots of a near-tangency that merge at that level).
+bool shifted_roots(const gaussian_field& field, const strip_id& strip, int side, std::span<const line_point> roots,
+                   double level_shift, double h, std::vector<line_point>& out, std::size_t& evaluations) {
+  out.clear();
+  for (std::size_t i = 0; i < roots.size(); ++i) {
+    const double reach = std::min(h, max_shifted_root_move * gap_to_neighbour(roots, i));
+    surface_sample moved;
+    if (!polish_on_line(field, root_position(strip, side, roots[i].x, h), reach, moved, evaluations, level_shift) ||
+        moved.gradient.x * roots[i].gradient.x <= 0) {
+      return false;
+    }
+    out.push_back({moved.position.x, moved.gradient, roots[i].late});
+  }
+  return true;
+}
+
+/// The strip traced at a level shifted by level_shifts[n]·t0 (see there), its arcs ending on the true roots; false
+/// when that level gives no complete set of arcs either (a root without counterpart, a failure or a late root).
+bool trace_strip_shifted(const gaussian_field& field, const std::array<std::span<const line_point>, 2>& roots,
+                         const strip_id& strip, const strip_settings& settings, double relative_shift,
+                         strip_trace& out) {
+  const double level_shift = relative_shift * field.t0();
+  std::array<std::vector<line_point>, 2> moved;
+  std::size_t evaluations = 0;
+  for (int side = 0; side < 2; ++side) {
+    if (!shifted_roots(field, strip, side, roots[side], level_shift, settings.spacing, moved[side], evaluations)) {
+      out.evaluations += evaluations;
+      return false;
+    }
+  }
+  strip_trace shifted = trace_strip_once(field, {moved[0], moved[1]}, strip, settings, level_shift);
+  out.evaluations += evaluations + shifted.evaluations;
+  // Every kept point must be back on φ = t0: the walk's own points lie on the shifted level.
+  if (shifted.failures > 0 || !shifted.late_roots.empty() || shifted.unpolished > 0) return false;
+  // Each arc end is a moved root; it ends on the root it was moved from.
+  const auto original_x = [&](const arc_end& end) {
+    const std::vector<line_point>& m = moved[end.side];
+    const auto it = std::lower_bound(m.begin(), m.end(), end.x, [](const line_point& p, double x) { return p.x < x; });
+    return roots[end.side][static_cast<std::size_t>(it - m.begin())].x;
+  };
+  for (strip_arc& arc : shifted.arcs) {
+    arc.start.x = original_x(arc.start);
+    arc.end.x = original_x(arc.end);
+  }
+  shifted.evaluations = out.evaluations;
+  shifted.retraced = out.retraced + out.arcs.size() + out.failures;
+  shifted.level_shifted = true;
+  out = std::move(shifted);
+  return true;
+}
+
+}  // namespace
+
 strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
                         const strip_settings& settings) {
+  const std::array<std::span<const line_point>, 2> roots{lines.roots_of(strip.low_line()),
+                                                         lines.roots_of(strip.high_line())};
   strip_settings attempt_settings = settings;
   std::size_t evaluations = 0, retraced = 0;
   for (int attempt = 0;; ++attempt) {
-    strip_trace out = trace_strip_once(field, lines, strip, attempt_settings);
+    strip_trace out = trace_strip_once(field, roots, strip, attempt_settings);
     evaluations += out.evaluations;
     if (out.failures == 0 || attempt + 1 == max_trace_attempts) {
       out.evaluations = evaluations;
       out.retraced = retraced;
+      if (out.failures > 0) {
+        // The walks die at a point where the contour crosses itself: trace it just off t0 instead, on the exact
+        // field with the first pass's steps.
+        strip_settings shifted_settings = settings;
+        shifted_settings.walk_field = nullptr;
+        for (const double shift : level_shifts) {
+          if (trace_strip_shifted(field, roots, strip, shifted_settings, shift, out)) break;
+        }
+      }
       return out;
     }
     // A conflict means some arc jumped to another branch of the contour (near a saddle of φ in the plane): trace

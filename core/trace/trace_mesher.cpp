@@ -163,6 +163,7 @@ void number_interior_points(traced_surface& surface, trace_stats& stats) {
     stats.arcs += t.arcs.size();
     stats.extreme_points += t.extreme_points;
     stats.retraced_arcs += t.retraced;
+    stats.level_shifted_strips += t.level_shifted;
   }
 }
 

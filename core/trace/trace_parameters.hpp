@@ -38,6 +38,8 @@ struct trace_stats {
   std::size_t polygons = 0;             ///< closed polygons of Algorithm 2 (one per surface piece in a cell)
   std::size_t extreme_points = 0;       ///< points with φ_x = 0 (step 4) kept as vertices
   std::size_t retraced_arcs = 0;        ///< arcs traced again with a smaller step after a conflict
+  /// strips whose arcs were traced at t0·(1 ± ε) because the contour at t0 crosses itself in their plane
+  std::size_t level_shifted_strips = 0;
   std::size_t fallback_loops = 0;       ///< polygons triangulated with a Steiner point on the surface
   std::size_t field_evaluations = 0;    ///< evaluations of φ (with or without ∇φ) in roots and traces
   std::size_t raw_vertices = 0;         ///< vertices of the triangulated polygons, before any quality pass

@@ -94,7 +94,7 @@ bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec
   const vec3 origin = p;
   for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
     vec3 gradient;
-    const double residual = field.value_and_gradient(p, gradient) - field.t0();
+    const double residual = field.value_and_gradient(p, gradient) - (field.t0() + plane.level_shift);
     ++evaluations;
     const planar g = in_plane(gradient, v);
     const double g2 = g.x * g.x + g.v * g.v;
@@ -125,11 +125,11 @@ bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec
 }
 
 bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
-                    std::size_t& evaluations) {
+                    std::size_t& evaluations, double level_shift) {
   const double x0 = guess.x;
   for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
     vec3 gradient;
-    const double residual = field.value_and_gradient(guess, gradient) - field.t0();
+    const double residual = field.value_and_gradient(guess, gradient) - (field.t0() + level_shift);
     ++evaluations;
     if (converged(residual, std::abs(gradient.x), field.t0())) {
       out.position = guess;
@@ -208,7 +208,7 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
           crossing.gradient = known->gradient;
           crossing.extreme = false;
         }
-        const bool polished = known != nullptr || polish_on_line(field, guess, h, crossing, evaluations);
+        const bool polished = known != nullptr || polish_on_line(field, guess, h, crossing, evaluations, plane.level_shift);
         const bool at_start = polished && std::abs(crossing.position.x - start.position.x) < 1e-7 &&
                               (line_v == settings.v_low) == starts_low;
         // The walk leaves the strip there, so s·φ_x points out through that line; a crossing polished onto the

@@ -24,6 +24,9 @@ namespace tracemesh {
 struct trace_plane {
   int normal_axis = 2;  ///< 2: xy plane (z = offset); 1: xz plane (y = offset)
   double offset = 0;    ///< Å
+  /// The contour traced is {φ = t0 + level_shift}: 0 but for a strip whose contour crosses itself at t0
+  /// (strip_arcs.cpp, level-shifted retrace).
+  double level_shift = 0;
   int v_axis() const { return 3 - normal_axis; }
 };
 
@@ -84,12 +87,12 @@ struct trace_step_settings {
 traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,
                          const trace_step_settings& settings, std::size_t& evaluations);
 
-/// Newton in x on the line (v fixed) from `guess` (on the plane): the root of φ = t0 within `max_move` Å of the
-/// guess, with its gradient. False when it does not converge to 1e-12·t0 (or 1e-11 Å).
+/// Newton in x on the line (v fixed) from `guess` (on the plane): the root of φ = t0 + level_shift within
+/// `max_move` Å of the guess, with its gradient. False when it does not converge to 1e-12·t0 (or 1e-11 Å).
 bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
-                    std::size_t& evaluations);
+                    std::size_t& evaluations, double level_shift = 0);
 
-/// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0}, to `tolerance` Å
+/// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0 + plane.level_shift}, to `tolerance` Å
 /// (first-order distance |φ − t0| / |∇φ|). A Newton update shorter than `blind_step` Å is applied without
 /// evaluating the field again (the result's gradient is then that of the point before the update). False when it
 /// does not converge within `max_move` Å.

@@ -87,6 +87,7 @@ trace_stats sample_trace_stats() {
   t.extreme_points = 7;
   t.retraced_arcs = 8;
   t.fallback_loops = 9;
+  t.level_shifted_strips = 12;
   t.field_evaluations = 2500;
   t.raw_vertices = 100;
   t.raw_triangles = 196;
@@ -162,6 +163,7 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"extreme_points", 7},
                                    {"retraced_arcs", 8},
                                    {"fallback_loops", 9},
+                                   {"level_shifted_strips", 12},
                                    {"field_evaluations", 2500},
                                    {"raw_vertices", 100},
                                    {"raw_triangles", 196},

@@ -14,6 +14,7 @@
 #include "core/field/gaussian_field.hpp"
 #include "core/io/pqr_reader.hpp"
 #include "core/molecule.hpp"
+#include "core/trace/trace_parameters.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {
@@ -315,22 +316,10 @@ TEST(strip_arcs, a_strip_whose_lines_hold_no_root_is_empty) {
   EXPECT_EQ(trace.failures, 0u);
 }
 
-// mache with a sharp kernel (d = −15, t0 = 1) at 0.5 v/Å² (h̃ = √2 Å): in the xy strip z = −3h̃, y ∈ [−10h̃, −9h̃],
-// a small loop of contour leaves the low line at x ≈ −12.6568 and comes back to it at x ≈ −12.7948. The walk from
-// −12.7948 dies where the loop turns within a hair; the walk from −12.6568 goes round and ends on −12.7948. That
-// root was marked as done by its failed walk, so the good arc was refused too and the cell could not close (found
-// 2026-11-28). A root is now free until an arc takes it, whichever end the walk started from. The roots are the
-// line root finder's (printed to 4 decimals), polished here on the exact field.
-TEST(strip_arcs, a_root_whose_own_walk_dies_is_reached_from_the_other_end_of_its_contour) {
-  const result<molecule> mol = read_pqr_file(testing::molecule_path("mache.pqr"));
-  ASSERT_TRUE(mol.ok()) << mol.error().message();
-  const gaussian_field field(*mol, -15, 1);
-  const gaussian_field walk_field(*mol, -15, 1, 1e-3);  // as the mesher walks (mesher.cpp: trace_walk_tolerance)
-  const double spacing = std::sqrt(2.0);
-  const strip_id strip{0, -10, -3};
-  const double low[] = {-28.0328, -24.0546, -20.6053, -12.7948, -12.6568, -7.1236, -6.1687, 8.6259, 8.8885, 15.5383};
-  const double high[] = {-33.5822, -28.6807, -27.6546, -23.3139, -20.5889,
-                         -14.5309, -13.5789, -2.2126,  -1.5741,  16.5910};
+/// The lines of `strip` with roots near `low` and `high` (printed by the line root finder to 4 or more decimals),
+/// polished here by Newton along x on the exact field.
+trace_lines strip_lines_near(const gaussian_field& field, const strip_id& strip, double spacing,
+                             const std::vector<double>& low, const std::vector<double>& high) {
   std::vector<trace_lines::entry> entries;
   const auto add = [&](const line_id& line, double x) {
     const double y = static_cast<double>(line.j) * spacing, z = static_cast<double>(line.k) * spacing;
@@ -340,18 +329,79 @@ TEST(strip_arcs, a_root_whose_own_walk_dies_is_reached_from_the_other_end_of_its
       p.x -= residual / p.gradient.x;
     }
     field.value_and_gradient({p.x, y, z}, p.gradient);
-    ASSERT_NEAR(p.x, x, 1e-4);
+    EXPECT_NEAR(p.x, x, 1e-4);
     entries.push_back({line, p});
   };
   for (const double x : low) add(strip.low_line(), x);
   for (const double x : high) add(strip.high_line(), x);
-  const trace_lines lines(std::move(entries));
+  return trace_lines(std::move(entries));
+}
+
+/// mache moved by −shift (the mesher's line grid retries move the molecule, mesher.cpp).
+molecule mache_moved_by(const vec3& shift) {
+  const result<molecule> mol = read_pqr_file(testing::molecule_path("mache.pqr"));
+  EXPECT_TRUE(mol.ok()) << mol.error().message();
+  molecule moved = mol.ok() ? *mol : molecule{};
+  for (atom& a : moved.atoms) a.center = a.center - shift;
+  return moved;
+}
+
+// mache with a sharp kernel (d = −15, t0 = 1) at 0.5 v/Å² (h̃ = √2 Å): in the xy strip z = −3h̃, y ∈ [−10h̃, −9h̃],
+// a small loop of contour leaves the low line at x ≈ −12.6568 and comes back to it at x ≈ −12.7948. The walk from
+// −12.7948 dies where the loop turns within a hair; the walk from −12.6568 goes round and ends on −12.7948. That
+// root was marked as done by its failed walk, so the good arc was refused too and the cell could not close (found
+// 2026-11-28). A root is now free until an arc takes it, whichever end the walk started from.
+TEST(strip_arcs, a_root_whose_own_walk_dies_is_reached_from_the_other_end_of_its_contour) {
+  const molecule mol = mache_moved_by({0, 0, 0});
+  const gaussian_field field(mol, -15, 1);
+  const gaussian_field walk_field(mol, -15, 1, 1e-3);  // as the mesher walks (mesher.cpp: trace_walk_tolerance)
+  const double spacing = std::sqrt(2.0);
+  const strip_id strip{0, -10, -3};
+  const trace_lines lines = strip_lines_near(
+      field, strip, spacing, {-28.0328, -24.0546, -20.6053, -12.7948, -12.6568, -7.1236, -6.1687, 8.6259, 8.8885, 15.5383},
+      {-33.5822, -28.6807, -27.6546, -23.3139, -20.5889, -14.5309, -13.5789, -2.2126, -1.5741, 16.5910});
   strip_settings s = settings(spacing);
   s.cos_bound = trace_parameters{}.cos_bound;
   s.walk_field = &walk_field;
   const strip_trace trace = trace_strip(field, lines, strip, s);
   EXPECT_EQ(trace.failures, 0u);
+  EXPECT_FALSE(trace.level_shifted);
   expect_each_root_ends_one_arc(lines, trace, strip);
+}
+
+// mache at d = −15, t0 = 1, 1 v/Å² (h̃ = 1 Å) on the third line grid (lines at y = (j + ¼)·h̃, z = (k + ¾)·h̃: the
+// molecule moved by −(0, ¼, ¾) Å): the xz strip y = 4, z ∈ [−5, −4] is tangent to the surface where the contour
+// crosses itself, and two of its roots had no arc after every pass with smaller steps (found 2026-11-28). Traced at
+// t0·(1 + 1e-3), where the crossing splits, every root ends one arc, and the arcs' points are back on φ = t0.
+TEST(strip_arcs, a_contour_that_crosses_itself_is_traced_at_a_level_next_to_t0) {
+  const molecule mol = mache_moved_by({0, 0.25, 0.75});
+  const gaussian_field field(mol, -15, 1);
+  const gaussian_field walk_field(mol, -15, 1, 1e-3);
+  const strip_id strip{1, 4, -5};
+  const trace_lines lines = strip_lines_near(
+      field, strip, 1.0,
+      {-29.277306779430226, -25.337904776845683, -22.216714709622622, -15.365125054856174, -7.3719187676677063,
+       -3.5829748810123654, -2.293798780404646, -0.76084112620073452, 0.39706700727068328, 6.8440149784156432,
+       7.1809921614481853, 29.415011141827062},
+      {-29.04309126267832, -24.158440727018853, -20.943347905113328, -14.064631398311993, -6.9969999161537082,
+       -3.9026120738110066, -2.6059757513323714, -0.46065508982941705, 3.8568680985417538, 4.8251277299239774,
+       5.000325579722988, 16.4069137407058, 16.952455722989907, 19.43620484909011, 19.545541328883562,
+       31.193189005266209});
+  strip_settings s = settings(1.0);
+  s.cos_bound = trace_parameters{}.cos_bound;
+  s.extreme_tolerance = trace_parameters{}.extreme_tolerance;
+  s.walk_field = &walk_field;
+  const strip_trace trace = trace_strip(field, lines, strip, s);
+  EXPECT_EQ(trace.failures, 0u);
+  EXPECT_TRUE(trace.level_shifted);
+  EXPECT_GT(trace.retraced, 0u);
+  expect_each_root_ends_one_arc(lines, trace, strip);
+  for (const surface_sample& p : trace.interior) {
+    EXPECT_EQ(p.position.y, 4.0);
+    EXPECT_LT(field.surface_distance(p.position), 1e-9) << p.position.x << " " << p.position.z;
+    EXPECT_GT(p.position.z, -5.0);
+    EXPECT_LT(p.position.z, -4.0);
+  }
 }
 
 }  // namespace

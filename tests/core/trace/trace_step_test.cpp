@@ -188,5 +188,28 @@ TEST(trace_step, polishing_on_a_line_finds_the_crossing) {
   EXPECT_FALSE(polish_on_line(field, {1.2, 1.6, plane_z}, 0.5, out, evaluations));  // the line misses the sphere
 }
 
+// With d = −1 a lone atom's φ = t0 + s is the sphere of radius r·√(1 − ln(1 + s/t0)): the walk and the polishing
+// at a shifted level (a strip whose contour crosses itself at t0, strip_arcs.cpp) follow that sphere instead.
+TEST(trace_step, a_shifted_level_is_walked_and_polished_on_its_own_contour) {
+  const gaussian_field field(one_atom(), -1, 1);
+  const double shift = 0.05;
+  const double shifted_radius = radius * std::sqrt(1 - std::log(1 + shift));
+  const double rho = std::sqrt(shifted_radius * shifted_radius - plane_z * plane_z);
+  surface_sample start;
+  std::size_t evaluations = 0;
+  ASSERT_TRUE(polish_on_line(field, {1.2, 0.2, plane_z}, 0.5, start, evaluations, shift));
+  EXPECT_NEAR(start.position.x, std::sqrt(rho * rho - 0.04), 1e-10);
+  const traced_arc arc =
+      trace_contour(field, {2, plane_z, shift}, start, -1, strip_from_0_2_to_1_2(), evaluations);
+  ASSERT_EQ(arc.end, trace_end::high_line);
+  EXPECT_NEAR(arc.points.back().position.x, std::sqrt(rho * rho - 1.44), 1e-9);
+  for (const surface_sample& p : arc.points) EXPECT_NEAR(norm(p.position), shifted_radius, 1e-4);
+  // The same polishing at t0 lands on the unshifted sphere, farther out.
+  surface_sample unshifted;
+  ASSERT_TRUE(polish_on_line(field, {1.2, 0.2, plane_z}, 0.5, unshifted, evaluations));
+  EXPECT_NEAR(norm(unshifted.position), radius, 1e-10);
+  EXPECT_GT(unshifted.position.x, start.position.x + 0.01);
+}
+
 }  // namespace
 }  // namespace tracemesh
