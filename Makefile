@@ -7,7 +7,7 @@ LISTEN           ?= 127.0.0.1:8080
 CACHE_DIR        ?= $(CURDIR)/cache
 CMAKE_FLAGS      ?=
 
-.PHONY: deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas fuzz fuzz-campaign image test-image clean
+.PHONY: deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp fuzz fuzz-campaign image test-image clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -70,6 +70,11 @@ bench-chaos: build
 bench-paper: build
 	@bash scripts/install-deps.sh --bench-paper
 	BUILD_DIR=$(BUILD_DIR) bash bench/run_paper.sh
+
+# Robustness of the trace path at sharp kernels: where each mesh came from (line grid or lattice path) over d x t0 x
+# density (bench/sharp_kernel_sweep.py: SHARP_ARGS="--baseline OLD/tracemesh --molecules fas2" ...).
+bench-sharp: build
+	python3 bench/sharp_kernel_sweep.py --tracemesh $(BUILD_DIR)/bin/tracemesh --out $(BUILD_DIR)/bench $(SHARP_ARGS)
 
 # Real fuzzing with clang-14 libFuzzer (not part of the suite; the seed corpora replay in `make test`).
 fuzz: deps
