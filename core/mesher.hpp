@@ -106,7 +106,8 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// fallback of trace jobs and the report's method_used and fallback; both 2026-11-27; 7: the trace retried on other
 /// line grids, the report's line_offset, grid_retries and failed_attempts seconds, a strip's root free until an arc
 /// takes it, the quality pass keeping components outward, 2026-11-28; 8: strips whose contour crosses itself traced
-/// at a shifted level and the report's level_shifted_strips, 2026-11-28).
+/// at a shifted level and the report's level_shifted_strips, loops that double back in a wall cut into ears in their
+/// plane, 2026-11-28).
 inline constexpr const char* engine_version = "tracemesh-engine-8";
 
 }  // namespace tracemesh

@@ -135,6 +135,10 @@ enum class loop_strategy {
   /// admissible triangles would have to fold across the cell. Faces in a wall are then possible; the cell's own
   /// test still guards against its other loops, and the certificate against a neighbour doing the same.
   unrestricted,
+  /// The loop cut into ears in its own best plane (triangulate_loop_in_its_plane), no rule on walls or normals: for
+  /// a loop that doubles back on itself in a wall (a hairpin of the contour where it passes a pinch at a sharp
+  /// kernel), whose every other triangulation folds over itself.
+  in_its_plane,
   none,                ///< nothing worked: the mesh cannot close here
 };
 constexpr loop_strategy next(loop_strategy s) { return static_cast<loop_strategy>(static_cast<int>(s) + 1); }
@@ -298,6 +302,11 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
   std::vector<std::array<std::uint32_t, 3>> local;
   loop_triangulation_stats stats;
   loop_triangulation_settings settings;
+  if (strategy == loop_strategy::in_its_plane) {
+    const bool ok = triangulate_loop_in_its_plane(vertices, local, stats, settings);
+    for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
+    return ok;
+  }
   settings.maximise_normal_agreement =
       strategy == loop_strategy::admissible_flat || strategy == loop_strategy::flat_relaxed;
   if (strategy == loop_strategy::admissible_relaxed || strategy == loop_strategy::flat_relaxed ||

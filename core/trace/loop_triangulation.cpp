@@ -465,4 +465,124 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
   return triangulate_annulus(outer, inner, out, stats, loop_triangulation_settings{}, thread_workspace());
 }
 
+namespace {
+
+struct point2 {
+  double u, v;
+};
+
+double cross2(const point2& o, const point2& a, const point2& b) {
+  return (a.u - o.u) * (b.v - o.v) - (a.v - o.v) * (b.u - o.u);
+}
+
+/// Whether the closed segments ab and cd share a point (exact sign tests on the projected coordinates).
+bool segments_meet(const point2& a, const point2& b, const point2& c, const point2& d) {
+  const double d1 = cross2(c, d, a), d2 = cross2(c, d, b), d3 = cross2(a, b, c), d4 = cross2(a, b, d);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
+  const auto on_segment = [](const point2& p, const point2& q, const point2& r) {  // r on pq, given collinear
+    return std::min(p.u, q.u) <= r.u && r.u <= std::max(p.u, q.u) && std::min(p.v, q.v) <= r.v &&
+           r.v <= std::max(p.v, q.v);
+  };
+  return (d1 == 0 && on_segment(c, d, a)) || (d2 == 0 && on_segment(c, d, b)) || (d3 == 0 && on_segment(a, b, c)) ||
+         (d4 == 0 && on_segment(a, b, d));
+}
+
+/// Whether the closed polygon is simple: no two edges meet but neighbours at their shared vertex.
+bool is_simple(const std::vector<point2>& polygon) {
+  const std::size_t n = polygon.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const bool neighbours = j == i + 1 || (i == 0 && j == n - 1);
+      if (neighbours) continue;
+      if (segments_meet(polygon[i], polygon[(i + 1) % n], polygon[j], polygon[(j + 1) % n])) return false;
+    }
+  }
+  return true;
+}
+
+/// Whether p lies in the closed triangle abc (counter-clockwise).
+bool in_triangle(const point2& p, const point2& a, const point2& b, const point2& c) {
+  return cross2(a, b, p) >= 0 && cross2(b, c, p) >= 0 && cross2(c, a, p) >= 0;
+}
+
+}  // namespace
+
+bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                                   loop_triangulation_stats& stats, const loop_triangulation_settings& settings) {
+  const std::size_t n = loop.size();
+  if (n < 3) {
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+  // Newell's normal: twice the vector area of the loop.
+  vec3 normal;
+  for (std::size_t i = 0; i < n; ++i) normal += cross(loop[i].position, loop[(i + 1) % n].position);
+  if (!(squared_norm(normal) > 0)) {
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+  normal = normalized(normal);
+  const vec3 axis_u = normalized(std::abs(normal.x) < 0.9 ? cross(normal, vec3{1, 0, 0}) : cross(normal, vec3{0, 1, 0}));
+  const vec3 axis_v = cross(normal, axis_u);
+  std::vector<point2> projected(n);
+  for (std::size_t i = 0; i < n; ++i) projected[i] = {dot(loop[i].position, axis_u), dot(loop[i].position, axis_v)};
+  if (!is_simple(projected)) {
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+  const double min_edge2 = settings.min_edge_length * settings.min_edge_length;
+  std::vector<std::uint32_t> left(n);
+  for (std::size_t i = 0; i < n; ++i) left[i] = static_cast<std::uint32_t>(i);
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  double worst = 1, sum = 0;
+  while (left.size() > 3) {
+    const std::size_t m = left.size();
+    std::size_t best = m;
+    double best_quality = -1;
+    for (std::size_t k = 0; k < m; ++k) {
+      const std::uint32_t a = left[(k + m - 1) % m], b = left[k], c = left[(k + 1) % m];
+      if (!(cross2(projected[a], projected[b], projected[c]) > 0)) continue;  // reflex or flat: not an ear
+      bool empty = true;
+      for (const std::uint32_t p : left) {
+        if (p != a && p != b && p != c && in_triangle(projected[p], projected[a], projected[b], projected[c])) {
+          empty = false;
+          break;
+        }
+      }
+      if (!empty) continue;
+      const vec3 &pa = loop[a].position, &pc = loop[c].position;
+      if (!(squared_norm(pc - pa) >= min_edge2)) continue;
+      const double longest2 = std::max({squared_norm(loop[b].position - pa), squared_norm(pc - loop[b].position),
+                                        squared_norm(pc - pa)});
+      if (!(norm(cross(loop[b].position - pa, pc - pa)) >= 2 * settings.min_area_ratio * longest2)) continue;
+      const double q = triangle_quality(pa, loop[b].position, pc);
+      if (q > best_quality) {  // ties: the first in loop order, so the result is deterministic
+        best_quality = q;
+        best = k;
+      }
+    }
+    if (best == m) {
+      record(stats, false, 0, 0, 0);
+      return false;
+    }
+    triangles.push_back({left[(best + m - 1) % m], left[best], left[(best + 1) % m]});
+    worst = std::min(worst, best_quality);
+    sum += best_quality;
+    left.erase(left.begin() + static_cast<std::ptrdiff_t>(best));
+  }
+  const double q = triangle_quality(loop[left[0]].position, loop[left[1]].position, loop[left[2]].position);
+  if (!(cross2(projected[left[0]], projected[left[1]], projected[left[2]]) > 0) || !(q > 0)) {
+    record(stats, false, 0, 0, 0);
+    return false;
+  }
+  triangles.push_back({left[0], left[1], left[2]});
+  worst = std::min(worst, q);
+  sum += q;
+  // In loop order (i < k < j rotated), like triangulate_loop: each triangle's corners are already in loop order.
+  out.insert(out.end(), triangles.begin(), triangles.end());
+  stats.triangle_evaluations += n * n;
+  record(stats, true, worst, sum, triangles.size());
+  return true;
+}
+
 }  // namespace tracemesh

@@ -148,4 +148,18 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
 bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
                          std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats);
 
+/// Triangulates a loop that lies almost in one plane by ear clipping in that plane: the loop is projected along its
+/// Newell normal (the normal of its best plane, pointing to the side it is counter-clockwise from), and when the
+/// projection is a simple polygon, the ear of best q is cut off until three vertices are left. The triangles'
+/// projections then do not overlap, so the triangles cannot cross each other, whatever the loop's folds in 3-D —
+/// which no rule of triangulate_loop ensures for a loop that doubles back on itself within a wall (a hairpin of the
+/// contour at a sharp kernel, where every triangulation the dynamic programme prefers folds over itself). Neither
+/// the wall rule nor the orientation rule applies; a triangle must not be degenerate (area ≥
+/// settings.min_area_ratio × longest edge², edges ≥ settings.min_edge_length).
+/// @param out  receives n − 2 triangles as indices into `loop`, each in the loop's cyclic order, hence oriented like
+///             the loop.
+/// @return false, appending nothing, when n < 3, the projection is not simple, or some step has no acceptable ear.
+bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
+                                   loop_triangulation_stats& stats, const loop_triangulation_settings& settings = {});
+
 }  // namespace tracemesh

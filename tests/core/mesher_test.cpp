@@ -288,6 +288,20 @@ TEST(mesher_sharp_kernel, strips_whose_contour_crosses_itself_are_traced_at_a_sh
   EXPECT_NEAR(out->report.area, 36716, 0.02 * 36716);  // the lattice path's at 4 v/Å², converged to ~1%
 }
 
+// fas2 at d = −15, t0 = 10, 1 v/Å²: on the first line grid one loop doubles back on itself along a wall where the
+// contour passes a pinch, every triangulation of the dynamic programme folds over itself, and the job needed the
+// second grid (found 2026-11-28 by bench/sharp_kernel_sweep.py). The loop is now cut into ears in its own plane
+// (loop_triangulation.hpp: triangulate_loop_in_its_plane, a counted fallback) and the first grid is certified.
+TEST(mesher_sharp_kernel, a_loop_that_doubles_back_in_a_wall_is_triangulated_in_its_plane) {
+  const result<mesh_output> out =
+      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -15, 10, refine_mode::full));
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  EXPECT_TRUE(out->fallback_reason.empty()) << out->fallback_reason;
+  EXPECT_EQ(out->trace.grid_retries, 0u);
+  EXPECT_GT(out->trace.fallback_loops, 0u);
+}
+
 /// Vertices that lie on a line y = (j + offset[0])·h, z = (k + offset[1])·h (to 1e-9·h): the roots of the lines.
 std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_grid_offset& offset) {
   const auto on_grid = [&](double coordinate, double shift) {

@@ -15,6 +15,8 @@
 #include <set>
 #include <tuple>
 
+#include "core/analysis/triangle_intersection.hpp"
+
 namespace tracemesh {
 namespace {
 
@@ -755,6 +757,128 @@ TEST(LoopTriangulationAnnulus, FailsWhenBothLoopsLieOnOneWall) {
   std::reverse(inner.begin(), inner.end());
   EXPECT_FALSE(triangulate_annulus(outer, inner, out, stats));
   EXPECT_EQ(out, sentinel);
+}
+
+// ---- triangulate_loop_in_its_plane -----------------------------------------------------------------------------
+
+/// Newell's normal of a loop (twice its vector area), and the loop's triangles' total unsigned area and the loop's
+/// area, both projected along it: equal exactly when the projected triangles do not overlap.
+struct projected_areas {
+  double triangles = 0, loop = 0;
+};
+projected_areas areas_along_newell_normal(const std::vector<loop_vertex>& loop, const triangle_list& triangles) {
+  vec3 newell;
+  for (std::size_t i = 0; i < loop.size(); ++i) newell += cross(loop[i].position, loop[(i + 1) % loop.size()].position);
+  const vec3 n = normalized(newell);
+  projected_areas out;
+  out.loop = 0.5 * norm(newell);
+  for (const auto& t : triangles) {
+    out.triangles += 0.5 * std::abs(dot(cross(loop[t[1]].position - loop[t[0]].position,
+                                              loop[t[2]].position - loop[t[0]].position), n));
+  }
+  return out;
+}
+
+std::size_t self_intersecting_pairs(const std::vector<loop_vertex>& loop, const triangle_list& triangles) {
+  std::vector<vec3> positions;
+  for (const loop_vertex& v : loop) positions.push_back(v.position);
+  std::size_t pairs = 0;
+  for (std::size_t a = 0; a < triangles.size(); ++a) {
+    for (std::size_t b = a + 1; b < triangles.size(); ++b) {
+      pairs += detail::mesh_triangles_intersect(positions, triangles[a], triangles[b]);
+    }
+  }
+  return pairs;
+}
+
+// A loop of mache at d = −15, t0 = 1, 1 v/Å² (cell j = 22, k = −1 of the first line grid, 11 vertices as traced):
+// where the contour passes a pinch, the loop doubles back on itself along the wall z = 0. Every triangulation the
+// dynamic programme finds, with or without its rules on walls and normals, folds over itself or fails, so the cell
+// stayed open (found 2026-11-28). Cut into ears in its own plane, it is not.
+std::vector<loop_vertex> doubled_back_loop() {
+  return {
+      vertex({-19.165821624136196, 23, -1}, {-0.65615220621501902, 0.68256578947368451, 0.32182017543859637}, 6),
+      vertex({-19.678497658742593, 22, -1}, {-0.93722448312136031, 0.13432083349798174, 0.32182010802046956}, 5),
+      vertex({-18.835431766629259, 22, 0}, {-0.48310760855169588, 0.12855002344468566, 0.86607270481861509}, 9),
+      vertex({-18.368704635506383, 22.778433382310613, 0},
+             {-0.41866070084452817, 0.5985947324083678, 0.68294038092744436}, 8),
+      vertex({-17.497208961227443, 22.790922385780398, 0},
+             {0.37505814638631174, 0.60004734602845078, 0.70659363806467756}, 8),
+      vertex({-17.092277634525043, 22, 0}, {0.52784079985707466, 0.098577840699751326, 0.8436032831427448}, 9),
+      vertex({-16.505826648849808, 22, -0.40920363891996298},
+             {-0.0054974138388249293, -0.93599103184661814, 0.35198091815294147}, 1),
+      vertex({-16.138073235970719, 22, 0}, {-0.2902952597282466, -0.9064995041417051, 0.3065735004369301}, 9),
+      vertex({-16.924738231810444, 22.329665183743167, 0},
+             {-0.54674871391834523, -0.75138232959361329, 0.36944612408727506}, 8),
+      vertex({-17.434174203054987, 23, 0}, {-0.88060178589974125, -0.34683543879035944, 0.32287098517718366}, 10),
+      vertex({-18.369144551432861, 23, -0.26101814075209118},
+             {-0.35747470280399962, 0.77089075221286574, 0.52719947364149966}, 2)};
+}
+
+TEST(LoopTriangulationInItsPlane, ALoopThatEveryOtherTriangulationFoldsIsCutWithoutOverlap) {
+  const std::vector<loop_vertex> loop = doubled_back_loop();
+  // The dynamic programme's fallbacks of cell_polygons.cpp: relaxed, flattest, and without the wall rule.
+  int triangulated = 0;
+  for (int fallback = 0; fallback < 4; ++fallback) {
+    std::vector<loop_vertex> vertices = loop;
+    loop_triangulation_settings settings;
+    if (fallback >= 1) settings.min_normal_cosine = -2;
+    settings.maximise_normal_agreement = fallback == 2;
+    if (fallback == 3) {
+      for (loop_vertex& v : vertices) v.planes = 0;
+    }
+    triangle_list triangles;
+    loop_triangulation_stats stats;
+    if (triangulate_loop(vertices, triangles, stats, settings)) {
+      ++triangulated;
+      EXPECT_GT(self_intersecting_pairs(loop, triangles), 0u) << "fallback " << fallback;
+    }
+  }
+  EXPECT_GT(triangulated, 0);  // they do triangulate it, only folded
+  triangle_list out;
+  loop_triangulation_stats stats;
+  ASSERT_TRUE(triangulate_loop_in_its_plane(loop, out, stats));
+  ASSERT_EQ(out.size(), loop.size() - 2);
+  EXPECT_EQ(self_intersecting_pairs(loop, out), 0u);
+  const projected_areas areas = areas_along_newell_normal(loop, out);
+  EXPECT_NEAR(areas.triangles, areas.loop, 1e-12 * areas.loop);  // no projected overlap
+  EXPECT_GT(stats.last_min_quality, 0.0);
+  // Every loop edge is used once, each in the loop's direction (the triangles are oriented like the loop).
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+  for (const auto& t : out) {
+    for (int e = 0; e < 3; ++e) ++directed[{t[e], t[(e + 1) % 3]}];
+  }
+  for (std::uint32_t i = 0; i < loop.size(); ++i) {
+    const auto next = static_cast<std::uint32_t>((i + 1) % loop.size());
+    EXPECT_EQ((directed[{i, next}]), 1) << i;
+    EXPECT_EQ((directed[{next, i}]), 0) << i;
+  }
+}
+
+TEST(LoopTriangulationInItsPlane, ConvexPolygonGetsItsShoelaceArea) {
+  std::vector<loop_vertex> loop;
+  for (int i = 0; i < 7; ++i) {
+    const double angle = 2 * std::numbers::pi * i / 7;
+    loop.push_back(vertex({std::cos(angle), std::sin(angle), 0.3}, {0, 0, 1}, 0));
+  }
+  triangle_list out;
+  loop_triangulation_stats stats;
+  ASSERT_TRUE(triangulate_loop_in_its_plane(loop, out, stats));
+  EXPECT_EQ(out.size(), 5u);
+  const double shoelace = 3.5 * std::sin(2 * std::numbers::pi / 7);  // 7 isosceles triangles of the unit circle
+  EXPECT_NEAR(areas_along_newell_normal(loop, out).triangles, shoelace, 1e-12);
+}
+
+TEST(LoopTriangulationInItsPlane, ALoopWhoseProjectionCrossesItselfIsRefused) {
+  // A figure eight in the plane z = 0: its edges (0, 1) and (2, 3) cross.
+  const std::vector<loop_vertex> loop = {vertex({0, 0, 0}, {0, 0, 1}, 0), vertex({1, 1, 0}, {0, 0, 1}, 0),
+                                         vertex({1, 0, 0}, {0, 0, 1}, 0), vertex({0, 1, 0}, {0, 0, 1}, 0)};
+  const triangle_list sentinel = {{7, 8, 9}};
+  triangle_list out = sentinel;
+  loop_triangulation_stats stats;
+  EXPECT_FALSE(triangulate_loop_in_its_plane(loop, out, stats));
+  EXPECT_EQ(out, sentinel);
+  EXPECT_EQ(stats.failed_loops, 1u);
 }
 
 }  // namespace
