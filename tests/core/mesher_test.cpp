@@ -277,13 +277,20 @@ TEST(mesher_sharp_kernel, tiny_cavities_stay_outward_oriented_through_the_qualit
 // raw mesh also came out non-manifold, and the quality pass's refusal of it was mapped to an internal error so that
 // the job was retried) and the lattice path made the mesh: area 32,488 Å² against 36,716 Å² at 4 v/Å². Those strips
 // are now traced at t0·(1 ± ε) (strip_arcs.cpp) and the first grid's trace is certified: area 36,927 Å².
-TEST(mesher_sharp_kernel, strips_whose_contour_crosses_itself_are_traced_at_a_shifted_level) {
-  const result<mesh_output> out =
-      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 1, -15, 0.01, refine_mode::full));
-  ASSERT_TRUE(out.ok()) << out.error().message();
+/// The trace job of `file` at 1 v/Å², d, t0, refined; expects it certified and traced on the first line grid.
+result<mesh_output> traced_on_the_first_grid(const char* file, double d, double t0) {
+  result<mesh_output> out = mesh_file(file, sharp_params(mesh_method::trace, 1, d, t0, refine_mode::full));
+  EXPECT_TRUE(out.ok()) << out.error().message();
+  if (!out.ok()) return out;
   EXPECT_TRUE(out->certified);
   EXPECT_TRUE(out->fallback_reason.empty()) << out->fallback_reason;
   EXPECT_EQ(out->trace.grid_retries, 0u);
+  return out;
+}
+
+TEST(mesher_sharp_kernel, strips_whose_contour_crosses_itself_are_traced_at_a_shifted_level) {
+  const result<mesh_output> out = traced_on_the_first_grid("mache.pqr", -15, 0.01);
+  ASSERT_TRUE(out.ok());
   EXPECT_GT(out->trace.level_shifted_strips, 0u);
   EXPECT_NEAR(out->report.area, 36716, 0.02 * 36716);  // the lattice path's at 4 v/Å², converged to ~1%
 }
@@ -293,12 +300,8 @@ TEST(mesher_sharp_kernel, strips_whose_contour_crosses_itself_are_traced_at_a_sh
 // second grid (found 2026-11-28 by bench/sharp_kernel_sweep.py). The loop is now cut into ears in its own plane
 // (loop_triangulation.hpp: triangulate_loop_in_its_plane, a counted fallback) and the first grid is certified.
 TEST(mesher_sharp_kernel, a_loop_that_doubles_back_in_a_wall_is_triangulated_in_its_plane) {
-  const result<mesh_output> out =
-      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -15, 10, refine_mode::full));
-  ASSERT_TRUE(out.ok()) << out.error().message();
-  EXPECT_TRUE(out->certified);
-  EXPECT_TRUE(out->fallback_reason.empty()) << out->fallback_reason;
-  EXPECT_EQ(out->trace.grid_retries, 0u);
+  const result<mesh_output> out = traced_on_the_first_grid("fas2.pqr", -15, 10);
+  ASSERT_TRUE(out.ok());
   EXPECT_GT(out->trace.fallback_loops, 0u);
 }
 
