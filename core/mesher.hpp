@@ -107,7 +107,8 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// line grids, the report's line_offset, grid_retries and failed_attempts seconds, a strip's root free until an arc
 /// takes it, the quality pass keeping components outward, 2026-11-28; 8: strips whose contour crosses itself traced
 /// at a shifted level and the report's level_shifted_strips, loops that double back in a wall cut into ears in their
-/// plane, 2026-11-28).
-inline constexpr const char* engine_version = "tracemesh-engine-8";
+/// plane, 2026-11-28; 9: cavities that no line touches found and meshed on a local grid, the report's
+/// untouched_cavities and untouched_cavities_left, 2026-11-28).
+inline constexpr const char* engine_version = "tracemesh-engine-9";
 
 }  // namespace tracemesh

@@ -39,6 +39,8 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
       {"retraced_arcs", stats.retraced_arcs},
       {"fallback_loops", stats.fallback_loops},
       {"level_shifted_strips", stats.level_shifted_strips},
+      {"untouched_cavities", stats.untouched_cavities},
+      {"untouched_cavities_left", stats.untouched_cavities_left},
       {"field_evaluations", stats.field_evaluations},
       {"raw_vertices", stats.raw_vertices},
       {"raw_triangles", stats.raw_triangles},

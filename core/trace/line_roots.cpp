@@ -576,6 +576,16 @@ template <int W>
   }
 }
 
+/// Appends the dips of one line (line_root_settings::dip_ratio) from its samples `values` at `node_x`.
+void find_dips(int line, std::span<const double> node_x, const double* values, double t0, double dip_ratio,
+               std::vector<block_line_roots::dip>& dips) {
+  const double ceiling = dip_ratio * t0;
+  for (std::size_t n = 1; n + 1 < node_x.size(); ++n) {
+    const double v = values[n];
+    if (v > t0 && v <= ceiling && v < values[n - 1] && v <= values[n + 1]) dips.push_back({line, node_x[n]});
+  }
+}
+
 /// True when any two node values lie on different sides of t0.
 bool crosses_level(const double* values, int count, double t0) {
   bool crosses = false;
@@ -618,6 +628,7 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
   fit_scratch scratch{ws.legendre, ws.bernstein, ws.slope, ws.slope_bernstein, ws.extrema};
   const std::span<const double> node_x(ws.node_x.data(), static_cast<std::size_t>(samples));
   out.roots.clear();
+  out.dips.clear();
   out.first[0] = 0;
 
   simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
@@ -627,6 +638,7 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
     stats.field_evaluations += static_cast<std::size_t>(lines_per_block) * static_cast<std::size_t>(samples);
     for (int line = 0; line < lines_per_block; ++line) {
       const double* values = ws.sums.data() + static_cast<std::size_t>(line) * static_cast<std::size_t>(node_stride);
+      if (settings_.dip_ratio > 0) find_dips(line, node_x, values, t0, settings_.dip_ratio, out.dips);
       ws.candidates.clear();
       ws.probes.clear();
       for (int q = 0; q < fits_per_line; ++q) {

@@ -69,6 +69,12 @@ inline constexpr int lines_per_block = lattice::block_cells * lattice::block_cel
 struct block_line_roots {
   std::array<std::uint32_t, 65> first{};  ///< roots of line (j, k) are roots[first[j + 8k] .. first[j + 8k + 1])
   std::vector<line_root> roots;           ///< per line sorted by x
+  /// Dips (line_root_settings::dip_ratio): by line, then x.
+  struct dip {
+    int line;  ///< j + 8k
+    double x;  ///< Å, the node where φ is lowest
+  };
+  std::vector<dip> dips;
 };
 
 /// Tunables of line_root_finder (the defaults are what find_block_line_roots uses).
@@ -79,6 +85,10 @@ struct line_root_settings {
   /// Probes: φ is sampled at an extremum of a fit's series that comes within probe_margin × (|a_M| + |a_{M−1}|) of
   /// t0; the sample joins the sign walk, which then brackets a pair of roots the series missed. 0: no probes.
   double probe_margin = 4;
+  /// Dips: a node sample (not a span end) where φ is lower than at both neighbouring samples and lies in
+  /// (t0, dip_ratio·t0]. The line passes near a pocket of φ < t0 that may touch no line (a cavity between lines,
+  /// untouched_cavities.hpp). 0: none reported.
+  double dip_ratio = 0;
 };
 
 /// The stateful form: tables for one degree and scratch reused from block to block (no allocation once warm).

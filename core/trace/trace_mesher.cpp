@@ -11,6 +11,7 @@
 #include "core/trace/line_roots.hpp"
 #include "core/trace/strip_arcs.hpp"
 #include "core/trace/trace_lines.hpp"
+#include "core/trace/untouched_cavities.hpp"
 
 namespace tracemesh {
 namespace {
@@ -52,11 +53,13 @@ std::vector<line_point> without_tangencies(const std::vector<line_point>& roots,
   return kept;
 }
 
-/// Roots on the lines of every block (eq. 6), with the field's gradient at each (the traces start from it).
+/// Roots on the lines of every block (eq. 6), with the field's gradient at each (the traces start from it). With
+/// `dips` (not null), also the lines' dips towards t0 (untouched_cavities.hpp), in block order.
 result<trace_lines> find_all_line_roots(const gaussian_field& field, const lattice& lat,
                                         const std::vector<lattice_index>& blocks, int degree,
-                                        progress_token& progress, trace_stats& stats) {
+                                        std::vector<vec3>* dips, progress_token& progress, trace_stats& stats) {
   std::vector<std::vector<trace_lines::entry>> per_block(blocks.size());
+  std::vector<std::vector<vec3>> dips_per_block(dips ? blocks.size() : 0);
   std::vector<line_root_stats> block_stats(blocks.size());
   std::atomic<std::size_t> done{0};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -65,6 +68,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
     block_line_roots roots;
     line_root_settings settings;
     settings.degree = degree;
+    if (dips) settings.dip_ratio = untouched_cavity_settings{}.dip_ratio;
     line_root_finder finder(settings);
     for (std::size_t n = r.begin(); n != r.end(); ++n) {
       const lattice_index& b = blocks[n];
@@ -86,6 +90,11 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
           for (const line_point& point : without_tangencies(points, h)) per_block[n].push_back({id, point});
         }
       }
+      for (const block_line_roots::dip& dip : roots.dips) {
+        const std::int64_t j = b.j * lattice::block_cells + dip.line % lattice::block_cells;
+        const std::int64_t k = b.k * lattice::block_cells + dip.line / lattice::block_cells;
+        dips_per_block[n].push_back({dip.x, static_cast<double>(j) * lat.spacing(), static_cast<double>(k) * lat.spacing()});
+      }
     }
     progress.report(mesh_stage::roots, static_cast<double>(done += r.size()) / static_cast<double>(blocks.size()));
   });
@@ -97,6 +106,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
     stats.bracketed_roots += block_stats[n].sign_walk_roots;
     stats.field_evaluations += block_stats[n].field_evaluations;
     entries.insert(entries.end(), per_block[n].begin(), per_block[n].end());
+    if (dips) dips->insert(dips->end(), dips_per_block[n].begin(), dips_per_block[n].end());
   }
   return trace_lines(std::move(entries));
 }
@@ -215,8 +225,7 @@ void number_vertices_by_first_use(surface_mesh& mesh) {
   }
 }
 
-/// The mesh: roots, then interior points, then the cells' Steiner points, numbered by first use; triangles cell by
-/// cell.
+/// The mesh: roots, then interior points, then the cells' Steiner points; triangles cell by cell.
 surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cells) {
   surface_mesh mesh;
   const double h = surface.spacing;
@@ -247,23 +256,19 @@ surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cel
     }
     std::vector<std::array<std::uint32_t, 3>>().swap(cell.triangles);
   }
-  number_vertices_by_first_use(mesh);
   return mesh;
 }
 
-}  // namespace
-
-double trace_line_spacing(double density) { return line_spacing_at_unit_density / std::sqrt(density); }
-
-result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussian_field& walk_field,
-                                       const lattice& lat,
-                                       const std::vector<lattice_index>& blocks, const trace_parameters& params,
-                                       const mesh_limits& limits, progress_token& progress, stage_clock& clock,
-                                       trace_stats& stats) {
+/// The triangulated polygons of the blocks (the body of mesh_trace_blocks); with `seeds` (not null), the lines'
+/// dips are stored there for the search for untouched cavities.
+result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_field& walk_field, const lattice& lat,
+                                   const std::vector<lattice_index>& blocks, const trace_parameters& params,
+                                   std::vector<vec3>* seeds, progress_token& progress, stage_clock& clock,
+                                   trace_stats& stats, trace_lines& lines_out) {
   const double h = lat.spacing();
   stats.line_spacing = h;
   stats.step = params.step_fraction * h;
-  auto lines = find_all_line_roots(field, lat, blocks, params.legendre_degree, progress, stats);
+  auto lines = find_all_line_roots(field, lat, blocks, params.legendre_degree, seeds, progress, stats);
   if (!lines) return lines.error();
   if (lines->root_count() == 0) {
     return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
@@ -304,16 +309,108 @@ result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussi
     intersecting_cells += c.intersecting;
   }
   surface_mesh mesh = assemble(surface, cells);
-  stats.raw_vertices = mesh.positions.size();
-  stats.raw_triangles = mesh.triangles.size();
+  lines_out = std::move(surface.lines);
   if (open_cells > 0 || intersecting_cells > 0 || failures > 0) {
     return status{errc::internal_error, "trace polygons could not be closed: " + std::to_string(failures) +
                                             " roots without an arc, " + std::to_string(open_cells) +
                                             " cells with an open or untriangulable loop, " +
                                             std::to_string(intersecting_cells) + " cells with intersecting triangles"};
   }
-  if (mesh.triangles.size() > limits.max_triangles) {
-    return status{errc::limit_exceeded, "mesh has " + std::to_string(mesh.triangles.size()) + " triangles (limit " +
+  return mesh;
+}
+
+/// The cavity in `cavity`'s box, meshed by the trace path on the box's own grid (its line through the minimum
+/// guarantees roots): the atoms whose cutoff reaches the box, moved so that the box starts at the origin, give φ
+/// inside the box, and the box's faces hold no surface, so every polygon closes inside it.
+result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const untouched_cavity& cavity,
+                                           const trace_parameters& params, trace_stats& stats) {
+  std::vector<std::uint32_t> near;
+  field.atoms_near_box(cavity.box, near);
+  molecule local;
+  for (const std::uint32_t k : near) {
+    const gaussian_field::atom_data a = field.atom_at(k);
+    local.atoms.push_back({vec3{a.x, a.y, a.z} - cavity.box.lo, 1 / std::sqrt(a.inv_r2), 0});
+  }
+  const gaussian_field local_field(local, field.d(), field.t0());
+  const lattice lat(cavity.spacing, {0, 0, 0});
+  std::vector<lattice_index> blocks;
+  for (int i = 0; i < cavity.blocks_x; ++i) {
+    for (int j = 0; j < cavity.blocks_yz; ++j) {
+      for (int k = 0; k < cavity.blocks_yz; ++k) blocks.push_back({i, j, k});
+    }
+  }
+  std::vector<stage_timing> timings;
+  stage_clock clock(timings);
+  progress_token progress;  // the job's token is polled between cavities; this one keeps the job's stages in order
+  trace_stats local_stats;
+  trace_lines lines;
+  auto mesh = mesh_polygons(local_field, local_field, lat, blocks, params, nullptr, progress, clock, local_stats, lines);
+  stats.field_evaluations += local_stats.field_evaluations;
+  stats.fallback_loops += local_stats.fallback_loops;
+  if (!mesh) return mesh;
+  for (vec3& p : mesh->positions) {
+    p += cavity.box.lo;
+    const bool inside = p.x >= cavity.box.lo.x && p.x <= cavity.box.hi.x && p.y >= cavity.box.lo.y &&
+                        p.y <= cavity.box.hi.y && p.z >= cavity.box.lo.z && p.z <= cavity.box.hi.z;
+    if (!inside) return status{errc::internal_error, "an untouched cavity's mesh left its box"};
+  }
+  return mesh;
+}
+
+/// Appends `piece` (its own vertices and triangles) to `mesh`.
+void append(surface_mesh& mesh, const surface_mesh& piece) {
+  const auto offset = static_cast<std::uint32_t>(mesh.positions.size());
+  mesh.positions.insert(mesh.positions.end(), piece.positions.begin(), piece.positions.end());
+  mesh.normals.insert(mesh.normals.end(), piece.normals.begin(), piece.normals.end());
+  for (auto t : piece.triangles) {
+    for (std::uint32_t& v : t) v += offset;
+    mesh.triangles.push_back(t);
+  }
+}
+
+/// Finds the cavities no line touched (untouched_cavities.hpp) and appends their meshes. A cavity whose local trace
+/// fails is left out (the mesh stays closed without it) and counted.
+status add_untouched_cavities(const gaussian_field& field, const trace_lines& lines, double h,
+                              const std::vector<vec3>& seeds, const trace_parameters& params,
+                              progress_token& progress, surface_mesh& mesh, trace_stats& stats) {
+  untouched_cavity_stats search;
+  const std::vector<untouched_cavity> cavities =
+      find_untouched_cavities(field, lines, h, seeds, untouched_cavity_settings{}, progress, search);
+  stats.field_evaluations += search.field_evaluations;
+  for (const untouched_cavity& cavity : cavities) {
+    if (progress.cancelled()) return cancelled_status();
+    auto piece = mesh_untouched_cavity(field, cavity, params, stats);
+    if (!piece) {
+      ++stats.untouched_cavities_left;
+      continue;
+    }
+    append(mesh, *piece);
+    ++stats.untouched_cavities;
+  }
+  return progress.cancelled() ? cancelled_status() : status{};
+}
+
+}  // namespace
+
+double trace_line_spacing(double density) { return line_spacing_at_unit_density / std::sqrt(density); }
+
+result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussian_field& walk_field,
+                                       const lattice& lat,
+                                       const std::vector<lattice_index>& blocks, const trace_parameters& params,
+                                       const mesh_limits& limits, progress_token& progress, stage_clock& clock,
+                                       trace_stats& stats) {
+  std::vector<vec3> seeds;
+  trace_lines lines;
+  auto mesh = mesh_polygons(field, walk_field, lat, blocks, params, &seeds, progress, clock, stats, lines);
+  if (!mesh) return mesh;
+  if (status s = add_untouched_cavities(field, lines, lat.spacing(), seeds, params, progress, *mesh, stats); !s) {
+    return s;
+  }
+  number_vertices_by_first_use(*mesh);
+  stats.raw_vertices = mesh->positions.size();
+  stats.raw_triangles = mesh->triangles.size();
+  if (mesh->triangles.size() > limits.max_triangles) {
+    return status{errc::limit_exceeded, "mesh has " + std::to_string(mesh->triangles.size()) + " triangles (limit " +
                                             std::to_string(limits.max_triangles) + ")"};
   }
   clock.finish(mesh_stage::triangulating);

@@ -41,6 +41,10 @@ struct trace_stats {
   /// strips whose arcs were traced at t0·(1 ± ε) because the contour at t0 crosses itself in their plane
   std::size_t level_shifted_strips = 0;
   std::size_t fallback_loops = 0;       ///< polygons triangulated with a Steiner point on the surface
+  /// cavities that no line touched, found from the lines' dips and meshed on a finer grid of their own
+  /// (untouched_cavities.hpp); and those found but whose local trace failed (left out of the mesh)
+  std::size_t untouched_cavities = 0;
+  std::size_t untouched_cavities_left = 0;
   std::size_t field_evaluations = 0;    ///< evaluations of φ (with or without ∇φ) in roots and traces
   std::size_t raw_vertices = 0;         ///< vertices of the triangulated polygons, before any quality pass
   std::size_t raw_triangles = 0;

@@ -88,6 +88,8 @@ trace_stats sample_trace_stats() {
   t.retraced_arcs = 8;
   t.fallback_loops = 9;
   t.level_shifted_strips = 12;
+  t.untouched_cavities = 13;
+  t.untouched_cavities_left = 14;
   t.field_evaluations = 2500;
   t.raw_vertices = 100;
   t.raw_triangles = 196;
@@ -164,6 +166,8 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"retraced_arcs", 8},
                                    {"fallback_loops", 9},
                                    {"level_shifted_strips", 12},
+                                   {"untouched_cavities", 13},
+                                   {"untouched_cavities_left", 14},
                                    {"field_evaluations", 2500},
                                    {"raw_vertices", 100},
                                    {"raw_triangles", 196},
