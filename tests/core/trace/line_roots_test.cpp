@@ -311,6 +311,40 @@ TEST(line_roots, sign_walk_recovers_roots_the_series_misses) {
   EXPECT_EQ(stats[true].polynomial_roots, stats[false].polynomial_roots);
 }
 
+// Dips (line_root_settings::dip_ratio), the seeds of the search for untouched cavities. Two atoms of radius 1.5 at
+// x = 2.8 and 5.2 on the line y = z = 0, t0 = 2.5: along that line φ has its minimum at x = 4 (by symmetry), of
+// 2·e^(1 − 1.44/2.25) = 2.87 = 1.15·t0, so the line dips towards t0 there without reaching it (it crosses the
+// surface only at the dumbbell's two ends). The lines one cell away (y or z = 1) stay below t0 (at most about
+// e^(1 − 1/2.25) + e^(1 − 6.76/2.25) = 1.88): no root, no dip.
+TEST(line_roots, a_line_that_dips_towards_t0_between_two_atoms_reports_one_dip) {
+  molecule mol;
+  mol.atoms.push_back({{2.8, 0, 0}, 1.5, 0});
+  mol.atoms.push_back({{5.2, 0, 0}, 1.5, 0});
+  const gaussian_field field(mol, -1, 2.5);
+  const lattice lat(1.0, {-64, -64, -64});
+  std::vector<std::uint32_t> atoms;
+  field.atoms_near_box(lat.block_box({0, 0, 0}), atoms);
+  for (const double ratio : {0.0, 1.1, 1.5}) {
+    line_root_settings settings;
+    settings.dip_ratio = ratio;
+    line_root_finder finder(settings);
+    block_line_roots found;
+    line_root_stats stats;
+    finder.find(field, lat, {0, 0, 0}, atoms, found, stats);
+    if (ratio < 1.15) {
+      EXPECT_TRUE(found.dips.empty()) << "ratio " << ratio;
+      continue;
+    }
+    ASSERT_EQ(found.dips.size(), 1u);
+    EXPECT_EQ(found.dips[0].line, 0);
+    EXPECT_NEAR(found.dips[0].x, 4.0, 0.2) << "the node next to the minimum";
+    ASSERT_EQ(line_of(found, 0).size(), 2u) << "the dumbbell's two ends";
+    EXPECT_LT(line_of(found, 0)[0].x, found.dips[0].x);
+    EXPECT_GT(line_of(found, 0)[1].x, found.dips[0].x);
+    EXPECT_TRUE(line_of(found, 1).empty());
+  }
+}
+
 TEST(line_roots, no_atoms_no_roots) {
   molecule mol;
   mol.atoms.push_back({{100, 100, 100}, 1.5, 0});

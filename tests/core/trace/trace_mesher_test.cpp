@@ -239,27 +239,42 @@ INSTANTIATE_TEST_SUITE_P(refine, trace_shapes, refine_values, refine_case_name);
 
 // A void so small that no line reaches it at density 1: 100 atoms of radius 2.07 on a sphere of radius 5 centred
 // at (0.13, 0.5, 0.5), the middle of a cell of the h̃ = 1 Å lattice, leave a void of radius ≈ 0.61 Å (φ = 0.80 at
-// its centre). The lines nearest to it are 0.71 Å away, so no line holds a root of it; the planes y = 0, y = 1,
-// z = 0 and z = 1 cut it in circles of radius ≈ 0.35 Å that touch no line (method.md §7.5).
-// Observed: at density 1 the void is lost — one component, no cavity, still certified (the lattice path loses it
-// too at this density); at density 2 (h̃ = 0.71 Å) line (1, 1) passes 0.29 Å from its centre and the void is
-// meshed as a cavity. The four wall contours exist at density 1, but closed contours inside a strip that touch no
-// line are not detected (method.md §7.5; README "Method", limits of the trace path).
-TEST(trace_mesher, a_void_no_line_reaches_is_lost_at_a_coarse_density_but_the_mesh_stays_certified) {
+// its centre). The lines nearest to it are 0.71 Å away, so no line holds a root of it (method.md §7.5). Before the
+// search for untouched cavities it was lost at density 1 (one component); now the lines' dips lead to it, and it
+// is meshed on a local grid of its own as a cavity whose area and volume agree with the lattice path's at
+// 20 v/Å² (raw: 4.37 Å² and −0.84 Å³ against 4.57 and −0.91). At density 2 (h̃ = 0.71 Å) line (1, 1) passes 0.29 Å
+// from its centre and the lines meet it themselves.
+TEST(trace_mesher, a_void_no_line_reaches_is_found_from_the_lines_dips_and_meshed_on_a_local_grid) {
   const molecule mol = shell(100, 5, 2.07, {0.13, 0.5, 0.5});
+  mesh_params fine_lattice;
+  fine_lattice.method = mesh_method::lattice;
+  fine_lattice.density = 20;
+  fine_lattice.refine = refine_mode::none;
+  progress_token progress;
+  const auto reference = mesh_molecule(mol, fine_lattice, {}, progress);
+  ASSERT_TRUE(reference.ok()) << reference.error().message();
+  ASSERT_EQ(reference->report.components.size(), 2u);
+  const component_report& reference_void = reference->report.components[1];
   for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
     const auto coarse = mesh_trace(mol, 1.0, refine);
     expect_certified(coarse);
     ASSERT_TRUE(coarse.ok());
-    // Observed: one component, no cavity (the void is lost). Finding it would be an improvement, not a failure.
-    EXPECT_LE(coarse->report.components.size(), 2u);
-    EXPECT_EQ(coarse->report.cavities, coarse->report.components.size() - 1);
-    EXPECT_FALSE(coarse->report.components[0].cavity);
+    ASSERT_EQ(coarse->report.components.size(), 2u);
+    EXPECT_EQ(coarse->report.cavities, 1u);
+    EXPECT_EQ(coarse->trace.untouched_cavities, 1u);
+    EXPECT_EQ(coarse->trace.untouched_cavities_left, 0u);
+    const component_report& found = coarse->report.components[1];
+    EXPECT_TRUE(found.cavity);
+    if (refine == refine_mode::none) {
+      EXPECT_NEAR(found.area, reference_void.area, 0.1 * reference_void.area);
+      EXPECT_NEAR(found.volume, reference_void.volume, 0.15 * -reference_void.volume);
+    }
     const auto fine = mesh_trace(mol, 2.0, refine);
     expect_certified(fine);
     ASSERT_TRUE(fine.ok());
     EXPECT_EQ(fine->report.components.size(), 2u);
     EXPECT_EQ(fine->report.cavities, 1u);
+    EXPECT_EQ(fine->trace.untouched_cavities, 0u) << "a line meets it";
   }
 }
 
@@ -343,6 +358,29 @@ TEST(trace_mesher, output_is_identical_whatever_the_thread_count) {
     EXPECT_EQ(one->trace.field_evaluations, two->trace.field_evaluations);
     EXPECT_EQ(one->trace.arcs, two->trace.arcs);
   }
+}
+
+// mache at 2 v/Å² has a void 0.44 × 0.52 × 0.76 Å at (−8.21, −8.91, −16.11) that the lattice path meshes at 8 v/Å²
+// and that no line of h̃ = 0.71 Å meets (README "Method": where the topology differs). The search for untouched
+// cavities meshes it as a cavity of its own, certified, and the bytes stay the same on 1 and 2 threads.
+TEST(trace_mesher, a_real_void_no_line_meets_is_meshed_the_same_on_any_thread_count) {
+  auto mol = read_pqr_file(testing::molecule_path("mache.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  const auto one = mesh_trace(*mol, 2.0, refine_mode::none, 1);
+  const auto two = mesh_trace(*mol, 2.0, refine_mode::none, 2);
+  expect_certified(one);
+  ASSERT_TRUE(one.ok() && two.ok());
+  EXPECT_EQ(one->trace.grid_retries, 0u);
+  EXPECT_GE(one->trace.untouched_cavities, 1u);
+  EXPECT_EQ(one->trace.untouched_cavities_left, 0u);
+  const vec3 void_centre{-8.21, -8.91, -16.11};
+  std::size_t near_the_void = 0;
+  for (const vec3& p : one->mesh.positions) near_the_void += distance(p, void_centre) < 0.5;
+  EXPECT_GE(near_the_void, 4u) << "the void's own vertices (its far side is 0.38 Å from its centre)";
+  ASSERT_EQ(one->mesh.positions.size(), two->mesh.positions.size());
+  EXPECT_EQ(0, std::memcmp(one->mesh.positions.data(), two->mesh.positions.data(),
+                           one->mesh.positions.size() * sizeof(vec3)));
+  EXPECT_EQ(one->mesh.triangles, two->mesh.triangles);
 }
 
 molecule chain(int count) {

@@ -1,0 +1,149 @@
+// Tests of core/trace/untouched_cavities.hpp: a void between the lines is found from a seed near it, proven alone
+// in a box, and left alone when a line already meets it or when it opens to the outside; the face proof against a
+// single atom's closed form.
+#include "core/trace/untouched_cavities.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+namespace tracemesh {
+namespace {
+
+/// `count` atoms of radius r on a Fibonacci sphere of radius R around `centre`, without those whose z offset from
+/// the centre exceeds `z_cap` (an opening at the top when z_cap < R).
+molecule shell(int count, double R, double r, const vec3& centre, double z_cap = 1e9) {
+  molecule m;
+  for (int n = 0; n < count; ++n) {
+    const double z = 1 - 2 * (n + 0.5) / count, rho = std::sqrt(1 - z * z);
+    const double a = n * std::numbers::pi * (3 - std::sqrt(5.0));
+    if (R * z > z_cap) continue;
+    m.atoms.push_back({centre + vec3{R * rho * std::cos(a), R * rho * std::sin(a), R * z}, r, 0});
+  }
+  return m;
+}
+
+// The void of trace_mesher_test's shell: 100 atoms of radius 2.07 on a sphere of radius 5 around (0.13, 0.5, 0.5)
+// leave a void of radius ≈ 0.61 Å (φ ≈ 0.80 at its centre) between the lines of h̃ = 1, which pass 0.71 Å from it.
+const vec3 void_centre{0.13, 0.5, 0.5};
+molecule shell_around_a_small_void() { return shell(100, 5, 2.07, void_centre); }
+
+/// Seeds on the four lines around the void, where they pass closest to it.
+std::vector<vec3> seeds_beside_the_void() {
+  return {{0.13, 0, 0}, {0.13, 1, 0}, {0.13, 0, 1}, {0.13, 1, 1}};
+}
+
+bool inside(const box3& box, const vec3& p) {
+  return p.x > box.lo.x && p.x < box.hi.x && p.y > box.lo.y && p.y < box.hi.y && p.z > box.lo.z && p.z < box.hi.z;
+}
+
+TEST(untouched_cavities, a_void_between_the_lines_is_found_and_proven_alone_in_its_box) {
+  const gaussian_field field(shell_around_a_small_void(), -1, 1);
+  untouched_cavity_stats stats;
+  progress_token progress;
+  const std::vector<vec3> seeds = seeds_beside_the_void();
+  const auto found = find_untouched_cavities(field, trace_lines{}, 1.0, seeds, {}, progress, stats);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_EQ(stats.seeds, 4u);
+  EXPECT_EQ(stats.pockets, 1u) << "the four descents end at one minimum";
+  const untouched_cavity& c = found[0];
+
+  // A minimum of φ below t0, near the shell's centre (the Fibonacci shell is not exactly symmetric).
+  vec3 gradient;
+  EXPECT_LT(field.value_and_gradient(c.minimum, gradient), field.value(void_centre) + 1e-12);
+  EXPECT_LT(norm(gradient), 1e-6);
+  EXPECT_LT(distance(c.minimum, void_centre), 0.1);
+
+  // The local grid: whole blocks, a line through the minimum, spacing at most h̃/2.
+  const double block = 8 * c.spacing;
+  EXPECT_LE(c.spacing, 0.5);
+  EXPECT_NEAR(c.box.hi.y - c.box.lo.y, c.blocks_yz * block, 1e-12);
+  EXPECT_NEAR(c.box.hi.z - c.box.lo.z, c.blocks_yz * block, 1e-12);
+  EXPECT_NEAR(c.box.hi.x - c.box.lo.x, c.blocks_x * block, 1e-12);
+  EXPECT_NEAR(c.box.lo.y + 4 * c.blocks_yz * c.spacing, c.minimum.y, 1e-12);
+  EXPECT_NEAR(c.box.lo.z + 4 * c.blocks_yz * c.spacing, c.minimum.z, 1e-12);
+
+  // Independently of the bounds: φ > t0 on a fine grid of every face, and the void (marched from the minimum in
+  // 26 directions to where φ reaches t0) inside the box.
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int side = 0; side < 2; ++side) {
+      for (int u = 0; u <= 60; ++u) {
+        for (int v = 0; v <= 60; ++v) {
+          vec3 p;
+          const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+          p[axis] = side == 0 ? c.box.lo[axis] : c.box.hi[axis];
+          p[a] = c.box.lo[a] + (c.box.hi[a] - c.box.lo[a]) * u / 60.0;
+          p[b] = c.box.lo[b] + (c.box.hi[b] - c.box.lo[b]) * v / 60.0;
+          ASSERT_GT(field.value(p), field.t0()) << "face " << axis << side;
+        }
+      }
+    }
+  }
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dz = -1; dz <= 1; ++dz) {
+        if (dx == 0 && dy == 0 && dz == 0) continue;
+        const vec3 direction = normalized(vec3{double(dx), double(dy), double(dz)});
+        double t = 0;
+        while (field.value(c.minimum + direction * t) < field.t0()) t += 1e-3;
+        EXPECT_TRUE(inside(c.box, c.minimum + direction * t));
+        EXPECT_GT(t, 0.3) << "the void is about 0.6 Å in radius";
+      }
+    }
+  }
+}
+
+TEST(untouched_cavities, a_void_that_a_line_meets_is_left_to_the_lines) {
+  const gaussian_field field(shell_around_a_small_void(), -1, 1);
+  untouched_cavity_stats stats;
+  progress_token progress;
+  // Lines of spacing 0.5: line (1, 1) passes through the void's centre and holds its two roots.
+  const trace_lines lines({{{1, 1}, {void_centre.x - 0.5, {}, false}}, {{1, 1}, {void_centre.x + 0.5, {}, false}}});
+  const std::vector<vec3> seeds = {{0.13, 0, 0}, {0.13, 1, 1}};
+  EXPECT_TRUE(find_untouched_cavities(field, lines, 0.5, seeds, {}, progress, stats).empty());
+  EXPECT_EQ(stats.pockets, 1u) << "the pocket is found, then left to the lines";
+}
+
+TEST(untouched_cavities, a_pocket_open_to_the_outside_is_not_a_cavity) {
+  // The same shell without the atoms more than 3 Å above its centre: φ still has a minimum below t0 inside, but
+  // the pocket around it opens upwards into the outside (checked below along the vertical).
+  const gaussian_field field(shell(100, 5, 2.07, void_centre, 3.0), -1, 1);
+  for (double t = 0; t < 10; t += 0.01) ASSERT_LT(field.value(void_centre + vec3{0, 0, t}), field.t0()) << t;
+  untouched_cavity_stats stats;
+  progress_token progress;
+  const std::vector<vec3> seeds = seeds_beside_the_void();
+  EXPECT_TRUE(find_untouched_cavities(field, trace_lines{}, 1.0, seeds, {}, progress, stats).empty());
+  EXPECT_EQ(stats.pockets, 1u);
+}
+
+TEST(untouched_cavities, seeds_whose_descent_stays_above_the_level_find_nothing) {
+  // One atom: φ has its only minimum at infinity; a descent from inside leaves along the radius.
+  molecule one;
+  one.atoms.push_back({{0, 0, 0}, 2.0, 0});
+  const gaussian_field field(one, -1, 1);
+  untouched_cavity_stats stats;
+  progress_token progress;
+  const std::vector<vec3> seeds = {{0.5, 0.25, 0}, {0, 1, 1}};
+  EXPECT_TRUE(find_untouched_cavities(field, trace_lines{}, 1.0, seeds, {}, progress, stats).empty());
+  EXPECT_EQ(stats.pockets, 0u);
+}
+
+// One atom of radius 2 at the origin, d = −1, t0 = 1: φ = exp(1 − ρ²/4) > 1 exactly where ρ < 2. A cube of half
+// width a has its farthest points (the corners) at ρ = a√3.
+TEST(untouched_cavities, the_face_proof_follows_the_closed_form_of_one_atom) {
+  molecule one;
+  one.atoms.push_back({{0, 0, 0}, 2.0, 0});
+  const gaussian_field field(one, -1, 1);
+  const auto cube = [](double a) { return box3{{-a, -a, -a}, {a, a, a}}; };
+  EXPECT_TRUE(box_faces_above_level(field, cube(1.0), 1e-3));  // corners at ρ = 1.73
+  EXPECT_TRUE(box_faces_above_level(field, cube(1.15), 1e-3));  // ρ = 1.992: φ = 1.008 at the corners
+  EXPECT_FALSE(box_faces_above_level(field, cube(1.16), 1e-3));  // ρ = 2.009: the corners are outside
+  EXPECT_FALSE(box_faces_above_level(field, cube(3.0), 1e-3));   // the faces cross the sphere
+  // A box off the centre whose nearest face still lies inside the sphere and farthest corner outside it.
+  EXPECT_FALSE(box_faces_above_level(field, box3{{0.5, -0.5, -0.5}, {2.5, 0.5, 0.5}}, 1e-3));
+}
+
+}  // namespace
+}  // namespace tracemesh
