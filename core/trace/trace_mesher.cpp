@@ -259,12 +259,13 @@ surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cel
   return mesh;
 }
 
-/// The triangulated polygons of the blocks (the body of mesh_trace_blocks); with `seeds` (not null), the lines'
-/// dips are stored there for the search for untouched cavities.
+/// The triangulated polygons of the blocks (the body of mesh_trace_blocks), arcs resampled about
+/// `resample_spacing` Å apart; with `seeds` (not null), the lines' dips are stored there for the search for
+/// untouched cavities.
 result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_field& walk_field, const lattice& lat,
                                    const std::vector<lattice_index>& blocks, const trace_parameters& params,
-                                   std::vector<vec3>* seeds, progress_token& progress, stage_clock& clock,
-                                   trace_stats& stats, trace_lines& lines_out) {
+                                   double resample_spacing, std::vector<vec3>* seeds, progress_token& progress,
+                                   stage_clock& clock, trace_stats& stats, trace_lines& lines_out) {
   const double h = lat.spacing();
   stats.line_spacing = h;
   stats.step = params.step_fraction * h;
@@ -283,7 +284,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
   settings.max_step = stats.step;
   settings.cos_bound = params.cos_bound;
   settings.extreme_tolerance = params.extreme_tolerance;
-  settings.resample_spacing = resample_spacing_factor * h;
+  settings.resample_spacing = resample_spacing;
   settings.walk_field = &walk_field;
   if (status s = trace_all_strips(field, settings, surface, progress, stats); !s) return s;
   number_interior_points(surface, stats);
@@ -321,9 +322,11 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
 
 /// The cavity in `cavity`'s box, meshed by the trace path on the box's own grid (its line through the minimum
 /// guarantees roots): the atoms whose cutoff reaches the box, moved so that the box starts at the origin, give φ
-/// inside the box, and the box's faces hold no surface, so every polygon closes inside it.
+/// inside the box, and the box's faces hold no surface, so every polygon closes inside it. Arcs are resampled
+/// about `resample_spacing` Å apart.
 result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const untouched_cavity& cavity,
-                                           const trace_parameters& params, trace_stats& stats) {
+                                           const trace_parameters& params, double resample_spacing,
+                                           trace_stats& stats) {
   std::vector<std::uint32_t> near;
   field.atoms_near_box(cavity.box, near);
   molecule local;
@@ -344,7 +347,8 @@ result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const un
   progress_token progress;  // the job's token is polled between cavities; this one keeps the job's stages in order
   trace_stats local_stats;
   trace_lines lines;
-  auto mesh = mesh_polygons(local_field, local_field, lat, blocks, params, nullptr, progress, clock, local_stats, lines);
+  auto mesh = mesh_polygons(local_field, local_field, lat, blocks, params, resample_spacing, nullptr, progress, clock,
+                            local_stats, lines);
   stats.field_evaluations += local_stats.field_evaluations;
   stats.fallback_loops += local_stats.fallback_loops;
   if (!mesh) return mesh;
@@ -379,7 +383,10 @@ status add_untouched_cavities(const gaussian_field& field, const trace_lines& li
   stats.field_evaluations += search.field_evaluations;
   for (const untouched_cavity& cavity : cavities) {
     if (progress.cancelled()) return cancelled_status();
-    auto piece = mesh_untouched_cavity(field, cavity, params, stats);
+    // Arc points as far apart as on the job's own lines, so that the void gets about the job's density; if that
+    // trace fails, the local grid's own spacing.
+    auto piece = mesh_untouched_cavity(field, cavity, params, resample_spacing_factor * h, stats);
+    if (!piece) piece = mesh_untouched_cavity(field, cavity, params, resample_spacing_factor * cavity.spacing, stats);
     if (!piece) {
       ++stats.untouched_cavities_left;
       continue;
@@ -401,7 +408,8 @@ result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussi
                                        trace_stats& stats) {
   std::vector<vec3> seeds;
   trace_lines lines;
-  auto mesh = mesh_polygons(field, walk_field, lat, blocks, params, &seeds, progress, clock, stats, lines);
+  auto mesh = mesh_polygons(field, walk_field, lat, blocks, params, resample_spacing_factor * lat.spacing(), &seeds,
+                            progress, clock, stats, lines);
   if (!mesh) return mesh;
   if (status s = add_untouched_cavities(field, lines, lat.spacing(), seeds, params, progress, *mesh, stats); !s) {
     return s;
