@@ -35,6 +35,20 @@ std::vector<vec3> seeds_beside_the_void() {
   return {{0.13, 0, 0}, {0.13, 1, 0}, {0.13, 0, 1}, {0.13, 1, 1}};
 }
 
+/// One atom of radius 2 at the origin.
+molecule lone_atom_of_radius_2() {
+  molecule one;
+  one.atoms.push_back({{0, 0, 0}, 2.0, 0});
+  return one;
+}
+
+/// find_untouched_cavities with default settings and a token that is never cancelled.
+std::vector<untouched_cavity> search(const gaussian_field& field, const trace_lines& lines, double h,
+                                     const std::vector<vec3>& seeds, untouched_cavity_stats& stats) {
+  progress_token progress;
+  return find_untouched_cavities(field, lines, h, seeds, {}, progress, stats);
+}
+
 bool inside(const box3& box, const vec3& p) {
   return p.x > box.lo.x && p.x < box.hi.x && p.y > box.lo.y && p.y < box.hi.y && p.z > box.lo.z && p.z < box.hi.z;
 }
@@ -42,9 +56,7 @@ bool inside(const box3& box, const vec3& p) {
 TEST(untouched_cavities, a_void_between_the_lines_is_found_and_proven_alone_in_its_box) {
   const gaussian_field field(shell_around_a_small_void(), -1, 1);
   untouched_cavity_stats stats;
-  progress_token progress;
-  const std::vector<vec3> seeds = seeds_beside_the_void();
-  const auto found = find_untouched_cavities(field, trace_lines{}, 1.0, seeds, {}, progress, stats);
+  const auto found = search(field, trace_lines{}, 1.0, seeds_beside_the_void(), stats);
   ASSERT_EQ(found.size(), 1u);
   EXPECT_EQ(stats.seeds, 4u);
   EXPECT_EQ(stats.pockets, 1u) << "the four descents end at one minimum";
@@ -98,11 +110,9 @@ TEST(untouched_cavities, a_void_between_the_lines_is_found_and_proven_alone_in_i
 TEST(untouched_cavities, a_void_that_a_line_meets_is_left_to_the_lines) {
   const gaussian_field field(shell_around_a_small_void(), -1, 1);
   untouched_cavity_stats stats;
-  progress_token progress;
   // Lines of spacing 0.5: line (1, 1) passes through the void's centre and holds its two roots.
   const trace_lines lines({{{1, 1}, {void_centre.x - 0.5, {}, false}}, {{1, 1}, {void_centre.x + 0.5, {}, false}}});
-  const std::vector<vec3> seeds = {{0.13, 0, 0}, {0.13, 1, 1}};
-  EXPECT_TRUE(find_untouched_cavities(field, lines, 0.5, seeds, {}, progress, stats).empty());
+  EXPECT_TRUE(search(field, lines, 0.5, {{0.13, 0, 0}, {0.13, 1, 1}}, stats).empty());
   EXPECT_EQ(stats.pockets, 1u) << "the pocket is found, then left to the lines";
 }
 
@@ -112,30 +122,22 @@ TEST(untouched_cavities, a_pocket_open_to_the_outside_is_not_a_cavity) {
   const gaussian_field field(shell(100, 5, 2.07, void_centre, 3.0), -1, 1);
   for (double t = 0; t < 10; t += 0.01) ASSERT_LT(field.value(void_centre + vec3{0, 0, t}), field.t0()) << t;
   untouched_cavity_stats stats;
-  progress_token progress;
-  const std::vector<vec3> seeds = seeds_beside_the_void();
-  EXPECT_TRUE(find_untouched_cavities(field, trace_lines{}, 1.0, seeds, {}, progress, stats).empty());
+  EXPECT_TRUE(search(field, trace_lines{}, 1.0, seeds_beside_the_void(), stats).empty());
   EXPECT_EQ(stats.pockets, 1u);
 }
 
 TEST(untouched_cavities, seeds_whose_descent_stays_above_the_level_find_nothing) {
   // One atom: φ has its only minimum at infinity; a descent from inside leaves along the radius.
-  molecule one;
-  one.atoms.push_back({{0, 0, 0}, 2.0, 0});
-  const gaussian_field field(one, -1, 1);
+  const gaussian_field field(lone_atom_of_radius_2(), -1, 1);
   untouched_cavity_stats stats;
-  progress_token progress;
-  const std::vector<vec3> seeds = {{0.5, 0.25, 0}, {0, 1, 1}};
-  EXPECT_TRUE(find_untouched_cavities(field, trace_lines{}, 1.0, seeds, {}, progress, stats).empty());
+  EXPECT_TRUE(search(field, trace_lines{}, 1.0, {{0.5, 0.25, 0}, {0, 1, 1}}, stats).empty());
   EXPECT_EQ(stats.pockets, 0u);
 }
 
 // One atom of radius 2 at the origin, d = −1, t0 = 1: φ = exp(1 − ρ²/4) > 1 exactly where ρ < 2. A cube of half
 // width a has its farthest points (the corners) at ρ = a√3.
 TEST(untouched_cavities, the_face_proof_follows_the_closed_form_of_one_atom) {
-  molecule one;
-  one.atoms.push_back({{0, 0, 0}, 2.0, 0});
-  const gaussian_field field(one, -1, 1);
+  const gaussian_field field(lone_atom_of_radius_2(), -1, 1);
   const auto cube = [](double a) { return box3{{-a, -a, -a}, {a, a, a}}; };
   EXPECT_TRUE(box_faces_above_level(field, cube(1.0), 1e-3));  // corners at ρ = 1.73
   EXPECT_TRUE(box_faces_above_level(field, cube(1.15), 1e-3));  // ρ = 1.992: φ = 1.008 at the corners
