@@ -108,7 +108,8 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// takes it, the quality pass keeping components outward, 2026-11-28; 8: strips whose contour crosses itself traced
 /// at a shifted level and the report's level_shifted_strips, loops that double back in a wall cut into ears in their
 /// plane, 2026-11-28; 9: cavities that no line touches found and meshed on a local grid, the report's
-/// untouched_cavities and untouched_cavities_left, 2026-11-28).
-inline constexpr const char* engine_version = "tracemesh-engine-9";
+/// untouched_cavities and untouched_cavities_left, 2026-11-28; 10: a pair of roots bounding a cap under 1e-4 h̃
+/// high left out as a tangency, 2026-11-29).
+inline constexpr const char* engine_version = "tracemesh-engine-10";
 
 }  // namespace tracemesh
