@@ -87,6 +87,7 @@ trace_stats sample_trace_stats() {
   t.extreme_points = 7;
   t.retraced_arcs = 8;
   t.fallback_loops = 9;
+  t.welded_edges = 15;
   t.level_shifted_strips = 12;
   t.untouched_cavities = 13;
   t.untouched_cavities_left = 14;
@@ -165,6 +166,7 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"extreme_points", 7},
                                    {"retraced_arcs", 8},
                                    {"fallback_loops", 9},
+                                   {"welded_edges", 15},
                                    {"level_shifted_strips", 12},
                                    {"untouched_cavities", 13},
                                    {"untouched_cavities_left", 14},

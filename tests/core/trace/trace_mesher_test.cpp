@@ -19,6 +19,7 @@
 #include "core/mesher.hpp"
 #include "support/atom_list.hpp"
 #include "support/mesh_expectations.hpp"
+#include "support/shell_molecule.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {
@@ -61,7 +62,7 @@ void expect_consistent_stats(const mesh_output& out, double density) {
   // Every root ends exactly one arc in each of its four strips (method.md §7.10), and an arc has two ends.
   const std::size_t roots = t.polynomial_roots + t.bracketed_roots + t.late_roots;
   EXPECT_EQ(t.arcs, 2 * roots);
-  EXPECT_GE(t.raw_vertices, roots + t.extreme_points);
+  EXPECT_GE(t.raw_vertices + t.welded_edges, roots + t.extreme_points);  // a weld may take an extreme point
   if (out.refine == refine_mode::none) {
     EXPECT_EQ(t.raw_vertices, out.report.vertices);
     EXPECT_EQ(t.raw_triangles, out.report.triangles);
@@ -206,22 +207,11 @@ TEST_P(trace_shapes, ring_around_the_z_axis_has_genus_one) {
   }
 }
 
-/// `count` atoms of radius r on a Fibonacci sphere of radius R around `centre`: a closed shell around a void.
-molecule shell(int count, double R, double r, const vec3& centre) {
-  molecule m;
-  for (int n = 0; n < count; ++n) {
-    const double z = 1 - 2 * (n + 0.5) / count, rho = std::sqrt(1 - z * z);
-    const double a = n * std::numbers::pi * (3 - std::sqrt(5.0));
-    m.atoms.push_back({centre + vec3{R * rho * std::cos(a), R * rho * std::sin(a), R * z}, r, 0});
-  }
-  return m;
-}
-
 // 100 atoms of radius 1.5 on a sphere of radius 5 (φ at the centre ≈ 0.004): the outer surface (≈ 585 Å²) and an
 // inner void of radius ≈ 2.6 Å (≈ 86 Å²), whose normals point into it (negative volume).
 TEST_P(trace_shapes, hollow_shell_has_a_cavity) {
   for (const double density : {1.0, 2.0}) {
-    const auto out = mesh_trace(shell(100, 5, 1.5, {0.13, -0.07, 0.21}), density, GetParam().mode);
+    const auto out = mesh_trace(testing::fibonacci_shell(100, 5, 1.5, {0.13, -0.07, 0.21}), density, GetParam().mode);
     expect_certified(out);
     ASSERT_TRUE(out.ok());
     ASSERT_EQ(out->report.components.size(), 2u) << "density " << density;
@@ -247,7 +237,7 @@ INSTANTIATE_TEST_SUITE_P(refine, trace_shapes, refine_values, refine_case_name);
 // sphere at 0.5 Å spacing can enclose). At density 2 (h̃ = 0.71 Å) line (1, 1) passes 0.29 Å from its centre and
 // the lines meet it themselves.
 TEST(trace_mesher, a_void_no_line_reaches_is_found_from_the_lines_dips_and_meshed_on_a_local_grid) {
-  const molecule mol = shell(100, 5, 2.07, {0.13, 0.5, 0.5});
+  const molecule mol = testing::fibonacci_shell(100, 5, 2.07, {0.13, 0.5, 0.5});
   mesh_params fine_lattice;
   fine_lattice.method = mesh_method::lattice;
   fine_lattice.density = 20;
@@ -315,6 +305,24 @@ TEST(trace_mesher, a_line_grazing_the_surface_across_a_hair_thin_cap_makes_no_le
     ASSERT_TRUE(out.ok());
     EXPECT_EQ(out->report.components.size(), 1u);
     EXPECT_GT(out->report.quality.shortest_edge, 0.25) << "a lens at ε = " << eps;
+  }
+}
+
+// A line grazing a sphere across a cap 0.5–3 mÅ high where the surface faces (0, 1, 1)/√2: radius 3, centre
+// (0.123, 3 − (3 − ε)/√2, −(3 − ε)/√2), line (3, 0) at distance 3 − ε from it. The cap is thin across both planes
+// through the line, so the return arcs through its two roots keep their middle points at y = 3 + √2·ε and
+// z = √2·ε, about 2ε apart: a lens whose middle edge is welded (short_edge_welding.hpp). Unwelded, that edge was
+// the mesh's shortest, 1–6 mÅ, as on 1k4r_capsid and 3j6r_asu.
+TEST(trace_mesher, a_lens_where_a_line_grazes_a_thin_cap_is_welded) {
+  for (const double eps : {5e-4, 1e-3, 3e-3}) {
+    const double offset = (3.0 - eps) / std::numbers::sqrt2;
+    const auto out = mesh_trace(atoms({{{0.123, 3.0 - offset, -offset}, 3.0, 0}}), 1.0, refine_mode::none);
+    expect_certified(out);
+    ASSERT_TRUE(out.ok());
+    EXPECT_EQ(out->report.components.size(), 1u);
+    EXPECT_GE(out->trace.welded_edges, 1u) << "ε = " << eps;
+    EXPECT_GT(out->report.quality.shortest_edge, 0.01) << "a lens left at ε = " << eps;
+    expect_consistent_stats(*out, 1.0);
   }
 }
 

@@ -9,26 +9,15 @@
 #include <numbers>
 #include <vector>
 
+#include "support/shell_molecule.hpp"
+
 namespace tracemesh {
 namespace {
-
-/// `count` atoms of radius r on a Fibonacci sphere of radius R around `centre`, without those whose z offset from
-/// the centre exceeds `z_cap` (an opening at the top when z_cap < R).
-molecule shell(int count, double R, double r, const vec3& centre, double z_cap = 1e9) {
-  molecule m;
-  for (int n = 0; n < count; ++n) {
-    const double z = 1 - 2 * (n + 0.5) / count, rho = std::sqrt(1 - z * z);
-    const double a = n * std::numbers::pi * (3 - std::sqrt(5.0));
-    if (R * z > z_cap) continue;
-    m.atoms.push_back({centre + vec3{R * rho * std::cos(a), R * rho * std::sin(a), R * z}, r, 0});
-  }
-  return m;
-}
 
 // The void of trace_mesher_test's shell: 100 atoms of radius 2.07 on a sphere of radius 5 around (0.13, 0.5, 0.5)
 // leave a void of radius ≈ 0.61 Å (φ ≈ 0.80 at its centre) between the lines of h̃ = 1, which pass 0.71 Å from it.
 const vec3 void_centre{0.13, 0.5, 0.5};
-molecule shell_around_a_small_void() { return shell(100, 5, 2.07, void_centre); }
+molecule shell_around_a_small_void() { return testing::fibonacci_shell(100, 5, 2.07, void_centre); }
 
 /// Seeds on the four lines around the void, where they pass closest to it.
 std::vector<vec3> seeds_beside_the_void() {
@@ -119,7 +108,7 @@ TEST(untouched_cavities, a_void_that_a_line_meets_is_left_to_the_lines) {
 TEST(untouched_cavities, a_pocket_open_to_the_outside_is_not_a_cavity) {
   // The same shell without the atoms more than 3 Å above its centre: φ still has a minimum below t0 inside, but
   // the pocket around it opens upwards into the outside (checked below along the vertical).
-  const gaussian_field field(shell(100, 5, 2.07, void_centre, 3.0), -1, 1);
+  const gaussian_field field(testing::fibonacci_shell(100, 5, 2.07, void_centre, 3.0), -1, 1);
   for (double t = 0; t < 10; t += 0.01) ASSERT_LT(field.value(void_centre + vec3{0, 0, t}), field.t0()) << t;
   untouched_cavity_stats stats;
   EXPECT_TRUE(search(field, trace_lines{}, 1.0, seeds_beside_the_void(), stats).empty());

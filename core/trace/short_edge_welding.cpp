@@ -1,0 +1,213 @@
+#include "core/trace/short_edge_welding.hpp"
+
+#include <algorithm>
+#include <array>
+#include <tuple>
+#include <vector>
+
+#include "core/analysis/analysis_geometry.hpp"
+#include "core/analysis/analysis_topology.hpp"
+
+namespace tracemesh {
+namespace {
+
+/// No weld in a component of fewer vertices: the quality pass reshapes such a tiny cavity whole (mache at 1 v/Å²:
+/// a cavity of 5 vertices came out with its shortest edge at 0.14 × the median), while the tetrahedron a weld
+/// would leave has no edge it may collapse (0.08 × the median).
+constexpr std::uint32_t min_component_vertices = 8;
+
+using triangle = std::array<std::uint32_t, 3>;
+
+struct candidate_edge {
+  double length;
+  std::uint32_t a, b;  // a < b
+  friend bool operator<(const candidate_edge& l, const candidate_edge& r) {
+    return std::tie(l.length, l.a, l.b) < std::tie(r.length, r.a, r.b);
+  }
+  friend bool operator==(const candidate_edge&, const candidate_edge&) = default;
+};
+
+/// The edges between two arc points shorter than max_length, shortest first, each once.
+std::vector<candidate_edge> short_arc_edges(const surface_mesh& mesh, std::uint32_t first_arc_point,
+                                            double max_length) {
+  std::vector<candidate_edge> edges;
+  for (const triangle& t : mesh.triangles) {
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t u = t[static_cast<std::size_t>(i)], v = t[static_cast<std::size_t>((i + 1) % 3)];
+      if (u < first_arc_point || v < first_arc_point) continue;
+      const double length = distance(mesh.positions[u], mesh.positions[v]);
+      if (length < max_length) edges.push_back({length, std::min(u, v), std::max(u, v)});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  return edges;
+}
+
+/// The triangles around the vertices that a collapse can touch: the candidates' ends and their neighbours (the
+/// corners that lose a triangle). A merged vertex's neighbours were its two ends' neighbours, so no collapse ever
+/// needs another vertex.
+class local_incidence {
+ public:
+  local_incidence(const surface_mesh& mesh, const std::vector<candidate_edge>& edges)
+      : slot_(mesh.positions.size(), untracked) {
+    std::vector<char> end(mesh.positions.size(), 0);
+    for (const candidate_edge& e : edges) end[e.a] = end[e.b] = 1;
+    for (const triangle& t : mesh.triangles) {
+      if (!end[t[0]] && !end[t[1]] && !end[t[2]]) continue;
+      for (const std::uint32_t v : t) track(v);
+    }
+    for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+      for (const std::uint32_t v : mesh.triangles[f]) {
+        if (slot_[v] != untracked) lists_[slot_[v]].push_back(f);
+      }
+    }
+  }
+  /// The triangles listed at v, some of which may have been removed since (the caller filters).
+  std::vector<std::uint32_t>& of(std::uint32_t v) { return lists_[slot_[v]]; }
+
+ private:
+  static constexpr std::uint32_t untracked = ~std::uint32_t{0};
+  void track(std::uint32_t v) {
+    if (slot_[v] != untracked) return;
+    slot_[v] = static_cast<std::uint32_t>(lists_.size());
+    lists_.emplace_back();
+  }
+  std::vector<std::uint32_t> slot_;
+  std::vector<std::vector<std::uint32_t>> lists_;
+};
+
+bool contains(const triangle& t, std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
+
+vec3 area_normal(const surface_mesh& mesh, const triangle& t) {
+  const vec3& p = mesh.positions[t[0]];
+  return cross(mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
+}
+
+class welder {
+ public:
+  welder(surface_mesh& mesh, const std::vector<candidate_edge>& edges)
+      : mesh_(mesh),
+        incidence_(mesh, edges),
+        labels_(detail::label_components(mesh, detail::classify_triangles(mesh))),
+        component_vertices_(labels_.count, 0),
+        alive_(mesh.triangles.size(), 1),
+        removed_(mesh.positions.size(), 0) {
+    for (const std::uint32_t c : labels_.of_vertex) {
+      if (c < labels_.count) ++component_vertices_[c];
+    }
+  }
+
+  /// Collapses edge (a, b) onto a when every condition of weld_short_arc_edges() holds.
+  bool try_collapse(std::uint32_t a, std::uint32_t b) {
+    if (removed_[a] || removed_[b]) return false;
+    const std::uint32_t component = labels_.of_vertex[a];
+    if (component >= labels_.count || component_vertices_[component] <= min_component_vertices) return false;
+    const std::vector<std::uint32_t> around_a = live(a), around_b = live(b);
+    std::vector<std::uint32_t> on_edge;
+    for (const std::uint32_t f : around_a) {
+      if (contains(mesh_.triangles[f], b)) on_edge.push_back(f);
+    }
+    if (on_edge.size() != 2) return false;
+    const std::uint32_t c = third_corner(on_edge[0], a, b), d = third_corner(on_edge[1], a, b);
+    if (c == d || live(c).size() <= 3 || live(d).size() <= 3) return false;
+    if (common_neighbours(around_a, around_b, a, b) != std::vector<std::uint32_t>{std::min(c, d), std::max(c, d)}) {
+      return false;
+    }
+    for (const std::uint32_t f : around_b) {
+      if (f == on_edge[0] || f == on_edge[1]) continue;
+      triangle moved = mesh_.triangles[f];
+      std::replace(moved.begin(), moved.end(), b, a);
+      const vec3 before = area_normal(mesh_, mesh_.triangles[f]), after = area_normal(mesh_, moved);
+      if (!(dot(before, after) > 0)) return false;
+    }
+    alive_[on_edge[0]] = alive_[on_edge[1]] = 0;
+    for (const std::uint32_t f : around_b) {
+      if (!alive_[f]) continue;
+      std::replace(mesh_.triangles[f].begin(), mesh_.triangles[f].end(), b, a);
+      incidence_.of(a).push_back(f);
+    }
+    removed_[b] = 1;
+    --component_vertices_[component];
+    return true;
+  }
+
+  /// Drops the collapsed triangles and the removed vertices, the others keeping their order.
+  void compact() {
+    std::vector<std::uint32_t> number(mesh_.positions.size());
+    std::uint32_t next = 0;
+    for (std::size_t v = 0; v < number.size(); ++v) {
+      if (removed_[v]) continue;
+      number[v] = next;
+      mesh_.positions[next] = mesh_.positions[v];
+      if (mesh_.normals.size() == number.size()) mesh_.normals[next] = mesh_.normals[v];
+      if (mesh_.atom_index.size() == number.size()) mesh_.atom_index[next] = mesh_.atom_index[v];
+      ++next;
+    }
+    if (mesh_.normals.size() == number.size()) mesh_.normals.resize(next);
+    if (mesh_.atom_index.size() == number.size()) mesh_.atom_index.resize(next);
+    mesh_.positions.resize(next);
+    std::size_t kept = 0;
+    for (std::size_t f = 0; f < mesh_.triangles.size(); ++f) {
+      if (!alive_[f]) continue;
+      triangle t = mesh_.triangles[f];
+      for (std::uint32_t& v : t) v = number[v];
+      mesh_.triangles[kept++] = t;
+    }
+    mesh_.triangles.resize(kept);
+  }
+
+ private:
+  /// The live triangles at v (pruning the removed ones from its list).
+  std::vector<std::uint32_t> live(std::uint32_t v) {
+    std::vector<std::uint32_t>& list = incidence_.of(v);
+    std::erase_if(list, [&](std::uint32_t f) { return !alive_[f]; });
+    return list;
+  }
+  std::uint32_t third_corner(std::uint32_t f, std::uint32_t a, std::uint32_t b) const {
+    for (const std::uint32_t v : mesh_.triangles[f]) {
+      if (v != a && v != b) return v;
+    }
+    return a;  // cannot happen: a triangle has three distinct corners
+  }
+  std::vector<std::uint32_t> neighbours(const std::vector<std::uint32_t>& around, std::uint32_t v) const {
+    std::vector<std::uint32_t> out;
+    for (const std::uint32_t f : around) {
+      for (const std::uint32_t w : mesh_.triangles[f]) {
+        if (w != v) out.push_back(w);
+      }
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+  std::vector<std::uint32_t> common_neighbours(const std::vector<std::uint32_t>& around_a,
+                                               const std::vector<std::uint32_t>& around_b, std::uint32_t a,
+                                               std::uint32_t b) const {
+    const std::vector<std::uint32_t> na = neighbours(around_a, a), nb = neighbours(around_b, b);
+    std::vector<std::uint32_t> common;
+    std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
+    return common;
+  }
+
+  surface_mesh& mesh_;
+  local_incidence incidence_;
+  detail::component_labels labels_;
+  std::vector<std::uint32_t> component_vertices_;
+  std::vector<char> alive_;
+  std::vector<char> removed_;
+};
+
+}  // namespace
+
+std::size_t weld_short_arc_edges(surface_mesh& mesh, std::uint32_t first_arc_point, double max_length) {
+  const std::vector<candidate_edge> edges = short_arc_edges(mesh, first_arc_point, max_length);
+  if (edges.empty()) return 0;
+  welder w(mesh, edges);
+  std::size_t welded = 0;
+  for (const candidate_edge& e : edges) welded += w.try_collapse(e.a, e.b) ? 1 : 0;
+  w.compact();
+  return welded;
+}
+
+}  // namespace tracemesh

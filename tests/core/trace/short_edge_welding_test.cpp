@@ -1,0 +1,189 @@
+// Welding the raw trace mesh's hair-short arc edges (core/trace/short_edge_welding.hpp) on small closed meshes
+// whose result is known: a bipyramid with one edge split next to its end welds back into the bipyramid; roots,
+// longer edges and collapses that would pinch the surface are left alone.
+#include "core/trace/short_edge_welding.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <vector>
+
+#include "core/analysis/mesh_analysis.hpp"
+
+namespace tracemesh {
+namespace {
+
+using triangle = std::array<std::uint32_t, 3>;
+
+/// A closed bipyramid over a regular n-gon, counter-clockwise from outside: equator vertices 0 … n − 1 on the unit
+/// circle, n the top (0, 0, 1), n + 1 the bottom.
+surface_mesh bipyramid(std::uint32_t n = 10) {
+  surface_mesh m;
+  for (std::uint32_t k = 0; k < n; ++k) {
+    const double angle = 2 * std::numbers::pi * k / n;
+    m.positions.push_back({std::cos(angle), std::sin(angle), 0});
+  }
+  m.positions.push_back({0, 0, 1});
+  m.positions.push_back({0, 0, -1});
+  for (std::uint32_t k = 0; k < n; ++k) {
+    m.triangles.push_back({k, (k + 1) % n, n});
+    m.triangles.push_back({(k + 1) % n, k, n + 1});
+  }
+  m.normals = m.positions;
+  return m;
+}
+
+/// The bipyramid with its equator edge (0, 1) split at `gap` Å from vertex 0 by vertex n + 2: edge (0, n + 2) is
+/// `gap` long and its triangles' third corners are the top and the bottom.
+surface_mesh bipyramid_with_split_edge(double gap, std::uint32_t n = 10) {
+  surface_mesh m = bipyramid(n);
+  const std::uint32_t split = n + 2;
+  m.positions.push_back(m.positions[0] + normalized(m.positions[1] - m.positions[0]) * gap);
+  m.normals.push_back(m.positions.back());
+  m.triangles[0] = {0, split, n};
+  m.triangles.push_back({split, 1, n});
+  m.triangles[1] = {1, split, n + 1};
+  m.triangles.push_back({split, 0, n + 1});
+  return m;
+}
+
+/// The mesh with vertex v renumbered to order[v].
+surface_mesh renumbered(const surface_mesh& m, const std::vector<std::uint32_t>& order) {
+  surface_mesh out = m;
+  for (std::size_t v = 0; v < order.size(); ++v) {
+    out.positions[order[v]] = m.positions[v];
+    out.normals[order[v]] = m.normals[v];
+  }
+  for (triangle& t : out.triangles) {
+    for (std::uint32_t& v : t) v = order[v];
+  }
+  return out;
+}
+
+/// Each triangle rotated so that its smallest index comes first, sorted: equal for the same oriented triangles.
+std::vector<triangle> canonical(std::vector<triangle> triangles) {
+  for (triangle& t : triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+  std::sort(triangles.begin(), triangles.end());
+  return triangles;
+}
+
+void expect_closed_oriented_manifold(const surface_mesh& m) {
+  analysis_options options;
+  options.check_self_intersections = true;
+  const mesh_report r = analyze_mesh(m, options);
+  EXPECT_EQ(r.boundary_edges, 0u);
+  EXPECT_EQ(r.non_manifold_edges, 0u);
+  EXPECT_EQ(r.non_manifold_vertices, 0u);
+  EXPECT_EQ(r.inconsistently_oriented_edges, 0u);
+  EXPECT_EQ(r.degenerate_triangles, 0u);
+  EXPECT_EQ(r.unreferenced_vertices, 0u);
+  EXPECT_EQ(r.self_intersections, 0u);
+}
+
+TEST(short_edge_welding, a_hair_short_arc_edge_welds_back_into_the_closed_mesh) {
+  surface_mesh m = bipyramid_with_split_edge(1e-4);
+  expect_closed_oriented_manifold(m);
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 1u);
+  const surface_mesh expected = bipyramid();
+  EXPECT_EQ(m.positions, expected.positions);  // the lower-numbered end stays where it was
+  EXPECT_EQ(m.normals, expected.normals);
+  EXPECT_EQ(canonical(m.triangles), canonical(expected.triangles));
+  expect_closed_oriented_manifold(m);
+}
+
+TEST(short_edge_welding, the_other_vertices_keep_their_order) {
+  // Numbered in the order e1, e2, e0, split, e3 … e9, top, bottom: the split vertex (3) is the higher-numbered end
+  // and goes; the ten after it move down by one.
+  const std::vector<std::uint32_t> sequence{1, 2, 0, 12, 3, 4, 5, 6, 7, 8, 9, 10, 11};
+  std::vector<std::uint32_t> order(sequence.size());
+  for (std::uint32_t position = 0; position < sequence.size(); ++position) order[sequence[position]] = position;
+  surface_mesh m = renumbered(bipyramid_with_split_edge(1e-4), order);
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 1u);
+  std::vector<std::uint32_t> after(12);  // bipyramid vertex v is now after[v]
+  for (std::uint32_t position = 0, kept = 0; position < sequence.size(); ++position) {
+    if (sequence[position] != 12) after[sequence[position]] = kept++;
+  }
+  const surface_mesh expected = renumbered(bipyramid(), after);
+  EXPECT_EQ(m.positions, expected.positions);
+  EXPECT_EQ(canonical(m.triangles), canonical(expected.triangles));
+  expect_closed_oriented_manifold(m);
+}
+
+TEST(short_edge_welding, a_root_is_never_welded) {
+  surface_mesh m = bipyramid_with_split_edge(1e-4);
+  const surface_mesh before = m;
+  EXPECT_EQ(weld_short_arc_edges(m, 1, 1e-2), 0u);  // vertex 0 is a root: edge (0, 12) is not an arc edge
+  EXPECT_EQ(m.positions, before.positions);
+  EXPECT_EQ(m.triangles, before.triangles);
+}
+
+TEST(short_edge_welding, an_edge_at_or_over_the_length_is_kept) {
+  surface_mesh m = bipyramid_with_split_edge(2e-2);
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(m.positions.size(), 13u);
+  EXPECT_EQ(m.triangles.size(), 22u);
+}
+
+TEST(short_edge_welding, a_tiny_component_is_left_to_the_quality_pass) {
+  // The split octahedron of 7 vertices (a bipyramid over a square): a weld would give a tetrahedron-like cavity
+  // beyond the quality pass's reach.
+  surface_mesh m = bipyramid_with_split_edge(1e-4, 4);
+  expect_closed_oriented_manifold(m);
+  const surface_mesh before = m;
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(m.triangles, before.triangles);
+}
+
+TEST(short_edge_welding, a_vertex_of_three_triangles_next_to_a_corner_welds_away) {
+  // Vertex 12 inside triangle (0, 1, top), 1e-4 Å from vertex 0 and joined to the three corners: welding edge
+  // (0, 12) gives back the bipyramid.
+  surface_mesh m = bipyramid(10);
+  const std::uint32_t top = 10, inside = 12;
+  m.positions.push_back(m.positions[0] + normalized(m.positions[1] + m.positions[top] - 2 * m.positions[0]) * 1e-4);
+  m.normals.push_back(normalized(m.positions.back()));
+  m.triangles[0] = {0, 1, inside};
+  m.triangles.push_back({1, top, inside});
+  m.triangles.push_back({top, 0, inside});
+  expect_closed_oriented_manifold(m);
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 1u);
+  EXPECT_EQ(canonical(m.triangles), canonical(bipyramid(10).triangles));
+  expect_closed_oriented_manifold(m);
+}
+
+TEST(short_edge_welding, a_collapse_that_would_pinch_the_surface_is_refused) {
+  // The split bipyramid with triangle (0, 12, top) split in three at its centroid by vertex 13: edge (0, 12) now
+  // has 13 (three triangles) as a third corner, and 0 and 12 share three neighbours (13, top, bottom). Welding it
+  // would leave 13 two triangles on the same three vertices.
+  surface_mesh m = bipyramid_with_split_edge(1e-4);
+  const std::uint32_t top = 10, split = 12, centroid = 13;
+  m.positions.push_back((m.positions[0] + m.positions[split] + m.positions[top]) / 3);
+  m.normals.push_back(normalized(m.positions.back()));
+  m.triangles[0] = {0, split, centroid};
+  m.triangles.push_back({split, top, centroid});
+  m.triangles.push_back({top, 0, centroid});
+  expect_closed_oriented_manifold(m);
+  const surface_mesh before = m;
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(m.triangles, before.triangles);
+}
+
+TEST(short_edge_welding, a_collapse_that_would_turn_a_triangle_over_is_refused) {
+  // Triangle (12, 1, top) has normal (1 − p₁₂) × (top − 1): it changes sign as vertex 12 crosses the line through 1
+  // and the top. With 12 and 0 3 mÅ either side of that line's midpoint (6 mÅ apart), welding 12 onto 0 would turn
+  // it over.
+  surface_mesh m = bipyramid_with_split_edge(1e-4);
+  const vec3 midpoint = (m.positions[1] + m.positions[10]) * 0.5;
+  m.positions[12] = midpoint + vec3{3e-3, 0, 0};
+  m.positions[0] = midpoint - vec3{3e-3, 0, 0};
+  const surface_mesh before = m;
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(m.triangles, before.triangles);
+  EXPECT_EQ(m.positions, before.positions);
+}
+
+}  // namespace
+}  // namespace tracemesh
