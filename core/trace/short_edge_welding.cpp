@@ -2,11 +2,15 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <tuple>
+#include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "core/analysis/analysis_geometry.hpp"
 #include "core/analysis/analysis_topology.hpp"
+#include "core/remesh/remesh_intersections.hpp"
 
 namespace tracemesh {
 namespace {
@@ -15,6 +19,10 @@ namespace {
 /// a cavity of 5 vertices came out with its shortest edge at 0.14 × the median), while the tetrahedron a weld
 /// would leave has no edge it may collapse (0.08 × the median).
 constexpr std::uint32_t min_component_vertices = 8;
+/// Rounds of welding, each after the welds whose triangles met others were refused: a weld moves a fan by up to
+/// h̃/100 and can push it through a triangle of a neighbouring cell where the surface lies almost in a wall
+/// (1k4r_capsid at 2 v/Å²: 32 self-intersections, without this check).
+constexpr int max_weld_rounds = 3;
 
 using triangle = std::array<std::uint32_t, 3>;
 
@@ -124,12 +132,70 @@ class welder {
     alive_[on_edge[0]] = alive_[on_edge[1]] = 0;
     for (const std::uint32_t f : around_b) {
       if (!alive_[f]) continue;
+      changed_.push_back({f, mesh_.triangles[f]});
       std::replace(mesh_.triangles[f].begin(), mesh_.triangles[f].end(), b, a);
       incidence_.of(a).push_back(f);
     }
     removed_[b] = 1;
     --component_vertices_[component];
+    welds_.push_back({0, a, b});
     return true;
+  }
+
+  std::size_t welds() const { return welds_.size(); }
+
+  /// The welds some of whose triangles now meet another triangle or are degenerate, by the certificate's own tests:
+  /// the triangles around every kept end are tested against each other and against every triangle whose bounding
+  /// box meets theirs (the others were tested cell by cell and did not move).
+  std::vector<candidate_edge> welds_that_fail_the_certificate() {
+    std::vector<std::uint32_t> moving;
+    for (const candidate_edge& w : welds_) {
+      for (const std::uint32_t f : live(w.a)) moving.push_back(f);
+    }
+    std::sort(moving.begin(), moving.end());
+    moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
+    const std::vector<std::uint32_t> nearby = triangles_near(moving);
+    surface_mesh local;
+    std::vector<std::uint8_t> groups;
+    std::unordered_map<std::uint32_t, std::uint32_t> local_vertex;
+    std::vector<std::uint32_t> global_vertex;
+    for (const std::uint32_t f : nearby) {
+      triangle t{};
+      for (int i = 0; i < 3; ++i) {
+        const std::uint32_t v = mesh_.triangles[f][static_cast<std::size_t>(i)];
+        const auto [it, added] = local_vertex.try_emplace(v, static_cast<std::uint32_t>(local.positions.size()));
+        if (added) {
+          local.positions.push_back(mesh_.positions[v]);
+          global_vertex.push_back(v);
+        }
+        t[static_cast<std::size_t>(i)] = it->second;
+      }
+      local.triangles.push_back(t);
+      groups.push_back(std::binary_search(moving.begin(), moving.end(), f) ? 0 : 1);
+    }
+    const std::vector<detail::triangle_defect> defects = detail::classify_triangles(local);
+    std::vector<std::uint32_t> offending;
+    for (std::uint32_t t = 0; t < defects.size(); ++t) {
+      if (defects[t] != detail::triangle_defect::none) offending.push_back(t);
+    }
+    for (const auto& pair : detail::find_intersecting_pairs(local, defects, groups)) {
+      offending.insert(offending.end(), pair.begin(), pair.end());
+    }
+    std::unordered_set<std::uint32_t> bad_corners;
+    for (const std::uint32_t t : offending) {
+      if (groups[t] != 0) continue;
+      for (const std::uint32_t v : local.triangles[t]) bad_corners.insert(global_vertex[v]);
+    }
+    std::vector<candidate_edge> refused;
+    for (const candidate_edge& w : welds_) {
+      if (bad_corners.count(w.a) != 0) refused.push_back(w);
+    }
+    return refused;
+  }
+
+  /// Puts every triangle back as it was before the welds (the vertices were not moved).
+  void undo() {
+    for (auto it = changed_.rbegin(); it != changed_.rend(); ++it) mesh_.triangles[it->first] = it->second;
   }
 
   /// Drops the collapsed triangles and the removed vertices, the others keeping their order.
@@ -158,6 +224,74 @@ class welder {
   }
 
  private:
+  /// The live triangles whose bounding boxes meet those of `moving` (sorted), `moving` included.
+  std::vector<std::uint32_t> triangles_near(const std::vector<std::uint32_t>& moving) const {
+    struct box {
+      vec3 lo, hi;
+    };
+    const auto box_of = [&](std::uint32_t f) {
+      const triangle& t = mesh_.triangles[f];
+      box b{mesh_.positions[t[0]], mesh_.positions[t[0]]};
+      for (const std::uint32_t v : t) {
+        for (int axis = 0; axis < 3; ++axis) {
+          b.lo[axis] = std::min(b.lo[axis], mesh_.positions[v][axis]);
+          b.hi[axis] = std::max(b.hi[axis], mesh_.positions[v][axis]);
+        }
+      }
+      return b;
+    };
+    double cell = 0;
+    std::vector<box> moving_boxes;
+    for (const std::uint32_t f : moving) {
+      moving_boxes.push_back(box_of(f));
+      for (int axis = 0; axis < 3; ++axis) cell = std::max(cell, moving_boxes.back().hi[axis] - moving_boxes.back().lo[axis]);
+    }
+    if (moving.empty() || !(cell > 0)) return moving;
+    // Every moving box in the cells it meets; a triangle is near when its box meets one of theirs.
+    const auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
+      return (static_cast<std::uint64_t>(i) * 73856093u) ^ (static_cast<std::uint64_t>(j) * 19349663u) ^
+             (static_cast<std::uint64_t>(k) * 83492791u);
+    };
+    const auto index = [&](double x) { return static_cast<std::int64_t>(std::floor(x / cell)); };
+    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+    for (std::uint32_t m = 0; m < moving_boxes.size(); ++m) {
+      const box& b = moving_boxes[m];
+      for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x); ++i) {
+        for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y); ++j) {
+          for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z); ++k) grid[key(i, j, k)].push_back(m);
+        }
+      }
+    }
+    const auto meets = [](const box& a, const box& b) {
+      for (int axis = 0; axis < 3; ++axis) {
+        if (a.hi[axis] < b.lo[axis] || b.hi[axis] < a.lo[axis]) return false;
+      }
+      return true;
+    };
+    std::vector<std::uint32_t> near;
+    for (std::uint32_t f = 0; f < mesh_.triangles.size(); ++f) {
+      if (!alive_[f]) continue;
+      const box b = box_of(f);
+      bool found = false;
+      for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x) && !found; ++i) {
+        for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y) && !found; ++j) {
+          for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z) && !found; ++k) {
+            const auto it = grid.find(key(i, j, k));
+            if (it == grid.end()) continue;
+            for (const std::uint32_t m : it->second) {
+              if (meets(b, moving_boxes[m])) {
+                found = true;
+                break;
+              }
+            }
+          }
+        }
+      }
+      if (found) near.push_back(f);
+    }
+    return near;
+  }
+
   /// The live triangles at v (pruning the removed ones from its list).
   std::vector<std::uint32_t> live(std::uint32_t v) {
     std::vector<std::uint32_t>& list = incidence_.of(v);
@@ -196,18 +330,30 @@ class welder {
   std::vector<std::uint32_t> component_vertices_;
   std::vector<char> alive_;
   std::vector<char> removed_;
+  std::vector<candidate_edge> welds_;  // (unused length, kept end, removed end), in order
+  std::vector<std::pair<std::uint32_t, triangle>> changed_;  // (triangle, corners before the weld that changed it)
 };
 
 }  // namespace
 
 std::size_t weld_short_arc_edges(surface_mesh& mesh, std::uint32_t first_arc_point, double max_length) {
-  const std::vector<candidate_edge> edges = short_arc_edges(mesh, first_arc_point, max_length);
-  if (edges.empty()) return 0;
-  welder w(mesh, edges);
-  std::size_t welded = 0;
-  for (const candidate_edge& e : edges) welded += w.try_collapse(e.a, e.b) ? 1 : 0;
-  w.compact();
-  return welded;
+  std::vector<candidate_edge> edges = short_arc_edges(mesh, first_arc_point, max_length);
+  for (int round = 0; round < max_weld_rounds && !edges.empty(); ++round) {
+    welder w(mesh, edges);
+    for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b);
+    const std::vector<candidate_edge> refused = w.welds_that_fail_the_certificate();
+    if (refused.empty()) {
+      const std::size_t welded = w.welds();
+      w.compact();
+      return welded;
+    }
+    w.undo();
+    std::erase_if(edges, [&](const candidate_edge& e) {
+      return std::any_of(refused.begin(), refused.end(),
+                         [&](const candidate_edge& r) { return std::minmax(r.a, r.b) == std::minmax(e.a, e.b); });
+    });
+  }
+  return 0;
 }
 
 }  // namespace tracemesh

@@ -185,5 +185,32 @@ TEST(short_edge_welding, a_collapse_that_would_turn_a_triangle_over_is_refused) 
   EXPECT_EQ(m.positions, before.positions);
 }
 
+TEST(short_edge_welding, a_weld_whose_triangles_would_meet_another_triangle_is_undone) {
+  // A bipyramid of radius 10 whose equator edge (0, 1) is split 0.25 Å from vertex 0 by vertex 12 pushed 0.2 Å
+  // outwards: the split bulges the surface over the centroid of triangle (0, 1, top) by about 0.07 Å. A tetrahedron
+  // of 0.02 Å sits there, under the bulge: welding 12 onto 0 flattens the surface back through it.
+  surface_mesh m = bipyramid_with_split_edge(0.25);
+  for (vec3& p : m.positions) p = p * 10;
+  const vec3 edge_start = m.positions[0], edge_end = m.positions[1], top = m.positions[10];
+  m.positions[12] = edge_start + normalized(edge_end - edge_start) * 0.25 + normalized(edge_start + edge_end) * 0.2;
+  surface_mesh welded_alone = m;
+  EXPECT_EQ(weld_short_arc_edges(welded_alone, 0, 0.5), 1u) << "the weld itself is allowed";
+  const vec3 centre = (edge_start + edge_end + top) / 3;
+  const auto first = static_cast<std::uint32_t>(m.positions.size());
+  for (const vec3& corner : {vec3{0.01, 0.01, 0.01}, vec3{0.01, -0.01, -0.01}, vec3{-0.01, 0.01, -0.01},
+                             vec3{-0.01, -0.01, 0.01}}) {
+    m.positions.push_back(centre + corner);
+    m.normals.push_back(normalized(corner));
+  }
+  for (const triangle& t : std::vector<triangle>{{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}}) {
+    m.triangles.push_back({first + t[0], first + t[1], first + t[2]});
+  }
+  expect_closed_oriented_manifold(m);
+  const surface_mesh before = m;
+  EXPECT_EQ(weld_short_arc_edges(m, 0, 0.5), 0u);
+  EXPECT_EQ(m.triangles, before.triangles);
+  EXPECT_EQ(m.positions, before.positions);
+}
+
 }  // namespace
 }  // namespace tracemesh
