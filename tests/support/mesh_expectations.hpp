@@ -10,12 +10,9 @@
 
 namespace tracemesh::testing {
 
-/// Each condition of the certificate, the field normals and atom indices of every vertex; and the requested path
-/// made the mesh (no fallback from trace to lattice).
-inline void expect_certified_output(const mesh_output& out) {
-  const mesh_report& r = out.report;
-  EXPECT_TRUE(out.fallback_reason.empty()) << out.fallback_reason;
-  EXPECT_TRUE(out.certified);
+/// Each topological and geometric condition of the certificate in an analysis (analyze_mesh with its default
+/// options), one by one.
+inline void expect_certified_report(const mesh_report& r) {
   EXPECT_TRUE(r.topologically_certified());
   EXPECT_EQ(r.boundary_edges, 0u);
   EXPECT_EQ(r.non_manifold_edges, 0u);
@@ -25,6 +22,14 @@ inline void expect_certified_output(const mesh_output& out) {
   EXPECT_EQ(r.self_intersections, 0u);
   EXPECT_EQ(r.inward_oriented_components, 0u);
   EXPECT_EQ(r.unreferenced_vertices, 0u);
+}
+
+/// Each condition of the certificate, the field normals and atom indices of every vertex; and the requested path
+/// made the mesh (no fallback from trace to lattice).
+inline void expect_certified_output(const mesh_output& out) {
+  EXPECT_TRUE(out.fallback_reason.empty()) << out.fallback_reason;
+  EXPECT_TRUE(out.certified);
+  expect_certified_report(out.report);
   EXPECT_LE(out.max_surface_distance, 1e-3);
   EXPECT_EQ(out.mesh.normals.size(), out.mesh.positions.size());
   EXPECT_EQ(out.mesh.atom_index.size(), out.mesh.positions.size());

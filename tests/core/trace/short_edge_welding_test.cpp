@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/analysis/mesh_analysis.hpp"
+#include "support/mesh_expectations.hpp"
 
 namespace tracemesh {
 namespace {
@@ -71,18 +72,7 @@ std::vector<triangle> canonical(std::vector<triangle> triangles) {
   return triangles;
 }
 
-void expect_closed_oriented_manifold(const surface_mesh& m) {
-  analysis_options options;
-  options.check_self_intersections = true;
-  const mesh_report r = analyze_mesh(m, options);
-  EXPECT_EQ(r.boundary_edges, 0u);
-  EXPECT_EQ(r.non_manifold_edges, 0u);
-  EXPECT_EQ(r.non_manifold_vertices, 0u);
-  EXPECT_EQ(r.inconsistently_oriented_edges, 0u);
-  EXPECT_EQ(r.degenerate_triangles, 0u);
-  EXPECT_EQ(r.unreferenced_vertices, 0u);
-  EXPECT_EQ(r.self_intersections, 0u);
-}
+void expect_closed_oriented_manifold(const surface_mesh& m) { testing::expect_certified_report(analyze_mesh(m)); }
 
 TEST(short_edge_welding, a_hair_short_arc_edge_welds_back_into_the_closed_mesh) {
   surface_mesh m = bipyramid_with_split_edge(1e-4);
