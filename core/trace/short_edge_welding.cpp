@@ -10,6 +10,7 @@
 
 #include "core/analysis/analysis_geometry.hpp"
 #include "core/analysis/analysis_topology.hpp"
+#include "core/field/gaussian_field.hpp"
 #include "core/remesh/remesh_intersections.hpp"
 
 namespace tracemesh {
@@ -33,6 +34,11 @@ struct candidate_edge {
     return std::tie(l.length, l.a, l.b) < std::tie(r.length, r.a, r.b);
   }
   friend bool operator==(const candidate_edge&, const candidate_edge&) = default;
+};
+
+/// A collapse made: `removed` merged into `kept`.
+struct weld {
+  std::uint32_t kept, removed;
 };
 
 /// The edges between two arc points shorter than max_length, shortest first, each once.
@@ -97,7 +103,10 @@ class welder {
   welder(surface_mesh& mesh, const std::vector<candidate_edge>& edges)
       : mesh_(mesh),
         incidence_(mesh, edges),
-        labels_(detail::label_components(mesh, detail::classify_triangles(mesh))),
+        // The raw mesh's triangles are well formed by construction (the cells' triangulations): components need
+        // no geometric classification of every triangle.
+        labels_(detail::label_components(
+            mesh, std::vector<detail::triangle_defect>(mesh.triangles.size(), detail::triangle_defect::none))),
         component_vertices_(labels_.count, 0),
         alive_(mesh.triangles.size(), 1),
         removed_(mesh.positions.size(), 0) {
@@ -118,7 +127,7 @@ class welder {
     }
     if (on_edge.size() != 2) return false;
     const std::uint32_t c = third_corner(on_edge[0], a, b), d = third_corner(on_edge[1], a, b);
-    if (c == d || live(c).size() <= 3 || live(d).size() <= 3) return false;
+    if (c == d || live_count(c) <= 3 || live_count(d) <= 3) return false;
     if (common_neighbours(around_a, around_b, a, b) != std::vector<std::uint32_t>{std::min(c, d), std::max(c, d)}) {
       return false;
     }
@@ -138,7 +147,7 @@ class welder {
     }
     removed_[b] = 1;
     --component_vertices_[component];
-    welds_.push_back({0, a, b});
+    welds_.push_back({a, b});
     return true;
   }
 
@@ -147,10 +156,10 @@ class welder {
   /// The welds some of whose triangles now meet another triangle or are degenerate, by the certificate's own tests:
   /// the triangles around every kept end are tested against each other and against every triangle whose bounding
   /// box meets theirs (the others were tested cell by cell and did not move).
-  std::vector<candidate_edge> welds_that_fail_the_certificate() {
+  std::vector<weld> welds_that_fail_the_certificate() {
     std::vector<std::uint32_t> moving;
-    for (const candidate_edge& w : welds_) {
-      for (const std::uint32_t f : live(w.a)) moving.push_back(f);
+    for (const weld& w : welds_) {
+      for (const std::uint32_t f : live(w.kept)) moving.push_back(f);
     }
     std::sort(moving.begin(), moving.end());
     moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
@@ -186,9 +195,9 @@ class welder {
       if (groups[t] != 0) continue;
       for (const std::uint32_t v : local.triangles[t]) bad_corners.insert(global_vertex[v]);
     }
-    std::vector<candidate_edge> refused;
-    for (const candidate_edge& w : welds_) {
-      if (bad_corners.count(w.a) != 0) refused.push_back(w);
+    std::vector<weld> refused;
+    for (const weld& w : welds_) {
+      if (bad_corners.count(w.kept) != 0) refused.push_back(w);
     }
     return refused;
   }
@@ -226,12 +235,9 @@ class welder {
  private:
   /// The live triangles whose bounding boxes meet those of `moving` (sorted), `moving` included.
   std::vector<std::uint32_t> triangles_near(const std::vector<std::uint32_t>& moving) const {
-    struct box {
-      vec3 lo, hi;
-    };
     const auto box_of = [&](std::uint32_t f) {
       const triangle& t = mesh_.triangles[f];
-      box b{mesh_.positions[t[0]], mesh_.positions[t[0]]};
+      box3 b{mesh_.positions[t[0]], mesh_.positions[t[0]]};
       for (const std::uint32_t v : t) {
         for (int axis = 0; axis < 3; ++axis) {
           b.lo[axis] = std::min(b.lo[axis], mesh_.positions[v][axis]);
@@ -241,7 +247,7 @@ class welder {
       return b;
     };
     double cell = 0;
-    std::vector<box> moving_boxes;
+    std::vector<box3> moving_boxes;
     for (const std::uint32_t f : moving) {
       moving_boxes.push_back(box_of(f));
       for (int axis = 0; axis < 3; ++axis) cell = std::max(cell, moving_boxes.back().hi[axis] - moving_boxes.back().lo[axis]);
@@ -255,14 +261,14 @@ class welder {
     const auto index = [&](double x) { return static_cast<std::int64_t>(std::floor(x / cell)); };
     std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
     for (std::uint32_t m = 0; m < moving_boxes.size(); ++m) {
-      const box& b = moving_boxes[m];
+      const box3& b = moving_boxes[m];
       for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x); ++i) {
         for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y); ++j) {
           for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z); ++k) grid[key(i, j, k)].push_back(m);
         }
       }
     }
-    const auto meets = [](const box& a, const box& b) {
+    const auto meets = [](const box3& a, const box3& b) {
       for (int axis = 0; axis < 3; ++axis) {
         if (a.hi[axis] < b.lo[axis] || b.hi[axis] < a.lo[axis]) return false;
       }
@@ -271,7 +277,7 @@ class welder {
     std::vector<std::uint32_t> near;
     for (std::uint32_t f = 0; f < mesh_.triangles.size(); ++f) {
       if (!alive_[f]) continue;
-      const box b = box_of(f);
+      const box3 b = box_of(f);
       bool found = false;
       for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x) && !found; ++i) {
         for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y) && !found; ++j) {
@@ -293,11 +299,12 @@ class welder {
   }
 
   /// The live triangles at v (pruning the removed ones from its list).
-  std::vector<std::uint32_t> live(std::uint32_t v) {
+  const std::vector<std::uint32_t>& live(std::uint32_t v) {
     std::vector<std::uint32_t>& list = incidence_.of(v);
     std::erase_if(list, [&](std::uint32_t f) { return !alive_[f]; });
     return list;
   }
+  std::size_t live_count(std::uint32_t v) { return live(v).size(); }
   std::uint32_t third_corner(std::uint32_t f, std::uint32_t a, std::uint32_t b) const {
     for (const std::uint32_t v : mesh_.triangles[f]) {
       if (v != a && v != b) return v;
@@ -330,7 +337,7 @@ class welder {
   std::vector<std::uint32_t> component_vertices_;
   std::vector<char> alive_;
   std::vector<char> removed_;
-  std::vector<candidate_edge> welds_;  // (unused length, kept end, removed end), in order
+  std::vector<weld> welds_;  // in order
   std::vector<std::pair<std::uint32_t, triangle>> changed_;  // (triangle, corners before the weld that changed it)
 };
 
@@ -341,7 +348,7 @@ std::size_t weld_short_arc_edges(surface_mesh& mesh, std::uint32_t first_arc_poi
   for (int round = 0; round < max_weld_rounds && !edges.empty(); ++round) {
     welder w(mesh, edges);
     for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b);
-    const std::vector<candidate_edge> refused = w.welds_that_fail_the_certificate();
+    const std::vector<weld> refused = w.welds_that_fail_the_certificate();
     if (refused.empty()) {
       const std::size_t welded = w.welds();
       w.compact();
@@ -349,8 +356,7 @@ std::size_t weld_short_arc_edges(surface_mesh& mesh, std::uint32_t first_arc_poi
     }
     w.undo();
     std::erase_if(edges, [&](const candidate_edge& e) {
-      return std::any_of(refused.begin(), refused.end(),
-                         [&](const candidate_edge& r) { return std::minmax(r.a, r.b) == std::minmax(e.a, e.b); });
+      return std::any_of(refused.begin(), refused.end(), [&](const weld& r) { return r.kept == e.a && r.removed == e.b; });
     });
   }
   return 0;
