@@ -109,7 +109,8 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// at a shifted level and the report's level_shifted_strips, loops that double back in a wall cut into ears in their
 /// plane, 2026-11-28; 9: cavities that no line touches found and meshed on a local grid, the report's
 /// untouched_cavities and untouched_cavities_left, 2026-11-28; 10: a pair of roots bounding a cap under 1e-4 h̃
-/// high left out as a tangency, 2026-11-29).
+/// high left out as a tangency, raw edges between two arc points under h̃/100 welded and the report's welded_edges,
+/// 2026-11-29).
 inline constexpr const char* engine_version = "tracemesh-engine-10";
 
 }  // namespace tracemesh
