@@ -38,4 +38,12 @@ std::vector<triangle_pair> find_intersecting_fan_pairs(const surface_mesh& mesh,
                                                        const std::vector<triangle_defect>& defects,
                                                        const vertex_fans& fans, const std::vector<std::uint8_t>& groups);
 
+/// Every pair {i, j} (i < j, sorted) of triangles without defect that count as a self-intersection (see
+/// count_self_intersections). `defects`: classify_triangles(mesh). `groups`, when not empty, has one entry per
+/// triangle: 0 for a triangle to test against all, k > 0 for one of a group known not to meet itself (checked
+/// before); pairs within one such group are not tested. Grid-accelerated and parallel; the result does not depend on
+/// the thread count.
+std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
+                                                   const std::vector<std::uint8_t>& groups = {});
+
 }  // namespace tracemesh::detail

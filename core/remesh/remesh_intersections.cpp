@@ -8,19 +8,6 @@
 
 namespace tracemesh::detail {
 
-std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                                                   const std::vector<std::uint8_t>& groups) {
-  if (mesh.triangles.size() < 2) return {};
-  // The certificate's own two passes: pairs sharing no vertex through its grid, the others fan by fan (most fans
-  // are proved embedded as a whole).
-  std::vector<triangle_pair> pairs = find_intersecting_separate_pairs(mesh, defects, groups);
-  const std::vector<triangle_pair> fan_pairs =
-      find_intersecting_fan_pairs(mesh, defects, build_vertex_fans(mesh, defects), groups);
-  pairs.insert(pairs.end(), fan_pairs.begin(), fan_pairs.end());
-  std::sort(pairs.begin(), pairs.end());
-  return pairs;
-}
-
 std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh, const std::vector<std::uint8_t>& groups) {
   const std::vector<triangle_defect> defects = classify_triangles(mesh);
   std::vector<std::uint32_t> offending;

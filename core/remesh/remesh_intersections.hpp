@@ -9,23 +9,17 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/analysis/analysis_fan_pairs.hpp"
 #include "core/analysis/analysis_geometry.hpp"
 #include "core/analysis/analysis_self_intersection.hpp"
 #include "core/mesh.hpp"
 
 namespace tracemesh::detail {
 
-/// Every pair {i, j} (i < j, sorted) of triangles without defect that count as a self-intersection (see
-/// count_self_intersections). `defects`: classify_triangles(mesh). `groups`, when not empty, has one entry per
-/// triangle: 0 for a triangle to test against all, k > 0 for one of a group known not to meet itself (checked
-/// before); pairs within one such group are not tested. Grid-accelerated and parallel; the result does not depend on
-/// the thread count.
-std::vector<triangle_pair> find_intersecting_pairs(const surface_mesh& mesh, const std::vector<triangle_defect>& defects,
-                                                   const std::vector<std::uint8_t>& groups = {});
-
 /// The triangles that would fail the certificate: those with a defect, both members of every intersecting pair
-/// (`groups` as for find_intersecting_pairs) and, when the mesh has one normal per vertex, every triangle of a
-/// component oriented against its normals (find_inward_component_triangles). Sorted, without repeats.
+/// (`groups` as for find_intersecting_pairs, analysis_fan_pairs.hpp) and, when the mesh has one normal per vertex,
+/// every triangle of a component oriented against its normals (find_inward_component_triangles). Sorted, without
+/// repeats.
 std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh,
                                                     const std::vector<std::uint8_t>& groups = {});
 

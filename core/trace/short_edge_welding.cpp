@@ -8,10 +8,10 @@
 #include <unordered_set>
 #include <vector>
 
+#include "core/analysis/analysis_fan_pairs.hpp"
 #include "core/analysis/analysis_geometry.hpp"
 #include "core/analysis/analysis_topology.hpp"
 #include "core/field/gaussian_field.hpp"
-#include "core/remesh/remesh_intersections.hpp"
 
 namespace tracemesh {
 namespace {
