@@ -9,6 +9,7 @@
 #include "core/remesh/remesh_chunks.hpp"
 #include "core/remesh/remesh_geometry.hpp"
 #include "core/remesh/remesh_patch.hpp"
+#include "core/remesh/remesh_small_components.hpp"
 
 namespace tracemesh {
 namespace {
@@ -54,6 +55,7 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
     stats = done.value();
   }
   mesh.atom_index.clear();  // the caller's to fill (the mesher does, with the certificate's field probe)
+  stats.remade_components = detail::resample_small_components(mesh, field, l);
   return stats;
 }
 

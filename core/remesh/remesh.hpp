@@ -16,7 +16,9 @@
 ///   never moved, removed, nor given or deprived of an edge), until clean; at worst the patch comes back unchanged
 ///   (remesh_patch.hpp);
 /// - optionally (check_every_stage) every stage of a round is checked too and redone with a growing frozen region
-///   or skipped when unclean: more checks, fewer restarts.
+///   or skipped when unclean: more checks, fewer restarts;
+/// - last, closed components at most 2 L across (tiny cavities, which the iterations cannot reshape) are made again
+///   as star-shaped polyhedra where that gives better triangles (remesh_small_components.hpp).
 /// Deterministic: the same input gives the same output whatever the number of threads.
 
 #include <cstddef>
@@ -81,6 +83,7 @@ struct remesh_stats {
   bool input_returned = false;      ///< true when no patch gave a clean result and the input was kept
   std::size_t patches = 0;            ///< patches remeshed (1 for a mesh remeshed whole)
   std::size_t unchanged_patches = 0;  ///< patches whose rounds all failed, left as they were
+  std::size_t remade_components = 0;  ///< small components made again (remesh_small_components.hpp)
 };
 
 /// Improves `mesh` in place.

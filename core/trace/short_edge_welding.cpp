@@ -2,16 +2,13 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <tuple>
-#include <unordered_map>
 #include <unordered_set>
 #include <vector>
 
-#include "core/analysis/analysis_fan_pairs.hpp"
 #include "core/analysis/analysis_geometry.hpp"
+#include "core/analysis/analysis_moved_triangles.hpp"
 #include "core/analysis/analysis_topology.hpp"
-#include "core/field/gaussian_field.hpp"
 
 namespace tracemesh {
 namespace {
@@ -161,39 +158,9 @@ class welder {
     for (const weld& w : welds_) {
       for (const std::uint32_t f : live(w.kept)) moving.push_back(f);
     }
-    std::sort(moving.begin(), moving.end());
-    moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
-    const std::vector<std::uint32_t> nearby = triangles_near(moving);
-    surface_mesh local;
-    std::vector<std::uint8_t> groups;
-    std::unordered_map<std::uint32_t, std::uint32_t> local_vertex;
-    std::vector<std::uint32_t> global_vertex;
-    for (const std::uint32_t f : nearby) {
-      triangle t{};
-      for (int i = 0; i < 3; ++i) {
-        const std::uint32_t v = mesh_.triangles[f][static_cast<std::size_t>(i)];
-        const auto [it, added] = local_vertex.try_emplace(v, static_cast<std::uint32_t>(local.positions.size()));
-        if (added) {
-          local.positions.push_back(mesh_.positions[v]);
-          global_vertex.push_back(v);
-        }
-        t[static_cast<std::size_t>(i)] = it->second;
-      }
-      local.triangles.push_back(t);
-      groups.push_back(std::binary_search(moving.begin(), moving.end(), f) ? 0 : 1);
-    }
-    const std::vector<detail::triangle_defect> defects = detail::classify_triangles(local);
-    std::vector<std::uint32_t> offending;
-    for (std::uint32_t t = 0; t < defects.size(); ++t) {
-      if (defects[t] != detail::triangle_defect::none) offending.push_back(t);
-    }
-    for (const auto& pair : detail::find_intersecting_pairs(local, defects, groups)) {
-      offending.insert(offending.end(), pair.begin(), pair.end());
-    }
     std::unordered_set<std::uint32_t> bad_corners;
-    for (const std::uint32_t t : offending) {
-      if (groups[t] != 0) continue;
-      for (const std::uint32_t v : local.triangles[t]) bad_corners.insert(global_vertex[v]);
+    for (const std::uint32_t f : detail::failing_moved_triangles(mesh_, alive_, std::move(moving))) {
+      for (const std::uint32_t v : mesh_.triangles[f]) bad_corners.insert(v);
     }
     std::vector<weld> refused;
     for (const weld& w : welds_) {
@@ -233,71 +200,6 @@ class welder {
   }
 
  private:
-  /// The live triangles whose bounding boxes meet those of `moving` (sorted), `moving` included.
-  std::vector<std::uint32_t> triangles_near(const std::vector<std::uint32_t>& moving) const {
-    const auto box_of = [&](std::uint32_t f) {
-      const triangle& t = mesh_.triangles[f];
-      box3 b{mesh_.positions[t[0]], mesh_.positions[t[0]]};
-      for (const std::uint32_t v : t) {
-        for (int axis = 0; axis < 3; ++axis) {
-          b.lo[axis] = std::min(b.lo[axis], mesh_.positions[v][axis]);
-          b.hi[axis] = std::max(b.hi[axis], mesh_.positions[v][axis]);
-        }
-      }
-      return b;
-    };
-    double cell = 0;
-    std::vector<box3> moving_boxes;
-    for (const std::uint32_t f : moving) {
-      moving_boxes.push_back(box_of(f));
-      for (int axis = 0; axis < 3; ++axis) cell = std::max(cell, moving_boxes.back().hi[axis] - moving_boxes.back().lo[axis]);
-    }
-    if (moving.empty() || !(cell > 0)) return moving;
-    // Every moving box in the cells it meets; a triangle is near when its box meets one of theirs.
-    const auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
-      return (static_cast<std::uint64_t>(i) * 73856093u) ^ (static_cast<std::uint64_t>(j) * 19349663u) ^
-             (static_cast<std::uint64_t>(k) * 83492791u);
-    };
-    const auto index = [&](double x) { return static_cast<std::int64_t>(std::floor(x / cell)); };
-    std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
-    for (std::uint32_t m = 0; m < moving_boxes.size(); ++m) {
-      const box3& b = moving_boxes[m];
-      for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x); ++i) {
-        for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y); ++j) {
-          for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z); ++k) grid[key(i, j, k)].push_back(m);
-        }
-      }
-    }
-    const auto meets = [](const box3& a, const box3& b) {
-      for (int axis = 0; axis < 3; ++axis) {
-        if (a.hi[axis] < b.lo[axis] || b.hi[axis] < a.lo[axis]) return false;
-      }
-      return true;
-    };
-    std::vector<std::uint32_t> near;
-    for (std::uint32_t f = 0; f < mesh_.triangles.size(); ++f) {
-      if (!alive_[f]) continue;
-      const box3 b = box_of(f);
-      bool found = false;
-      for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x) && !found; ++i) {
-        for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y) && !found; ++j) {
-          for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z) && !found; ++k) {
-            const auto it = grid.find(key(i, j, k));
-            if (it == grid.end()) continue;
-            for (const std::uint32_t m : it->second) {
-              if (meets(b, moving_boxes[m])) {
-                found = true;
-                break;
-              }
-            }
-          }
-        }
-      }
-      if (found) near.push_back(f);
-    }
-    return near;
-  }
-
   /// The live triangles at v (pruning the removed ones from its list).
   const std::vector<std::uint32_t>& live(std::uint32_t v) {
     std::vector<std::uint32_t>& list = incidence_.of(v);

@@ -1,0 +1,120 @@
+#include "core/analysis/analysis_moved_triangles.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "core/analysis/analysis_fan_pairs.hpp"
+#include "core/analysis/analysis_geometry.hpp"
+#include "core/field/gaussian_field.hpp"
+
+namespace tracemesh::detail {
+namespace {
+
+box3 box_of(const surface_mesh& mesh, std::uint32_t f) {
+  const auto& t = mesh.triangles[f];
+  box3 b{mesh.positions[t[0]], mesh.positions[t[0]]};
+  for (const std::uint32_t v : t) {
+    for (int axis = 0; axis < 3; ++axis) {
+      b.lo[axis] = std::min(b.lo[axis], mesh.positions[v][axis]);
+      b.hi[axis] = std::max(b.hi[axis], mesh.positions[v][axis]);
+    }
+  }
+  return b;
+}
+
+bool boxes_meet(const box3& a, const box3& b) {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (a.hi[axis] < b.lo[axis] || b.hi[axis] < a.lo[axis]) return false;
+  }
+  return true;
+}
+
+/// The live triangles whose bounding boxes meet those of `moving` (sorted), `moving` included. One pass over the
+/// triangles, with the moving boxes hashed in a grid of cells as large as the largest of them.
+std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::vector<char>& alive,
+                                          const std::vector<std::uint32_t>& moving) {
+  double cell = 0;
+  std::vector<box3> moving_boxes;
+  for (const std::uint32_t f : moving) {
+    moving_boxes.push_back(box_of(mesh, f));
+    for (int axis = 0; axis < 3; ++axis) {
+      cell = std::max(cell, moving_boxes.back().hi[axis] - moving_boxes.back().lo[axis]);
+    }
+  }
+  if (moving.empty() || !(cell > 0)) return moving;
+  const auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return (static_cast<std::uint64_t>(i) * 73856093u) ^ (static_cast<std::uint64_t>(j) * 19349663u) ^
+           (static_cast<std::uint64_t>(k) * 83492791u);
+  };
+  const auto index = [&](double x) { return static_cast<std::int64_t>(std::floor(x / cell)); };
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+  for (std::uint32_t m = 0; m < moving_boxes.size(); ++m) {
+    const box3& b = moving_boxes[m];
+    for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x); ++i) {
+      for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y); ++j) {
+        for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z); ++k) grid[key(i, j, k)].push_back(m);
+      }
+    }
+  }
+  const auto meets_a_moving_box = [&](const box3& b) {
+    for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x); ++i) {
+      for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y); ++j) {
+        for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z); ++k) {
+          const auto it = grid.find(key(i, j, k));
+          if (it == grid.end()) continue;
+          for (const std::uint32_t m : it->second) {
+            if (boxes_meet(b, moving_boxes[m])) return true;
+          }
+        }
+      }
+    }
+    return false;
+  };
+  std::vector<std::uint32_t> near;
+  for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
+    if ((alive.empty() || alive[f]) && meets_a_moving_box(box_of(mesh, f))) near.push_back(f);
+  }
+  return near;
+}
+
+}  // namespace
+
+std::vector<std::uint32_t> failing_moved_triangles(const surface_mesh& mesh, const std::vector<char>& alive,
+                                                   std::vector<std::uint32_t> moving) {
+  std::sort(moving.begin(), moving.end());
+  moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
+  const std::vector<std::uint32_t> nearby = triangles_near(mesh, alive, moving);
+  // The nearby triangles as a mesh of their own; group 1 (tested before, not against each other) for those that
+  // did not move.
+  surface_mesh local;
+  std::vector<std::uint8_t> groups;
+  std::unordered_map<std::uint32_t, std::uint32_t> local_vertex;
+  for (const std::uint32_t f : nearby) {
+    std::array<std::uint32_t, 3> t{};
+    for (std::size_t i = 0; i < 3; ++i) {
+      const std::uint32_t v = mesh.triangles[f][i];
+      const auto [it, added] = local_vertex.try_emplace(v, static_cast<std::uint32_t>(local.positions.size()));
+      if (added) local.positions.push_back(mesh.positions[v]);
+      t[i] = it->second;
+    }
+    local.triangles.push_back(t);
+    groups.push_back(std::binary_search(moving.begin(), moving.end(), f) ? 0 : 1);
+  }
+  const std::vector<triangle_defect> defects = classify_triangles(local);
+  std::vector<std::uint32_t> failing;
+  const auto add_if_moving = [&](std::uint32_t local_triangle) {
+    if (groups[local_triangle] == 0) failing.push_back(nearby[local_triangle]);
+  };
+  for (std::uint32_t t = 0; t < defects.size(); ++t) {
+    if (defects[t] != triangle_defect::none) add_if_moving(t);
+  }
+  for (const auto& pair : find_intersecting_pairs(local, defects, groups)) {
+    for (const std::uint32_t t : pair) add_if_moving(t);
+  }
+  std::sort(failing.begin(), failing.end());
+  failing.erase(std::unique(failing.begin(), failing.end()), failing.end());
+  return failing;
+}
+
+}  // namespace tracemesh::detail

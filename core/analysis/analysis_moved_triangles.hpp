@@ -1,0 +1,20 @@
+#pragma once
+/// @file analysis_moved_triangles.hpp
+/// The certificate's geometric tests on the part of a mesh that an edit changed: the triangles it moved or made,
+/// tested against each other and against every triangle whose bounding box meets theirs. The other triangles were
+/// tested before and did not move, so this is the whole certificate's verdict on the edit at a fraction of its cost.
+
+#include <cstdint>
+#include <vector>
+
+#include "core/mesh.hpp"
+
+namespace tracemesh::detail {
+
+/// The triangles of `moving` (indices into mesh.triangles; each live) that are degenerate or ill-formed
+/// (classify_triangles) or meet another live triangle (find_intersecting_pairs), sorted. `alive` is empty (every
+/// triangle live) or holds one entry per triangle, 0 for a removed one, which is ignored.
+std::vector<std::uint32_t> failing_moved_triangles(const surface_mesh& mesh, const std::vector<char>& alive,
+                                                   std::vector<std::uint32_t> moving);
+
+}  // namespace tracemesh::detail
