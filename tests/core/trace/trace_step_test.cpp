@@ -13,16 +13,16 @@
 namespace tracemesh {
 namespace {
 
-constexpr double radius = 1.5;
+constexpr double atom_radius = 1.5;
 constexpr double plane_z = 0.3;
 
-molecule one_atom() {
+molecule lone_atom() {
   molecule mol;
-  mol.atoms.push_back({{0, 0, 0}, radius, 0});
+  mol.atoms.push_back({{0, 0, 0}, atom_radius, 0});
   return mol;
 }
 
-double contour_radius() { return std::sqrt(radius * radius - plane_z * plane_z); }
+double contour_radius() { return std::sqrt(atom_radius * atom_radius - plane_z * plane_z); }
 
 surface_sample sample_at(const gaussian_field& field, vec3 p) {
   surface_sample s{p, {}, false};
@@ -46,7 +46,7 @@ surface_sample start_on_the_low_line(const gaussian_field& field) {
 }
 
 TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
-  const gaussian_field field(one_atom(), -1, 1);
+  const gaussian_field field(lone_atom(), -1, 1);
   const double rho = contour_radius();
   const trace_step_settings settings = strip_from_0_2_to_1_2();
   const surface_sample start = start_on_the_low_line(field);
@@ -75,7 +75,7 @@ TEST(trace_step, walks_a_circle_to_the_next_line_where_the_closed_form_says) {
 // A crossing with exactly one known root of its line nearby arrives at that root without Newton on the line (its x
 // and gradient are the root's, bit for bit); with a second root close by, Newton decides.
 TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing) {
-  const gaussian_field field(one_atom(), -1, 1);
+  const gaussian_field field(lone_atom(), -1, 1);
   const double rho = contour_radius();
   trace_step_settings settings = strip_from_0_2_to_1_2();
   const surface_sample start = start_on_the_low_line(field);
@@ -108,10 +108,10 @@ TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing)
 // The walk may run on an approximate field (here: another isovalue, so its contour is a visibly different circle);
 // points that land within exact_near_line of a line, and the crossing, are on the exact contour.
 TEST(trace_step, walks_on_the_walk_field_and_decides_near_lines_on_the_exact_one) {
-  const gaussian_field field(one_atom(), -1, 1);
-  const gaussian_field walk(one_atom(), -1, 1.01);
+  const gaussian_field field(lone_atom(), -1, 1);
+  const gaussian_field walk(lone_atom(), -1, 1.01);
   const double rho = contour_radius();
-  const double walk_rho = std::sqrt(radius * radius * (1 - std::log(1.01)) - plane_z * plane_z);
+  const double walk_rho = std::sqrt(atom_radius * atom_radius * (1 - std::log(1.01)) - plane_z * plane_z);
   ASSERT_GT(rho - walk_rho, 5e-3);
   trace_step_settings settings = strip_from_0_2_to_1_2();
   settings.max_step = 0.1;
@@ -139,7 +139,7 @@ TEST(trace_step, walks_on_the_walk_field_and_decides_near_lines_on_the_exact_one
 }
 
 TEST(trace_step, returns_to_the_same_line_through_an_extreme_point) {
-  const gaussian_field field(one_atom(), -1, 1);
+  const gaussian_field field(lone_atom(), -1, 1);
   const double rho = contour_radius();
   trace_step_settings settings;
   settings.v_low = 0.2;
@@ -162,7 +162,7 @@ TEST(trace_step, returns_to_the_same_line_through_an_extreme_point) {
 }
 
 TEST(trace_step, the_opposite_sign_walks_the_other_way_in_an_xz_plane) {
-  const gaussian_field field(one_atom(), -1, 1);
+  const gaussian_field field(lone_atom(), -1, 1);
   const double rho = contour_radius();  // plane y = 0.3 this time
   trace_step_settings settings;
   settings.v_low = -0.5;
@@ -180,20 +180,20 @@ TEST(trace_step, the_opposite_sign_walks_the_other_way_in_an_xz_plane) {
 }
 
 TEST(trace_step, polishing_on_a_line_finds_the_crossing) {
-  const gaussian_field field(one_atom(), -1, 1);
+  const gaussian_field field(lone_atom(), -1, 1);
   surface_sample out;
   std::size_t evaluations = 0;
   ASSERT_TRUE(polish_on_line(field, {1.2, 0.4, plane_z}, 0.5, out, evaluations));
-  EXPECT_NEAR(out.position.x, std::sqrt(radius * radius - 0.16 - plane_z * plane_z), 1e-10);
+  EXPECT_NEAR(out.position.x, std::sqrt(atom_radius * atom_radius - 0.16 - plane_z * plane_z), 1e-10);
   EXPECT_FALSE(polish_on_line(field, {1.2, 1.6, plane_z}, 0.5, out, evaluations));  // the line misses the sphere
 }
 
-// With d = −1 a lone atom's φ = t0 + s is the sphere of radius r·√(1 − ln(1 + s/t0)): the walk and the polishing
+// With d = −1 a lone atom's φ = t0 + s is the sphere of atom_radius r·√(1 − ln(1 + s/t0)): the walk and the polishing
 // at a shifted level (a strip whose contour crosses itself at t0, strip_arcs.cpp) follow that sphere instead.
 TEST(trace_step, a_shifted_level_is_walked_and_polished_on_its_own_contour) {
-  const gaussian_field field(one_atom(), -1, 1);
+  const gaussian_field field(lone_atom(), -1, 1);
   const double shift = 0.05;
-  const double shifted_radius = radius * std::sqrt(1 - std::log(1 + shift));
+  const double shifted_radius = atom_radius * std::sqrt(1 - std::log(1 + shift));
   const double rho = std::sqrt(shifted_radius * shifted_radius - plane_z * plane_z);
   surface_sample start;
   std::size_t evaluations = 0;
@@ -207,7 +207,7 @@ TEST(trace_step, a_shifted_level_is_walked_and_polished_on_its_own_contour) {
   // The same polishing at t0 lands on the unshifted sphere, farther out.
   surface_sample unshifted;
   ASSERT_TRUE(polish_on_line(field, {1.2, 0.2, plane_z}, 0.5, unshifted, evaluations));
-  EXPECT_NEAR(norm(unshifted.position), radius, 1e-10);
+  EXPECT_NEAR(norm(unshifted.position), atom_radius, 1e-10);
   EXPECT_GT(unshifted.position.x, start.position.x + 0.01);
 }
 
