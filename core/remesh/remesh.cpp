@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/mesh_edits/short_edge_collapse.hpp"
 #include "core/remesh/remesh_chunks.hpp"
 #include "core/remesh/remesh_geometry.hpp"
 #include "core/remesh/remesh_patch.hpp"
@@ -55,6 +56,7 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
     stats = done.value();
   }
   mesh.atom_index.clear();  // the caller's to fill (the mesher does, with the certificate's field probe)
+  stats.final_collapses = collapse_short_edges(mesh, 0, options.final_collapse_below * l);
   stats.remade_components = detail::resample_small_components(mesh, field, l);
   return stats;
 }

@@ -253,6 +253,9 @@ status check_remesh_options(const remesh_options& o) {
   }
   if (!(o.freeze_radius > 0) || !std::isfinite(o.freeze_radius)) return invalid("freeze_radius must be positive");
   if (o.max_rounds < 1) return invalid("max_rounds must be at least 1");
+  if (!(o.final_collapse_below >= 0 && o.final_collapse_below < 0.5)) {
+    return invalid("final_collapse_below must be in [0, 0.5)");
+  }
   if (!(o.chunk_edges >= 16) || !std::isfinite(o.chunk_edges)) return invalid("chunk_edges must be at least 16");
   return status::success();
 }

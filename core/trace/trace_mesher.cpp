@@ -7,9 +7,9 @@
 #include <cmath>
 #include <string>
 
+#include "core/mesh_edits/short_edge_collapse.hpp"
 #include "core/trace/cell_polygons.hpp"
 #include "core/trace/line_roots.hpp"
-#include "core/trace/short_edge_welding.hpp"
 #include "core/trace/strip_arcs.hpp"
 #include "core/trace/trace_lines.hpp"
 #include "core/trace/untouched_cavities.hpp"
@@ -35,7 +35,7 @@ constexpr double tangent_tolerance = 1e-6;
 constexpr double tangent_pair_slope = 0.05;
 constexpr double tangent_pair_gap = 1e-2;
 constexpr double tangent_cap_height = 1e-4;
-/// Raw edges between two arc points shorter than this × h̃ are welded (short_edge_welding.hpp): 0.01 Å at 1 v/Å²,
+/// Raw edges between two arc points shorter than this × h̃ are welded (short_edge_collapse.hpp): 0.01 Å at 1 v/Å²,
 /// where a Draco grid's step is 0.01 Å at most and 0.6 mÅ after the four extra bits it may take.
 constexpr double weld_below = 1e-2;
 /// Rounds of re-tracing strips whose lines gained late roots, before giving up.
@@ -334,7 +334,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
                                             " cells with an open or untriangulable loop, " +
                                             std::to_string(intersecting_cells) + " cells with intersecting triangles"};
   }
-  stats.welded_edges += weld_short_arc_edges(mesh, first_arc_point, weld_below * h);
+  stats.welded_edges += collapse_short_edges(mesh, first_arc_point, weld_below * h);  // never a root
   return mesh;
 }
 

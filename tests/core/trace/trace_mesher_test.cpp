@@ -311,7 +311,7 @@ TEST(trace_mesher, a_line_grazing_the_surface_across_a_hair_thin_cap_makes_no_le
 // A line grazing a sphere across a cap 0.5–3 mÅ high where the surface faces (0, 1, 1)/√2: radius 3, centre
 // (0.123, 3 − (3 − ε)/√2, −(3 − ε)/√2), line (3, 0) at distance 3 − ε from it. The cap is thin across both planes
 // through the line, so the return arcs through its two roots keep their middle points at y = 3 + √2·ε and
-// z = √2·ε, about 2ε apart: a lens whose middle edge is welded (short_edge_welding.hpp). Unwelded, that edge was
+// z = √2·ε, about 2ε apart: a lens whose middle edge is welded (short_edge_collapse.hpp). Unwelded, that edge was
 // the mesh's shortest, 1–6 mÅ, as on 1k4r_capsid and 3j6r_asu.
 TEST(trace_mesher, a_lens_where_a_line_grazes_a_thin_cap_is_welded) {
   for (const double eps : {5e-4, 1e-3, 3e-3}) {

@@ -1,4 +1,4 @@
-#include "core/trace/short_edge_welding.hpp"
+#include "core/mesh_edits/short_edge_collapse.hpp"
 
 #include <algorithm>
 #include <array>
@@ -13,14 +13,14 @@
 namespace tracemesh {
 namespace {
 
-/// No weld in a component of fewer vertices: the quality pass reshapes such a tiny cavity whole (mache at 1 v/Å²:
-/// a cavity of 5 vertices came out with its shortest edge at 0.14 × the median), while the tetrahedron a weld
-/// would leave has no edge it may collapse (0.08 × the median).
+/// No collapse in a component of this many vertices or fewer: the quality pass reshapes such a tiny cavity whole
+/// (remesh_small_components.hpp); on mache at 1 v/Å² a collapse in the raw mesh turned a 5-vertex cavity into a
+/// tetrahedron with an edge of 0.08 × the median, where it came out of the quality pass at 0.14 × without it.
 constexpr std::uint32_t min_component_vertices = 8;
-/// Rounds of welding, each after the welds whose triangles met others were refused: a weld moves a fan by up to
-/// h̃/100 and can push it through a triangle of a neighbouring cell where the surface lies almost in a wall
-/// (1k4r_capsid at 2 v/Å²: 32 self-intersections, without this check).
-constexpr int max_weld_rounds = 3;
+/// Rounds of collapses, each after those whose triangles met others were refused: a collapse of the raw trace mesh
+/// moves a fan by up to h̃/100 and can push it through a triangle of a neighbouring cell where the surface lies
+/// almost in a wall (1k4r_capsid at 2 v/Å²: 32 self-intersections, without this check).
+constexpr int max_collapse_rounds = 3;
 
 using triangle = std::array<std::uint32_t, 3>;
 
@@ -34,18 +34,18 @@ struct candidate_edge {
 };
 
 /// A collapse made: `removed` merged into `kept`.
-struct weld {
+struct collapse {
   std::uint32_t kept, removed;
 };
 
-/// The edges between two arc points shorter than max_length, shortest first, each once.
-std::vector<candidate_edge> short_arc_edges(const surface_mesh& mesh, std::uint32_t first_arc_point,
+/// The edges between two movable vertices shorter than max_length, shortest first, each once.
+std::vector<candidate_edge> short_edges(const surface_mesh& mesh, std::uint32_t first_movable_vertex,
                                             double max_length) {
   std::vector<candidate_edge> edges;
   for (const triangle& t : mesh.triangles) {
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t u = t[static_cast<std::size_t>(i)], v = t[static_cast<std::size_t>((i + 1) % 3)];
-      if (u < first_arc_point || v < first_arc_point) continue;
+      if (u < first_movable_vertex || v < first_movable_vertex) continue;
       const double length = distance(mesh.positions[u], mesh.positions[v]);
       if (length < max_length) edges.push_back({length, std::min(u, v), std::max(u, v)});
     }
@@ -95,13 +95,13 @@ vec3 area_normal(const surface_mesh& mesh, const triangle& t) {
   return cross(mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
 }
 
-class welder {
+class collapser {
  public:
-  welder(surface_mesh& mesh, const std::vector<candidate_edge>& edges)
+  collapser(surface_mesh& mesh, const std::vector<candidate_edge>& edges)
       : mesh_(mesh),
         incidence_(mesh, edges),
-        // The raw mesh's triangles are well formed by construction (the cells' triangulations): components need
-        // no geometric classification of every triangle.
+        // The input's triangles are well formed (a raw trace mesh by construction, the quality pass's output by
+        // its checks): components need no geometric classification of every triangle.
         labels_(detail::label_components(
             mesh, std::vector<detail::triangle_defect>(mesh.triangles.size(), detail::triangle_defect::none))),
         component_vertices_(labels_.count, 0),
@@ -112,7 +112,7 @@ class welder {
     }
   }
 
-  /// Collapses edge (a, b) onto a when every condition of weld_short_arc_edges() holds.
+  /// Collapses edge (a, b) onto a when every condition of collapse_short_edges() holds.
   bool try_collapse(std::uint32_t a, std::uint32_t b) {
     if (removed_[a] || removed_[b]) return false;
     const std::uint32_t component = labels_.of_vertex[a];
@@ -144,32 +144,32 @@ class welder {
     }
     removed_[b] = 1;
     --component_vertices_[component];
-    welds_.push_back({a, b});
+    collapses_.push_back({a, b});
     return true;
   }
 
-  std::size_t welds() const { return welds_.size(); }
+  std::size_t collapses() const { return collapses_.size(); }
 
-  /// The welds some of whose triangles now meet another triangle or are degenerate, by the certificate's own tests:
-  /// the triangles around every kept end are tested against each other and against every triangle whose bounding
-  /// box meets theirs (the others were tested cell by cell and did not move).
-  std::vector<weld> welds_that_fail_the_certificate() {
+  /// The collapses some of whose triangles now meet another triangle or are degenerate, by the certificate's own
+  /// tests: the triangles around every kept end against each other and against every triangle whose bounding box
+  /// meets theirs (the others did not move).
+  std::vector<collapse> collapses_that_fail_the_certificate() {
     std::vector<std::uint32_t> moving;
-    for (const weld& w : welds_) {
-      for (const std::uint32_t f : live(w.kept)) moving.push_back(f);
+    for (const collapse& done : collapses_) {
+      for (const std::uint32_t f : live(done.kept)) moving.push_back(f);
     }
     std::unordered_set<std::uint32_t> bad_corners;
     for (const std::uint32_t f : detail::failing_moved_triangles(mesh_, alive_, std::move(moving))) {
       for (const std::uint32_t v : mesh_.triangles[f]) bad_corners.insert(v);
     }
-    std::vector<weld> refused;
-    for (const weld& w : welds_) {
-      if (bad_corners.count(w.kept) != 0) refused.push_back(w);
+    std::vector<collapse> refused;
+    for (const collapse& done : collapses_) {
+      if (bad_corners.count(done.kept) != 0) refused.push_back(done);
     }
     return refused;
   }
 
-  /// Puts every triangle back as it was before the welds (the vertices were not moved).
+  /// Puts every triangle back as it was before the collapses (the vertices were not moved).
   void undo() {
     for (auto it = changed_.rbegin(); it != changed_.rend(); ++it) mesh_.triangles[it->first] = it->second;
   }
@@ -239,26 +239,26 @@ class welder {
   std::vector<std::uint32_t> component_vertices_;
   std::vector<char> alive_;
   std::vector<char> removed_;
-  std::vector<weld> welds_;  // in order
-  std::vector<std::pair<std::uint32_t, triangle>> changed_;  // (triangle, corners before the weld that changed it)
+  std::vector<collapse> collapses_;  // in order
+  std::vector<std::pair<std::uint32_t, triangle>> changed_;  // (triangle, corners before the collapse that changed it)
 };
 
 }  // namespace
 
-std::size_t weld_short_arc_edges(surface_mesh& mesh, std::uint32_t first_arc_point, double max_length) {
-  std::vector<candidate_edge> edges = short_arc_edges(mesh, first_arc_point, max_length);
-  for (int round = 0; round < max_weld_rounds && !edges.empty(); ++round) {
-    welder w(mesh, edges);
+std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length) {
+  std::vector<candidate_edge> edges = short_edges(mesh, first_movable_vertex, max_length);
+  for (int round = 0; round < max_collapse_rounds && !edges.empty(); ++round) {
+    collapser w(mesh, edges);
     for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b);
-    const std::vector<weld> refused = w.welds_that_fail_the_certificate();
+    const std::vector<collapse> refused = w.collapses_that_fail_the_certificate();
     if (refused.empty()) {
-      const std::size_t welded = w.welds();
+      const std::size_t collapsed = w.collapses();
       w.compact();
-      return welded;
+      return collapsed;
     }
     w.undo();
     std::erase_if(edges, [&](const candidate_edge& e) {
-      return std::any_of(refused.begin(), refused.end(), [&](const weld& r) { return r.kept == e.a && r.removed == e.b; });
+      return std::any_of(refused.begin(), refused.end(), [&](const collapse& r) { return r.kept == e.a && r.removed == e.b; });
     });
   }
   return 0;

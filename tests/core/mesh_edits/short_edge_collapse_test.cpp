@@ -1,7 +1,8 @@
-// Welding the raw trace mesh's hair-short arc edges (core/trace/short_edge_welding.hpp) on small closed meshes
-// whose result is known: a bipyramid with one edge split next to its end welds back into the bipyramid; roots,
-// longer edges and collapses that would pinch the surface are left alone.
-#include "core/trace/short_edge_welding.hpp"
+// Collapsing short edges (core/mesh_edits/short_edge_collapse.hpp) on small closed meshes whose result is known: a
+// bipyramid with one edge split next to its end collapses back into the bipyramid; vertices before the first
+// movable one (the raw trace mesh's line roots), longer edges and collapses that would pinch the surface are left
+// alone.
+#include "core/mesh_edits/short_edge_collapse.hpp"
 
 #include <gtest/gtest.h>
 
@@ -74,10 +75,10 @@ std::vector<triangle> canonical(std::vector<triangle> triangles) {
 
 void expect_closed_oriented_manifold(const surface_mesh& m) { testing::expect_certified_report(analyze_mesh(m)); }
 
-TEST(short_edge_welding, a_hair_short_arc_edge_welds_back_into_the_closed_mesh) {
+TEST(short_edge_collapse, a_hair_short_edge_collapses_back_into_the_closed_mesh) {
   surface_mesh m = bipyramid_with_split_edge(1e-4);
   expect_closed_oriented_manifold(m);
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 1u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 1u);
   const surface_mesh expected = bipyramid();
   EXPECT_EQ(m.positions, expected.positions);  // the lower-numbered end stays where it was
   EXPECT_EQ(m.normals, expected.normals);
@@ -85,14 +86,14 @@ TEST(short_edge_welding, a_hair_short_arc_edge_welds_back_into_the_closed_mesh) 
   expect_closed_oriented_manifold(m);
 }
 
-TEST(short_edge_welding, the_other_vertices_keep_their_order) {
+TEST(short_edge_collapse, the_other_vertices_keep_their_order) {
   // Numbered in the order e1, e2, e0, split, e3 … e9, top, bottom: the split vertex (3) is the higher-numbered end
   // and goes; the ten after it move down by one.
   const std::vector<std::uint32_t> sequence{1, 2, 0, 12, 3, 4, 5, 6, 7, 8, 9, 10, 11};
   std::vector<std::uint32_t> order(sequence.size());
   for (std::uint32_t position = 0; position < sequence.size(); ++position) order[sequence[position]] = position;
   surface_mesh m = renumbered(bipyramid_with_split_edge(1e-4), order);
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 1u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 1u);
   std::vector<std::uint32_t> after(12);  // bipyramid vertex v is now after[v]
   for (std::uint32_t position = 0, kept = 0; position < sequence.size(); ++position) {
     if (sequence[position] != 12) after[sequence[position]] = kept++;
@@ -103,33 +104,33 @@ TEST(short_edge_welding, the_other_vertices_keep_their_order) {
   expect_closed_oriented_manifold(m);
 }
 
-TEST(short_edge_welding, a_root_is_never_welded) {
+TEST(short_edge_collapse, a_vertex_before_the_first_movable_one_is_never_removed) {
   surface_mesh m = bipyramid_with_split_edge(1e-4);
   const surface_mesh before = m;
-  EXPECT_EQ(weld_short_arc_edges(m, 1, 1e-2), 0u);  // vertex 0 is a root: edge (0, 12) is not an arc edge
+  EXPECT_EQ(collapse_short_edges(m, 1, 1e-2), 0u);  // vertex 0 is not movable (a root of the raw trace mesh)
   EXPECT_EQ(m.positions, before.positions);
   EXPECT_EQ(m.triangles, before.triangles);
 }
 
-TEST(short_edge_welding, an_edge_at_or_over_the_length_is_kept) {
+TEST(short_edge_collapse, an_edge_at_or_over_the_length_is_kept) {
   surface_mesh m = bipyramid_with_split_edge(2e-2);
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 0u);
   EXPECT_EQ(m.positions.size(), 13u);
   EXPECT_EQ(m.triangles.size(), 22u);
 }
 
-TEST(short_edge_welding, a_tiny_component_is_left_to_the_quality_pass) {
-  // The split octahedron of 7 vertices (a bipyramid over a square): a weld would give a tetrahedron-like cavity
-  // beyond the quality pass's reach.
+TEST(short_edge_collapse, a_tiny_component_is_left_to_the_quality_pass) {
+  // The split octahedron of 7 vertices (a bipyramid over a square): a tiny cavity is the quality pass's to make
+  // again whole (remesh_small_components.hpp).
   surface_mesh m = bipyramid_with_split_edge(1e-4, 4);
   expect_closed_oriented_manifold(m);
   const surface_mesh before = m;
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 0u);
   EXPECT_EQ(m.triangles, before.triangles);
 }
 
-TEST(short_edge_welding, a_vertex_of_three_triangles_next_to_a_corner_welds_away) {
-  // Vertex 12 inside triangle (0, 1, top), 1e-4 Å from vertex 0 and joined to the three corners: welding edge
+TEST(short_edge_collapse, a_vertex_of_three_triangles_next_to_a_corner_collapses_away) {
+  // Vertex 12 inside triangle (0, 1, top), 1e-4 Å from vertex 0 and joined to the three corners: collapsing edge
   // (0, 12) gives back the bipyramid.
   surface_mesh m = bipyramid(10);
   const std::uint32_t top = 10, inside = 12;
@@ -139,12 +140,12 @@ TEST(short_edge_welding, a_vertex_of_three_triangles_next_to_a_corner_welds_away
   m.triangles.push_back({1, top, inside});
   m.triangles.push_back({top, 0, inside});
   expect_closed_oriented_manifold(m);
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 1u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 1u);
   EXPECT_EQ(canonical(m.triangles), canonical(bipyramid(10).triangles));
   expect_closed_oriented_manifold(m);
 }
 
-TEST(short_edge_welding, a_collapse_that_would_pinch_the_surface_is_refused) {
+TEST(short_edge_collapse, a_collapse_that_would_pinch_the_surface_is_refused) {
   // The split bipyramid with triangle (0, 12, top) split in three at its centroid by vertex 13: edge (0, 12) now
   // has 13 (three triangles) as a third corner, and 0 and 12 share three neighbours (13, top, bottom). Welding it
   // would leave 13 two triangles on the same three vertices.
@@ -157,34 +158,34 @@ TEST(short_edge_welding, a_collapse_that_would_pinch_the_surface_is_refused) {
   m.triangles.push_back({top, 0, centroid});
   expect_closed_oriented_manifold(m);
   const surface_mesh before = m;
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 0u);
   EXPECT_EQ(m.triangles, before.triangles);
 }
 
-TEST(short_edge_welding, a_collapse_that_would_turn_a_triangle_over_is_refused) {
+TEST(short_edge_collapse, a_collapse_that_would_turn_a_triangle_over_is_refused) {
   // Triangle (12, 1, top) has normal (1 − p₁₂) × (top − 1): it changes sign as vertex 12 crosses the line through 1
-  // and the top. With 12 and 0 3 mÅ either side of that line's midpoint (6 mÅ apart), welding 12 onto 0 would turn
+  // and the top. With 12 and 0 3 mÅ either side of that line's midpoint (6 mÅ apart), collapsing 12 onto 0 would turn
   // it over.
   surface_mesh m = bipyramid_with_split_edge(1e-4);
   const vec3 midpoint = (m.positions[1] + m.positions[10]) * 0.5;
   m.positions[12] = midpoint + vec3{3e-3, 0, 0};
   m.positions[0] = midpoint - vec3{3e-3, 0, 0};
   const surface_mesh before = m;
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 0u);
   EXPECT_EQ(m.triangles, before.triangles);
   EXPECT_EQ(m.positions, before.positions);
 }
 
-TEST(short_edge_welding, a_weld_whose_triangles_would_meet_another_triangle_is_undone) {
+TEST(short_edge_collapse, a_collapse_whose_triangles_would_meet_another_triangle_is_undone) {
   // A bipyramid of radius 10 whose equator edge (0, 1) is split 0.25 Å from vertex 0 by vertex 12 pushed 0.2 Å
   // outwards: the split bulges the surface over the centroid of triangle (0, 1, top) by about 0.07 Å. A tetrahedron
-  // of 0.02 Å sits there, under the bulge: welding 12 onto 0 flattens the surface back through it.
+  // of 0.02 Å sits there, under the bulge: collapsing 12 onto 0 flattens the surface back through it.
   surface_mesh m = bipyramid_with_split_edge(0.25);
   for (vec3& p : m.positions) p = p * 10;
   const vec3 edge_start = m.positions[0], edge_end = m.positions[1], top = m.positions[10];
   m.positions[12] = edge_start + normalized(edge_end - edge_start) * 0.25 + normalized(edge_start + edge_end) * 0.2;
-  surface_mesh welded_alone = m;
-  EXPECT_EQ(weld_short_arc_edges(welded_alone, 0, 0.5), 1u) << "the weld itself is allowed";
+  surface_mesh collapsed_alone = m;
+  EXPECT_EQ(collapse_short_edges(collapsed_alone, 0, 0.5), 1u) << "the collapse itself is allowed";
   const vec3 centre = (edge_start + edge_end + top) / 3;
   const auto first = static_cast<std::uint32_t>(m.positions.size());
   for (const vec3& corner : {vec3{0.01, 0.01, 0.01}, vec3{0.01, -0.01, -0.01}, vec3{-0.01, 0.01, -0.01},
@@ -197,7 +198,7 @@ TEST(short_edge_welding, a_weld_whose_triangles_would_meet_another_triangle_is_u
   }
   expect_closed_oriented_manifold(m);
   const surface_mesh before = m;
-  EXPECT_EQ(weld_short_arc_edges(m, 0, 0.5), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 0, 0.5), 0u);
   EXPECT_EQ(m.triangles, before.triangles);
   EXPECT_EQ(m.positions, before.positions);
 }

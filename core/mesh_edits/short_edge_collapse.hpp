@@ -1,0 +1,41 @@
+#pragma once
+/// @file short_edge_collapse.hpp
+/// Collapsing a mesh's short edges where that is safe, checked by the certificate's own tests: the one mesh edit
+/// that two stages share.
+///
+/// - The raw trace mesh (not part of the paper's method): where a line grazes the surface across a thin cap, the two
+///   return arcs through its two roots (one in each plane through the line) bound a lens whose middle points lie
+///   about the cap's height apart (1e-4 Å and less on 3j6r_asu at 1 v/Å²). Such an edge is harmless to the
+///   certificate but not to what comes after: a Draco grid of 0.01 Å merges its ends, the quality pass keeps it
+///   wherever it has to freeze the region, and a boundary-element solver stalls on it (method.md §8). Edges between
+///   two arc points under h̃/100 are collapsed ("welded"); line roots are never moved or removed.
+/// - The quality pass: where a patch's rounds failed near two sheets of surface that come close, its vertices stay
+///   frozen and keep the raw mesh's short edges (1k4r_5asu at 2 v/Å²: 0.041 × the median edge). Edges under
+///   0.15 L are collapsed at its end.
+///
+/// A collapse moves the removed end onto the kept one (the lower-numbered end, a vertex of the surface), so every
+/// vertex stays where it was.
+
+#include <cstddef>
+#include <cstdint>
+
+#include "core/mesh.hpp"
+
+namespace tracemesh {
+
+/// Collapses, shortest first, every edge of `mesh` shorter than `max_length` Å whose two ends are numbered
+/// `first_movable_vertex` or above (the vertices before it are never removed), where:
+/// - its component keeps more than 8 vertices (a tiny cavity is the quality pass's to reshape whole:
+///   remesh_small_components.hpp);
+/// - exactly two triangles share the edge and their third corners differ, and each of those two corners keeps at
+///   least three triangles (no pinch);
+/// - the two ends have no common neighbour but those two corners (the link condition: the result stays manifold);
+/// - no triangle of the removed end turns over or degenerates when that end moves onto the kept one;
+/// - the certificate's own tests find none of the moved triangles degenerate or meeting another triangle (a
+///   collapse that fails is undone and the others made again, for a few rounds).
+/// The two triangles on the edge go, the removed end's others take the kept end instead, and the unused vertex is
+/// dropped (the others keep their order, as do normals and atom indices when there is one per vertex).
+/// Precondition: `mesh` is closed and oriented. Returns the edges collapsed.
+std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length);
+
+}  // namespace tracemesh
