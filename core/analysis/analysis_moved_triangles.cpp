@@ -1,5 +1,7 @@
 #include "core/analysis/analysis_moved_triangles.hpp"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <unordered_map>
@@ -30,8 +32,10 @@ bool boxes_meet(const box3& a, const box3& b) {
   return true;
 }
 
-/// The live triangles whose bounding boxes meet those of `moving` (sorted), `moving` included. One pass over the
-/// triangles, with the moving boxes hashed in a grid of cells as large as the largest of them.
+/// The live triangles whose bounding boxes meet those of `moving` (sorted), `moving` included. One parallel pass
+/// over the triangles, with the moving boxes hashed in a grid of cells as large as the largest of them; a bit per
+/// hashed cell turns most triangles away before any lookup (on 1k4r_capsid at 2 v/Å² the pass looks at ten million
+/// triangles for a few thousand moved ones).
 std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::vector<char>& alive,
                                           const std::vector<std::uint32_t>& moving) {
   double cell = 0;
@@ -57,11 +61,21 @@ std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::v
       }
     }
   }
+  // One bit per hashed cell, at least 64 bits per occupied cell: a clear bit means an empty cell.
+  std::size_t bits = 1 << 12;
+  while (bits < 64 * grid.size()) bits *= 2;
+  std::vector<std::uint64_t> occupied(bits / 64, 0);
+  for (const auto& entry : grid) occupied[(entry.first & (bits - 1)) / 64] |= std::uint64_t{1} << (entry.first % 64);
+  const auto may_be_occupied = [&](std::uint64_t k) {
+    return (occupied[(k & (bits - 1)) / 64] >> (k % 64) & 1) != 0;
+  };
   const auto meets_a_moving_box = [&](const box3& b) {
     for (std::int64_t i = index(b.lo.x); i <= index(b.hi.x); ++i) {
       for (std::int64_t j = index(b.lo.y); j <= index(b.hi.y); ++j) {
         for (std::int64_t k = index(b.lo.z); k <= index(b.hi.z); ++k) {
-          const auto it = grid.find(key(i, j, k));
+          const std::uint64_t cell_key = key(i, j, k);
+          if (!may_be_occupied(cell_key)) continue;
+          const auto it = grid.find(cell_key);
           if (it == grid.end()) continue;
           for (const std::uint32_t m : it->second) {
             if (boxes_meet(b, moving_boxes[m])) return true;
@@ -71,10 +85,17 @@ std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::v
     }
     return false;
   };
+  // Fixed blocks, concatenated in order: the same list whatever the thread count.
+  constexpr std::size_t block = 1 << 14;
+  const std::size_t count = mesh.triangles.size(), blocks = (count + block - 1) / block;
+  std::vector<std::vector<std::uint32_t>> near_in_block(blocks);
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t n) {
+    for (auto f = static_cast<std::uint32_t>(n * block); f < std::min(count, (n + 1) * block); ++f) {
+      if ((alive.empty() || alive[f]) && meets_a_moving_box(box_of(mesh, f))) near_in_block[n].push_back(f);
+    }
+  });
   std::vector<std::uint32_t> near;
-  for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
-    if ((alive.empty() || alive[f]) && meets_a_moving_box(box_of(mesh, f))) near.push_back(f);
-  }
+  for (const auto& part : near_in_block) near.insert(near.end(), part.begin(), part.end());
   return near;
 }
 
