@@ -36,6 +36,7 @@ struct candidate_edge {
 /// A collapse made: `removed` merged into `kept`.
 struct collapse {
   std::uint32_t kept, removed;
+  candidate_edge cause;  ///< the short edge this collapse was made for (itself, or one beside its removed corner)
 };
 
 /// The edges between two movable vertices shorter than max_length, shortest first, each once.
@@ -97,8 +98,9 @@ vec3 area_normal(const surface_mesh& mesh, const triangle& t) {
 
 class collapser {
  public:
-  collapser(surface_mesh& mesh, const std::vector<candidate_edge>& edges)
+  collapser(surface_mesh& mesh, const std::vector<candidate_edge>& edges, std::uint32_t first_movable_vertex)
       : mesh_(mesh),
+        first_movable_(first_movable_vertex),
         incidence_(mesh, edges),
         // The input's triangles are well formed (a raw trace mesh by construction, the quality pass's output by
         // its checks): components need no geometric classification of every triangle.
@@ -112,8 +114,9 @@ class collapser {
     }
   }
 
-  /// Collapses edge (a, b) onto a when every condition of collapse_short_edges() holds.
-  bool try_collapse(std::uint32_t a, std::uint32_t b) {
+  /// Collapses edge (a, b) onto a when every condition of collapse_short_edges() holds; `corner_merged`: whether a
+  /// corner of three triangles beside the edge may be merged into it first; `cause`: the candidate edge tried.
+  bool try_collapse(std::uint32_t a, std::uint32_t b, bool corner_merged, const candidate_edge& cause) {
     if (removed_[a] || removed_[b]) return false;
     const std::uint32_t component = labels_.of_vertex[a];
     if (component >= labels_.count || component_vertices_[component] <= min_component_vertices) return false;
@@ -124,7 +127,17 @@ class collapser {
     }
     if (on_edge.size() != 2) return false;
     const std::uint32_t c = third_corner(on_edge[0], a, b), d = third_corner(on_edge[1], a, b);
-    if (c == d || live_count(c) <= 3 || live_count(d) <= 3) return false;
+    if (c == d) return false;
+    if (live_count(c) <= 3 || live_count(d) <= 3) {
+      // A corner of three triangles would be left with two. Such a corner is first merged into the nearer end of
+      // the edge (its three triangles become one), when it may move; then the edge is tried again, once.
+      const std::uint32_t corner = live_count(c) <= 3 ? c : d;
+      if (!corner_merged || corner < first_movable_ || live_count(corner) != 3) return false;
+      const bool a_nearer = distance(mesh_.positions[a], mesh_.positions[corner]) <=
+                            distance(mesh_.positions[b], mesh_.positions[corner]);
+      if (!try_collapse(a_nearer ? a : b, corner, false, cause)) return false;
+      return try_collapse(a, b, false, cause);
+    }
     if (common_neighbours(around_a, around_b, a, b) != std::vector<std::uint32_t>{std::min(c, d), std::max(c, d)}) {
       return false;
     }
@@ -144,7 +157,7 @@ class collapser {
     }
     removed_[b] = 1;
     --component_vertices_[component];
-    collapses_.push_back({a, b});
+    collapses_.push_back({a, b, cause});
     return true;
   }
 
@@ -234,6 +247,7 @@ class collapser {
   }
 
   surface_mesh& mesh_;
+  std::uint32_t first_movable_;
   local_incidence incidence_;
   detail::component_labels labels_;
   std::vector<std::uint32_t> component_vertices_;
@@ -248,8 +262,8 @@ class collapser {
 std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length) {
   std::vector<candidate_edge> edges = short_edges(mesh, first_movable_vertex, max_length);
   for (int round = 0; round < max_collapse_rounds && !edges.empty(); ++round) {
-    collapser w(mesh, edges);
-    for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b);
+    collapser w(mesh, edges, first_movable_vertex);
+    for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b, true, e);
     const std::vector<collapse> refused = w.collapses_that_fail_the_certificate();
     if (refused.empty()) {
       const std::size_t collapsed = w.collapses();
@@ -258,7 +272,7 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
     }
     w.undo();
     std::erase_if(edges, [&](const candidate_edge& e) {
-      return std::any_of(refused.begin(), refused.end(), [&](const collapse& r) { return r.kept == e.a && r.removed == e.b; });
+      return std::any_of(refused.begin(), refused.end(), [&](const collapse& r) { return r.cause == e; });
     });
   }
   return 0;

@@ -145,10 +145,9 @@ TEST(short_edge_collapse, a_vertex_of_three_triangles_next_to_a_corner_collapses
   expect_closed_oriented_manifold(m);
 }
 
-TEST(short_edge_collapse, a_collapse_that_would_pinch_the_surface_is_refused) {
-  // The split bipyramid with triangle (0, 12, top) split in three at its centroid by vertex 13: edge (0, 12) now
-  // has 13 (three triangles) as a third corner, and 0 and 12 share three neighbours (13, top, bottom). Welding it
-  // would leave 13 two triangles on the same three vertices.
+/// The split bipyramid with triangle (0, 12, top) split in three at its centroid by vertex 13: edge (0, 12) has 13
+/// (three triangles) as a third corner, and 0 and 12 share three neighbours (13, top, bottom).
+surface_mesh bipyramid_with_a_corner_of_three_triangles() {
   surface_mesh m = bipyramid_with_split_edge(1e-4);
   const std::uint32_t top = 10, split = 12, centroid = 13;
   m.positions.push_back((m.positions[0] + m.positions[split] + m.positions[top]) / 3);
@@ -156,9 +155,38 @@ TEST(short_edge_collapse, a_collapse_that_would_pinch_the_surface_is_refused) {
   m.triangles[0] = {0, split, centroid};
   m.triangles.push_back({split, top, centroid});
   m.triangles.push_back({top, 0, centroid});
+  return m;
+}
+
+TEST(short_edge_collapse, a_corner_of_three_triangles_beside_the_edge_is_merged_first) {
+  // Collapsing (0, 12) alone would leave 13 two triangles on the same three vertices: 13 is merged into 0 or 12
+  // (its three triangles become one), then the edge collapses, and the bipyramid is back.
+  surface_mesh m = bipyramid_with_a_corner_of_three_triangles();
+  expect_closed_oriented_manifold(m);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 2u);
+  expect_closed_oriented_manifold(m);
+  EXPECT_EQ(m.positions.size(), 12u);
+  EXPECT_EQ(m.triangles.size(), 20u);
+}
+
+TEST(short_edge_collapse, a_collapse_that_would_pinch_the_surface_is_refused_when_the_corner_may_not_move) {
+  // The same mesh with the corner of three triangles numbered first, below the first movable vertex.
+  const surface_mesh split = bipyramid_with_a_corner_of_three_triangles();
+  surface_mesh m;
+  const auto last = static_cast<std::uint32_t>(split.positions.size() - 1);
+  m.positions.push_back(split.positions[last]);
+  m.normals.push_back(split.normals[last]);
+  for (std::uint32_t v = 0; v < last; ++v) {
+    m.positions.push_back(split.positions[v]);
+    m.normals.push_back(split.normals[v]);
+  }
+  for (auto t : split.triangles) {
+    for (std::uint32_t& v : t) v = v == last ? 0 : v + 1;
+    m.triangles.push_back(t);
+  }
   expect_closed_oriented_manifold(m);
   const surface_mesh before = m;
-  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 1, 1e-2), 0u);
   EXPECT_EQ(m.triangles, before.triangles);
 }
 
