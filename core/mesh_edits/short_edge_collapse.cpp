@@ -98,14 +98,13 @@ vec3 area_normal(const surface_mesh& mesh, const triangle& t) {
 
 class collapser {
  public:
-  collapser(surface_mesh& mesh, const std::vector<candidate_edge>& edges, std::uint32_t first_movable_vertex)
+  /// `labels`: the components of `mesh` (the same for every round: a round that fails is undone whole).
+  collapser(surface_mesh& mesh, const std::vector<candidate_edge>& edges, std::uint32_t first_movable_vertex,
+            const detail::component_labels& labels)
       : mesh_(mesh),
         first_movable_(first_movable_vertex),
         incidence_(mesh, edges),
-        // The input's triangles are well formed (a raw trace mesh by construction, the quality pass's output by
-        // its checks): components need no geometric classification of every triangle.
-        labels_(detail::label_components(
-            mesh, std::vector<detail::triangle_defect>(mesh.triangles.size(), detail::triangle_defect::none))),
+        labels_(labels),
         component_vertices_(labels_.count, 0),
         alive_(mesh.triangles.size(), 1),
         removed_(mesh.positions.size(), 0) {
@@ -249,7 +248,7 @@ class collapser {
   surface_mesh& mesh_;
   std::uint32_t first_movable_;
   local_incidence incidence_;
-  detail::component_labels labels_;
+  const detail::component_labels& labels_;
   std::vector<std::uint32_t> component_vertices_;
   std::vector<char> alive_;
   std::vector<char> removed_;
@@ -261,8 +260,13 @@ class collapser {
 
 std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length) {
   std::vector<candidate_edge> edges = short_edges(mesh, first_movable_vertex, max_length);
+  if (edges.empty()) return 0;
+  // The input's triangles are well formed (a raw trace mesh by construction, the quality pass's output by its
+  // checks): components need no geometric classification of every triangle.
+  const detail::component_labels labels = detail::label_components(
+      mesh, std::vector<detail::triangle_defect>(mesh.triangles.size(), detail::triangle_defect::none));
   for (int round = 0; round < max_collapse_rounds && !edges.empty(); ++round) {
-    collapser w(mesh, edges, first_movable_vertex);
+    collapser w(mesh, edges, first_movable_vertex, labels);
     for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b, true, e);
     const std::vector<collapse> refused = w.collapses_that_fail_the_certificate();
     if (refused.empty()) {

@@ -405,21 +405,25 @@ std::size_t resample_small_components(surface_mesh& mesh, const gaussian_field& 
                              [f](const auto& range) { return range.second <= f; }) -
         new_triangles.begin());
   };
-  std::size_t replaced = 0;
-  for (bool changed = true; changed;) {
+  // The first look searches the mesh around the new triangles; later ones test them against the old triangles the
+  // last undoing restored, the rest being unchanged since.
+  std::vector<std::uint32_t> restored;
+  for (bool first_look = true; first_look || !restored.empty(); first_look = false) {
     std::vector<std::uint32_t> moving;
     for (std::uint32_t f = new_triangles.front().first; f < mesh.triangles.size(); ++f) {
       if (alive[f]) moving.push_back(f);
     }
-    changed = false;
-    for (const std::uint32_t f : failing_moved_triangles(mesh, alive, moving)) {
+    const std::vector<std::uint32_t> failing = first_look ? failing_moved_triangles(mesh, alive, std::move(moving))
+                                                          : failing_moved_triangles_among(mesh, moving, restored);
+    restored.clear();
+    for (const std::uint32_t f : failing) {
       const std::size_t c = component_of_new(f);
-      if (alive[new_triangles[c].first]) {
-        set_replaced(c, false);
-        changed = true;
-      }
+      if (!alive[new_triangles[c].first]) continue;
+      set_replaced(c, false);
+      restored.insert(restored.end(), components[c].triangles.begin(), components[c].triangles.end());
     }
   }
+  std::size_t replaced = 0;
   for (std::size_t c = 0; c < components.size(); ++c) {
     if (new_triangles[c].first < new_triangles[c].second && alive[new_triangles[c].first]) ++replaced;
   }

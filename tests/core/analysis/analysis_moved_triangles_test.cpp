@@ -42,5 +42,12 @@ TEST(analysis_moved_triangles, a_removed_triangle_is_not_tested_against) {
   EXPECT_TRUE(detail::failing_moved_triangles(loose_triangles(), alive, {1}).empty());
 }
 
+TEST(analysis_moved_triangles, among_tests_only_the_triangles_it_is_given) {
+  EXPECT_EQ(detail::failing_moved_triangles_among(loose_triangles(), {1}, {0}), (std::vector<std::uint32_t>{1}));
+  // Triangle 0 pierces 1 but is not among the others: no search of the mesh finds it.
+  EXPECT_TRUE(detail::failing_moved_triangles_among(loose_triangles(), {1}, {2}).empty());
+  EXPECT_EQ(detail::failing_moved_triangles_among(loose_triangles(), {1, 0}, {}), (std::vector<std::uint32_t>{0, 1}));
+}
+
 }  // namespace
 }  // namespace tracemesh
