@@ -129,12 +129,14 @@ class collapser {
     if (c == d) return false;
     if (live_count(c) <= 3 || live_count(d) <= 3) {
       // A corner of three triangles would be left with two. Such a corner is first merged into the nearer end of
-      // the edge (its three triangles become one), when it may move; then the edge is tried again, once.
+      // the edge, or else the farther (its three triangles become one), when it may move; then the edge is tried
+      // again, once. A refused try changes nothing.
       const std::uint32_t corner = live_count(c) <= 3 ? c : d;
       if (!corner_merged || corner < first_movable_ || live_count(corner) != 3) return false;
       const bool a_nearer = distance(mesh_.positions[a], mesh_.positions[corner]) <=
                             distance(mesh_.positions[b], mesh_.positions[corner]);
-      if (!try_collapse(a_nearer ? a : b, corner, false, cause)) return false;
+      const std::uint32_t near_end = a_nearer ? a : b, far_end = a_nearer ? b : a;
+      if (!try_collapse(near_end, corner, false, cause) && !try_collapse(far_end, corner, false, cause)) return false;
       return try_collapse(a, b, false, cause);
     }
     if (common_neighbours(around_a, around_b, a, b) != std::vector<std::uint32_t>{std::min(c, d), std::max(c, d)}) {

@@ -29,8 +29,8 @@ namespace tracemesh {
 ///   remesh_small_components.hpp);
 /// - exactly two triangles share the edge and their third corners differ, and each of those two corners keeps at
 ///   least three triangles (no pinch). A corner of only three triangles that may move is first merged into the
-///   nearer end of the edge (its three triangles become one; the same conditions apply), then the edge is tried
-///   again;
+///   nearer end of the edge, or else the farther (its three triangles become one; the same conditions apply), then
+///   the edge is tried again;
 /// - the two ends have no common neighbour but those two corners (the link condition: the result stays manifold);
 /// - no triangle of the removed end turns over or degenerates when that end moves onto the kept one;
 /// - the certificate's own tests find none of the moved triangles degenerate or meeting another triangle (a
