@@ -44,6 +44,7 @@ using triangle = std::array<std::uint32_t, 3>;
 struct small_component {
   std::vector<std::uint32_t> vertices;
   std::vector<std::uint32_t> triangles;
+  double diameter = 0;  ///< the diagonal of its vertices' bounding box
 };
 
 /// A component on its own: its vertices with their field normals, and its triangles (numbered 0 … n − 1).
@@ -81,7 +82,8 @@ std::vector<small_component> find_small_components(const surface_mesh& mesh, dou
         box.hi[axis] = std::max(box.hi[axis], mesh.positions[v][axis]);
       }
     }
-    if (distance(box.lo, box.hi) <= max_diameter_in_edges * target_edge) small.push_back(std::move(c));
+    c.diameter = distance(box.lo, box.hi);
+    if (c.diameter <= max_diameter_in_edges * target_edge) small.push_back(std::move(c));
   }
   return small;
 }
@@ -296,16 +298,9 @@ std::optional<small_mesh> remade(const surface_mesh& mesh, const gaussian_field&
                                  const small_component& component, double target_edge) {
   const small_mesh old = as_small_mesh(mesh, component);
   vec3 centre{};
-  box3 box{old.positions[0], old.positions[0]};
-  for (const vec3& p : old.positions) {
-    centre += p;
-    for (int axis = 0; axis < 3; ++axis) {
-      box.lo[axis] = std::min(box.lo[axis], p[axis]);
-      box.hi[axis] = std::max(box.hi[axis], p[axis]);
-    }
-  }
+  for (const vec3& p : old.positions) centre += p;
   centre = centre / static_cast<double>(old.positions.size());
-  const double diameter = distance(box.lo, box.hi);
+  const double diameter = component.diameter;
   double area = 0;
   for (const triangle& t : old.triangles) {
     area += norm(area_vector(old.positions[t[0]], old.positions[t[1]], old.positions[t[2]])) / 2;
