@@ -27,6 +27,10 @@ status check_atom_resolution(const molecule& mol, const mesh_params& params) {
   const double edge = mesh_edge_length(params.density);
   const double min_surface_radius = parameter_ranges::min_atom_surface_radius_per_edge * edge;
   const double factor = surface_radius_factor(params.d, params.t0);
+  // With t0 ≥ e^{-d} no atom has a surface sphere of its own: every piece of surface is made by a group of atoms,
+  // and the rule, which is about one atom's sphere, does not apply. A surface the lines cannot see is reported as
+  // such by the mesher (run_pipeline: unresolvable at this density, or empty).
+  if (factor == 0) return status::success();
   const auto resolvable = [&](const atom& a) { return a.radius * factor >= min_surface_radius; };
 
   std::vector<std::size_t> small;  // indices of atoms with radius > 0 below the rule
@@ -53,18 +57,14 @@ status check_atom_resolution(const molecule& mol, const mesh_params& params) {
         << params.density << ": its surface sphere must have a radius of at least " << min_surface_radius
         << " \u00c5 (" << parameter_ranges::min_atom_surface_radius_per_edge << " mesh edge of " << edge
         << " \u00c5 at d = " << params.d << ", t0 = " << params.t0 << ")";
-    if (factor > 0) {
-      const double needed_density = 2.0 / (std::sqrt(3.0) * std::pow(a.radius * factor /
-                                                                      parameter_ranges::min_atom_surface_radius_per_edge, 2));
-      // Only a density the service accepts is worth suggesting.
-      if (needed_density <= parameter_ranges::max_density) {
-        why << "; raise the density to at least " << needed_density << ",";
-      } else {
-        why << "; no accepted density resolves it (it would need " << needed_density << ", the maximum is "
-            << parameter_ranges::max_density << "),";
-      }
+    const double needed_density =
+        2.0 / (std::sqrt(3.0) * std::pow(a.radius * factor / parameter_ranges::min_atom_surface_radius_per_edge, 2));
+    // Only a density the service accepts is worth suggesting.
+    if (needed_density <= parameter_ranges::max_density) {
+      why << "; raise the density to at least " << needed_density << ",";
     } else {
-      why << "; with t0 >= e^-d no atom alone reaches t0,";
+      why << "; no accepted density resolves it (it would need " << needed_density << ", the maximum is "
+          << parameter_ranges::max_density << "),";
     }
     why << " or give the atom radius 0 to leave it out";
     return status{errc::unresolvable_input, why.str()};

@@ -104,6 +104,30 @@ void drop_enclosed_components(mesh_output& out) {
   }
 }
 
+/// The error for a sampling that found no surface point: φ tends to 0 away from the atoms, so where it reaches t0 at
+/// an atom's centre the surface exists and was too small for the lines (or lattice) `spacing` Å apart: the user's
+/// density is too low for it. Otherwise the surface is empty as far as the sampling and the atom centres tell.
+status no_surface_found(const molecule& mol, const gaussian_field& field, const mesh_params& params,
+                        double spacing) {
+  double highest = 0;
+  std::size_t at = 0;
+  for (std::size_t i = 0; i < mol.atoms.size(); ++i) {
+    if (mol.atoms[i].radius == 0) continue;
+    const double phi = field.value(mol.atoms[i].center);
+    if (phi > highest) highest = phi, at = i;
+  }
+  std::ostringstream why;
+  if (highest >= params.t0) {
+    why << "the sampling at density " << params.density << " (" << spacing
+        << " Å apart) found no point of the surface φ = t0, which exists (φ = " << highest << " at the centre of atom "
+        << at + 1 << "): it is smaller than that spacing; raise the density";
+    return status{errc::unresolvable_input, why.str()};
+  }
+  why << "the surface φ = t0 is empty for these atoms and parameters (φ is at most " << highest
+      << " at the atoms' centres, below t0 = " << params.t0 << ")";
+  return status{errc::nothing_to_mesh, why.str()};
+}
+
 /// The molecule moved by `shift` (Å).
 molecule translated(const molecule& mol, const vec3& shift) {
   molecule out = mol;
@@ -164,6 +188,7 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
                              : edge * lattice_spacing_factor;
   out.trace.line_offset = line_offset;
   result<surface_mesh> raw = raw_mesh(mol, field, params, spacing, line_offset, limits, progress, clock, out.trace);
+  if (!raw && raw.error().code() == errc::nothing_to_mesh) return no_surface_found(mol, field, params, spacing);
   if (!raw) return raw.error();
   out.mesh = std::move(*raw);
   release_freed_memory();

@@ -209,7 +209,7 @@ result<surface_mesh> mesh_lattice_blocks(const gaussian_field& field, const latt
   surface_mesh mesh;
   const std::vector<std::uint32_t> first_vertex = number_vertices(*outputs, mesh);
   if (mesh.positions.empty()) {
-    return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
+    return status{errc::nothing_to_mesh, "no point of the surface φ = t0 was found"};
   }
   clock.finish(mesh_stage::roots);
 

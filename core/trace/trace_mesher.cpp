@@ -288,7 +288,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
   auto lines = find_all_line_roots(field, lat, blocks, params.legendre_degree, seeds, progress, stats);
   if (!lines) return lines.error();
   if (lines->root_count() == 0) {
-    return status{errc::nothing_to_mesh, "the surface φ = t0 is empty for these atoms and parameters"};
+    return status{errc::nothing_to_mesh, "no point of the surface φ = t0 was found"};
   }
   clock.finish(mesh_stage::roots);
 

@@ -56,12 +56,6 @@ TEST(AtomResolution, TheRuleFollowsTheEdgeLengthAndTheAtomsOwnSurfaceSphere) {
   params.density =
       2.0 / (std::sqrt(3.0) * radius * radius / std::pow(parameter_ranges::min_atom_surface_radius_per_edge, 2));
   EXPECT_TRUE(check_atom_resolution(small, params).ok());
-  // With t0 ≥ e^{-d} a lone atom never reaches t0: every atom is below the rule unless buried.
-  mesh_params high;
-  high.t0 = 3.0;
-  const status none = check_atom_resolution(atoms_of({{{0, 0, 0}, 5.0, 0}}), high);
-  EXPECT_EQ(none.code(), errc::unresolvable_input);
-  EXPECT_NE(none.message().find("no atom alone reaches t0"), std::string::npos) << none.message();
   // Radius 0 atoms are left out, not refused.
   EXPECT_TRUE(check_atom_resolution(atoms_of({{{0, 0, 0}, 1.5, 0}, {{9, 0, 0}, 0.0, 0}}), mesh_params{}).ok());
 }
@@ -76,6 +70,34 @@ TEST(AtomResolution, BuriedSmallAtomsAreMeshedExposedOnesRefused) {
   const status exposed = check_atom_resolution(atoms_of({{{0, 0, 0}, 1.7, 0}, {{4.0, 0, 0}, 0.2, 0}}), mesh_params{});
   EXPECT_EQ(exposed.code(), errc::unresolvable_input);
   EXPECT_EQ(exposed.message().rfind("atom 2 (radius 0.2", 0), 0u) << exposed.message();
+}
+
+TEST(AtomResolution, WithT0AboveEMinusDNoAtomHasASphereOfItsOwnAndTheRuleDoesNotApply) {
+  // d = −0.05, t0 = 5 > e^0.05: the surface is made by groups of atoms only. gly's exists (φ ≥ 6.2 at every centre)
+  // and was refused whole, naming its first atom, before the rule knew this case.
+  const result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
+  ASSERT_TRUE(gly.ok());
+  mesh_params collective;
+  collective.d = -0.05;
+  collective.t0 = 5.0;
+  collective.threads = 1;
+  EXPECT_TRUE(check_atom_resolution(*gly, collective).ok());
+  for (const mesh_method method : {mesh_method::trace, mesh_method::lattice}) {
+    collective.method = method;
+    const result<mesh_output> out = mesh(*gly, collective);
+    ASSERT_TRUE(out.ok()) << method_name(method) << ": " << out.error().message();
+    EXPECT_TRUE(out->certified) << method_name(method);
+    EXPECT_GT(out->mesh.positions.size(), 50u) << method_name(method);
+  }
+  // A lone atom never reaches such a t0: its surface is empty, which is what the error says.
+  mesh_params high;
+  high.t0 = 3.0;
+  const molecule lone = atoms_of({{{0, 0, 0}, 5.0, 0}});
+  EXPECT_TRUE(check_atom_resolution(lone, high).ok());
+  const result<mesh_output> empty = mesh(lone, high);
+  ASSERT_FALSE(empty.ok());
+  EXPECT_EQ(empty.error().code(), errc::nothing_to_mesh) << empty.error().message();
+  EXPECT_NE(empty.error().message().find("is empty"), std::string::npos) << empty.error().message();
 }
 
 TEST(AtomResolution, RealMoleculesPassAtEveryDensity) {

@@ -202,6 +202,26 @@ TEST_P(mesher, only_radius_zero_atoms_is_nothing_to_mesh) {
   EXPECT_EQ(out.error().code(), errc::nothing_to_mesh);
 }
 
+TEST_P(mesher, a_surface_smaller_than_the_sampling_is_the_users_density_not_an_empty_surface) {
+  // d = −12 shrinks gly's surface to spheres of about its atoms' radii, which lines 4.5–4.8 Å apart (density 0.05)
+  // all miss; at density 0.1 they are meshed. The surface exists (φ ≥ e^12 at every centre): before, the error
+  // said it was empty.
+  const result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
+  ASSERT_TRUE(gly.ok());
+  mesh_params params = params_with(0.05);
+  params.d = -12;
+  params.threads = 1;
+  progress_token progress;
+  const result<mesh_output> coarse = mesh_molecule(*gly, params, {}, progress);
+  ASSERT_FALSE(coarse.ok());
+  EXPECT_EQ(coarse.error().code(), errc::unresolvable_input) << coarse.error().message();
+  EXPECT_NE(coarse.error().message().find("raise the density"), std::string::npos) << coarse.error().message();
+  params.density = 0.1;
+  const result<mesh_output> finer = mesh_molecule(*gly, params, {}, progress);
+  ASSERT_TRUE(finer.ok()) << finer.error().message();
+  EXPECT_TRUE(finer->certified);
+}
+
 TEST_P(mesher, radius_zero_atoms_are_counted_and_ignored) {
   auto with_zero = mesh(atoms({{{0, 0, 0}, 1.5, 0}, {{0.9, 0, 0}, 0.0, 0.4}}), 1.0);
   auto without = mesh(atoms({{{0, 0, 0}, 1.5, 0}}), 1.0);
