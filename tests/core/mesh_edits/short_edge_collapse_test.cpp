@@ -104,6 +104,30 @@ TEST(short_edge_collapse, the_other_vertices_keep_their_order) {
   expect_closed_oriented_manifold(m);
 }
 
+TEST(short_edge_collapse, a_short_edge_that_a_collapse_makes_is_collapsed_in_turn) {
+  // Edge (0, 1) split at 1e-4 Å from vertex 0 (vertex 12) and again at 2.5e-4 Å (vertex 13): the shortest edge,
+  // (0, 12), goes first, and collapsing 12 onto 0 joins 0 to 13, 2.5e-4 Å away, an edge the first pass did not list
+  // (its own (12, 13) went with 12). The pass after it collapses that edge too, and the bipyramid is back (the
+  // 1k4r_capsid case of short_edge_collapse.cpp).
+  surface_mesh m = bipyramid_with_split_edge(1e-4);
+  const std::uint32_t top = 10, bottom = 11, first_split = 12, second_split = 13;
+  m.positions.push_back(m.positions[0] + normalized(m.positions[1] - m.positions[0]) * 2.5e-4);
+  m.normals.push_back(m.positions.back());
+  // Triangles (12, 1, top) and (1, 12, bottom) become (12, 13, top), (13, 1, top), (13, 12, bottom), (1, 13, bottom).
+  for (triangle& t : m.triangles) {
+    if (t == triangle{first_split, 1, top}) t = {first_split, second_split, top};
+    if (t == triangle{1, first_split, bottom}) t = {second_split, first_split, bottom};
+  }
+  m.triangles.push_back({second_split, 1, top});
+  m.triangles.push_back({1, second_split, bottom});
+  expect_closed_oriented_manifold(m);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-3), 2u);
+  const surface_mesh expected = bipyramid();
+  EXPECT_EQ(m.positions, expected.positions);
+  EXPECT_EQ(canonical(m.triangles), canonical(expected.triangles));
+  expect_closed_oriented_manifold(m);
+}
+
 TEST(short_edge_collapse, a_vertex_before_the_first_movable_one_is_never_removed) {
   surface_mesh m = bipyramid_with_split_edge(1e-4);
   const surface_mesh before = m;
