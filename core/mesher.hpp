@@ -110,7 +110,9 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// plane, 2026-11-28; 9: cavities that no line touches found and meshed on a local grid, the report's
 /// untouched_cavities and untouched_cavities_left, 2026-11-28; 10: a pair of roots bounding a cap under 1e-4 h̃
 /// high left out as a tangency, raw edges between two arc points under h̃/100 welded and the report's welded_edges,
-/// 2026-11-29; 11: the quality pass makes components at most 2 L across again as star-shaped polyhedra, 2026-11-29).
-inline constexpr const char* engine_version = "tracemesh-engine-11";
+/// 2026-11-29; 11: the quality pass makes components at most 2 L across again as star-shaped polyhedra, 2026-11-29;
+/// 12: short-edge collapses in passes, each over the short edges a collapse made, and no refusal when t0 ≥ e^{-d},
+/// 2026-11-29).
+inline constexpr const char* engine_version = "tracemesh-engine-12";
 
 }  // namespace tracemesh
