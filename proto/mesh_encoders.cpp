@@ -1,4 +1,5 @@
 #include "proto/mesh_encoders.hpp"
+#include "proto/mesh_format.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -501,6 +502,20 @@ result<surface_mesh> decode_draco(std::string_view bytes, std::vector<std::int32
   return out;
 }
 
+namespace {
+
+/// The names of the formats that store positions without a quantisation grid, from the format table.
+std::string exact_formats() {
+  std::string names;
+  for (const mesh_format_info& row : mesh_formats()) {
+    if (row.positions == position_encoding::draco_grid) continue;
+    names += (names.empty() ? "" : ", ") + std::string(row.name);
+  }
+  return names;
+}
+
+}  // namespace
+
 result<draco_encoding> encode_checked_draco(const encoder_input& input) {
   const surface_mesh& mesh = input.mesh();
   if (const status valid = check_encoder_input(mesh, "draco"); !valid) return valid;
@@ -543,7 +558,8 @@ result<draco_encoding> encode_checked_draco(const encoder_input& input) {
     }
     return encoding;
   }
-  return status(errc::limit_exceeded, "draco: quantisation breaks this mesh (" + describe(last) + ")");
+  return status(errc::limit_exceeded, "draco: quantisation breaks this mesh (" + describe(last) +
+                                         "); formats without a quantisation grid carry it: " + exact_formats());
 }
 
 result<std::string> encode_draco(const encoder_input& input) {

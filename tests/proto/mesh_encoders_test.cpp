@@ -265,6 +265,19 @@ TEST(EncodeDraco, CoordinatesTooLargeForFloat32AreALimit) {
   EXPECT_EQ(bytes.error().code(), errc::limit_exceeded);
 }
 
+TEST(EncodeDraco, AMeshNoGridCarriesIsRefusedNamingTheFormatsThatCarryIt) {
+  // Two vertices 1e-7 Å apart: every grid up to the most bits merges them.
+  surface_mesh mesh = icosphere(2, 10, {0, 0, 0});
+  const auto first = mesh.triangles[0];
+  mesh.positions[first[1]] = mesh.positions[first[0]] + vec3{1e-7, 0, 0};
+  const result<std::string> bytes = encode_mesh(mesh, mesh_format::draco);
+  ASSERT_FALSE(bytes);
+  EXPECT_EQ(bytes.error().code(), errc::limit_exceeded);
+  EXPECT_NE(bytes.error().message().find("quantisation breaks this mesh"), std::string::npos) << bytes.error().message();
+  EXPECT_NE(bytes.error().message().find("carry it: off, glb-raw, ply"), std::string::npos) << bytes.error().message();
+  EXPECT_TRUE(encode_mesh(mesh, mesh_format::off)) << "the named formats do carry it";
+}
+
 TEST(EncodeDraco, DeterministicBytes) {
   const surface_mesh mesh = icosphere(3, 30, {1, 2, 3});
   const surface_mesh copy = mesh;
