@@ -13,10 +13,8 @@
 namespace tracemesh {
 namespace {
 
-/// No collapse in a component of this many vertices or fewer: the quality pass reshapes such a tiny cavity whole
-/// (remesh_small_components.hpp); on mache at 1 v/Å² a collapse in the raw mesh turned a 5-vertex cavity into a
-/// tetrahedron with an edge of 0.08 × the median, where it came out of the quality pass at 0.14 × without it.
-constexpr std::uint32_t min_component_vertices = 8;
+/// A closed component needs 4 vertices at least.
+constexpr std::uint32_t smallest_closed_component = 4;
 /// Rounds of collapses, each after those whose triangles met others were refused: a collapse of the raw trace mesh
 /// moves a fan by up to h̃/100 and can push it through a triangle of a neighbouring cell where the surface lies
 /// almost in a wall (1k4r_capsid at 2 v/Å²: 32 self-intersections, without this check).
@@ -106,9 +104,10 @@ class collapser {
  public:
   /// `labels`: the components of `mesh` (the same for every round: a round that fails is undone whole).
   collapser(surface_mesh& mesh, const std::vector<candidate_edge>& edges, std::uint32_t first_movable_vertex,
-            detail::component_labels& labels)
+            std::uint32_t min_component_vertices, detail::component_labels& labels)
       : mesh_(mesh),
         first_movable_(first_movable_vertex),
+        min_component_vertices_(std::max(min_component_vertices, smallest_closed_component)),
         incidence_(mesh, edges),
         labels_(labels),
         component_vertices_(labels_.count, 0),
@@ -124,7 +123,7 @@ class collapser {
   bool try_collapse(std::uint32_t a, std::uint32_t b, bool corner_merged, const candidate_edge& cause) {
     if (removed_[a] || removed_[b]) return false;
     const std::uint32_t component = labels_.of_vertex[a];
-    if (component >= labels_.count || component_vertices_[component] <= min_component_vertices) return false;
+    if (component >= labels_.count || component_vertices_[component] <= min_component_vertices_) return false;
     const std::vector<std::uint32_t> around_a = live(a), around_b = live(b);
     std::vector<std::uint32_t> on_edge;
     for (const std::uint32_t f : around_a) {
@@ -265,6 +264,7 @@ class collapser {
 
   surface_mesh& mesh_;
   std::uint32_t first_movable_;
+  std::uint32_t min_component_vertices_;
   local_incidence incidence_;
   detail::component_labels& labels_;
   std::vector<std::uint32_t> component_vertices_;
@@ -278,9 +278,10 @@ class collapser {
 /// tests fail, and compacts the mesh (and `labels`) when a round passes. Returns the collapses made and sets
 /// `kept_ends` (one flag per remaining vertex) to the vertices that kept a collapse.
 std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges, std::uint32_t first_movable_vertex,
-                          detail::component_labels& labels, std::vector<char>& kept_ends) {
+                          std::uint32_t min_component_vertices, detail::component_labels& labels,
+                          std::vector<char>& kept_ends) {
   for (int round = 0; round < max_collapse_rounds && !edges.empty(); ++round) {
-    collapser w(mesh, edges, first_movable_vertex, labels);
+    collapser w(mesh, edges, first_movable_vertex, min_component_vertices, labels);
     for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b, true, e);
     const std::vector<collapse> refused = w.collapses_that_fail_the_certificate();
     if (refused.empty()) {
@@ -298,7 +299,8 @@ std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges,
 
 }  // namespace
 
-std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length) {
+std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length,
+                                 std::uint32_t min_component_vertices) {
   std::vector<candidate_edge> edges = short_edges(mesh, first_movable_vertex, max_length);
   if (edges.empty()) return 0;
   // The input's triangles are well formed (a raw trace mesh by construction, the quality pass's output by its
@@ -308,7 +310,8 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
   std::size_t total = 0;
   for (int pass = 0; pass < max_collapse_passes && !edges.empty(); ++pass) {
     std::vector<char> kept_ends;
-    const std::size_t collapsed = collapse_pass(mesh, std::move(edges), first_movable_vertex, labels, kept_ends);
+    const std::size_t collapsed =
+        collapse_pass(mesh, std::move(edges), first_movable_vertex, min_component_vertices, labels, kept_ends);
     if (collapsed == 0) break;
     total += collapsed;
     edges = short_edges(mesh, first_movable_vertex, max_length, &kept_ends);

@@ -25,8 +25,10 @@ namespace tracemesh {
 
 /// Collapses, shortest first, every edge of `mesh` shorter than `max_length` Å whose two ends are numbered
 /// `first_movable_vertex` or above (the vertices before it are never removed), where:
-/// - its component keeps more than 8 vertices (a tiny cavity is the quality pass's to reshape whole:
-///   remesh_small_components.hpp);
+/// - its component keeps more than `min_component_vertices` vertices: 8 by default, as a tiny cavity is the quality
+///   pass's to reshape whole (remesh_small_components.hpp; on mache at 1 v/Å² a collapse in the raw mesh turned a
+///   5-vertex cavity into a tetrahedron with an edge of 0.08 × the median, where it came out of the quality pass at
+///   0.14 × without it); the quality pass itself passes 4, after the cavities it could remake;
 /// - exactly two triangles share the edge and their third corners differ, and each of those two corners keeps at
 ///   least three triangles (no pinch). A corner of only three triangles that may move is first merged into the
 ///   nearer end of the edge, or else the farther (its three triangles become one; the same conditions apply), then
@@ -38,6 +40,7 @@ namespace tracemesh {
 /// The two triangles on the edge go, the removed end's others take the kept end instead, and the unused vertex is
 /// dropped (the others keep their order, as do normals and atom indices when there is one per vertex).
 /// Precondition: `mesh` is closed and oriented. Returns the edges collapsed.
-std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length);
+std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length,
+                                 std::uint32_t min_component_vertices = 8);
 
 }  // namespace tracemesh

@@ -15,6 +15,9 @@
 namespace tracemesh {
 namespace {
 
+/// The final collapses may take a component down to this many vertices (a tetrahedron).
+constexpr std::uint32_t smallest_collapsed_component = 4;
+
 template <class Body>
 void parallel_over(std::size_t count, Body&& body) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 1024), [&](const auto& range) {
@@ -56,8 +59,10 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
     stats = done.value();
   }
   mesh.atom_index.clear();  // the caller's to fill (the mesher does, with the certificate's field probe)
-  stats.final_collapses = collapse_short_edges(mesh, 0, options.final_collapse_below * l);
   stats.remade_components = detail::resample_small_components(mesh, field, l);
+  // After the remakes: a small cavity whose remake the certificate's tests refused (a thin wall to another sheet,
+  // which its new faces would cross) may still lose its short edges, down to a tetrahedron.
+  stats.final_collapses = collapse_short_edges(mesh, 0, options.final_collapse_below * l, smallest_collapsed_component);
   return stats;
 }
 

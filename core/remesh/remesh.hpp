@@ -17,10 +17,10 @@
 ///   (remesh_patch.hpp);
 /// - optionally (check_every_stage) every stage of a round is checked too and redone with a growing frozen region
 ///   or skipped when unclean: more checks, fewer restarts;
-/// - last, edges shorter than final_collapse_below × L (left where patches stayed frozen) are collapsed where the
-///   certificate's tests allow it (short_edge_collapse.hpp), and closed components at most 2 L across (tiny
-///   cavities, which the iterations cannot reshape) are made again as star-shaped polyhedra where that gives better
-///   triangles (remesh_small_components.hpp).
+/// - last, closed components at most 2 L across (tiny cavities, which the iterations cannot reshape) are made again
+///   as star-shaped polyhedra where that gives better triangles (remesh_small_components.hpp), then edges shorter
+///   than final_collapse_below × L (left where patches stayed frozen, or in a cavity whose remake was refused) are
+///   collapsed where the certificate's tests allow it (short_edge_collapse.hpp).
 /// Deterministic: the same input gives the same output whatever the number of threads.
 
 #include <cstddef>

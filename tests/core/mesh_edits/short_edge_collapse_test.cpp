@@ -153,6 +153,24 @@ TEST(short_edge_collapse, a_tiny_component_is_left_to_the_quality_pass) {
   EXPECT_EQ(m.triangles, before.triangles);
 }
 
+TEST(short_edge_collapse, a_tiny_component_loses_its_short_edge_when_it_may_go_down_to_a_tetrahedron) {
+  // The quality pass's last collapses (after the cavities it could remake): the split octahedron becomes the
+  // octahedron; a tetrahedron is never collapsed.
+  surface_mesh m = bipyramid_with_split_edge(1e-4, 4);
+  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2, 4), 1u);
+  const surface_mesh expected = bipyramid(4);
+  EXPECT_EQ(m.positions, expected.positions);
+  EXPECT_EQ(canonical(m.triangles), canonical(expected.triangles));
+  expect_closed_oriented_manifold(m);
+  surface_mesh tetrahedron;
+  tetrahedron.positions = {{0, 0, 0}, {1e-3, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  tetrahedron.normals = tetrahedron.positions;
+  tetrahedron.triangles = {triangle{0, 2, 1}, triangle{0, 1, 3}, triangle{0, 3, 2}, triangle{1, 2, 3}};
+  expect_closed_oriented_manifold(tetrahedron);
+  EXPECT_EQ(collapse_short_edges(tetrahedron, 0, 1e-2, 4), 0u);
+  EXPECT_EQ(collapse_short_edges(tetrahedron, 0, 1e-2, 0), 0u) << "4 vertices at least, whatever is asked";
+}
+
 TEST(short_edge_collapse, a_vertex_of_three_triangles_next_to_a_corner_collapses_away) {
   // Vertex 12 inside triangle (0, 1, top), 1e-4 Å from vertex 0 and joined to the three corners: collapsing edge
   // (0, 12) gives back the bipyramid.
