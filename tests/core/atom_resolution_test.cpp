@@ -72,7 +72,7 @@ TEST(AtomResolution, BuriedSmallAtomsAreMeshedExposedOnesRefused) {
   EXPECT_EQ(exposed.message().rfind("atom 2 (radius 0.2", 0), 0u) << exposed.message();
 }
 
-TEST(AtomResolution, WithT0AboveEMinusDNoAtomHasASphereOfItsOwnAndTheRuleDoesNotApply) {
+TEST(AtomResolution, WithT0AboveEMinusDNoAtomHasASphereOfItsOwnAndTheMoleculesSurfaceDecides) {
   // d = −0.05, t0 = 5 > e^0.05: the surface is made by groups of atoms only. gly's exists (φ ≥ 6.2 at every centre)
   // and was refused whole, naming its first atom, before the rule knew this case.
   const result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
@@ -98,6 +98,43 @@ TEST(AtomResolution, WithT0AboveEMinusDNoAtomHasASphereOfItsOwnAndTheRuleDoesNot
   ASSERT_FALSE(empty.ok());
   EXPECT_EQ(empty.error().code(), errc::nothing_to_mesh) << empty.error().message();
   EXPECT_NE(empty.error().message().find("is empty"), std::string::npos) << empty.error().message();
+}
+
+TEST(AtomResolution, NearEMinusDEveryOwnSphereIsTinyButTheMoleculesSurfaceDecides) {
+  // d = −1, t0 = 2.7 just under e: each atom alone has a sphere of 0.12 r, yet gly's surface keeps well clear of
+  // every centre. Before the molecule's surface decided, gly was refused whole, naming its first atom.
+  const result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
+  ASSERT_TRUE(gly.ok());
+  mesh_params params;
+  params.d = -1;
+  params.t0 = 2.7;
+  params.threads = 1;
+  EXPECT_TRUE(check_atom_resolution(*gly, params).ok());
+  const result<mesh_output> out = mesh(*gly, params);
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+}
+
+TEST(AtomResolution, TheSuggestedDensityResolvesEveryAtomTooSmall) {
+  // fas2 at d = −4.6, t0 = 95 (e^4.6 ≈ 99.5): the surface is a froth of blobs around the atoms, passing 0.2–0.3 Å
+  // from their centres. The density the message suggests resolves all of them, not only the atom it names.
+  const result<molecule> fas2 = read_pqr_file(testing::molecule_path("fas2.pqr"));
+  ASSERT_TRUE(fas2.ok());
+  mesh_params params;
+  params.d = -4.6;
+  params.t0 = 95;
+  const status refused = check_atom_resolution(*fas2, params);
+  ASSERT_EQ(refused.code(), errc::unresolvable_input);
+  const std::string& why = refused.message();
+  EXPECT_NE(why.find("atoms too small"), std::string::npos) << why;
+  const std::string prefix = "raise the density to at least ";
+  const std::size_t at = why.find(prefix);
+  ASSERT_NE(at, std::string::npos) << why;
+  const double suggested = std::stod(why.substr(at + prefix.size()));
+  params.density = suggested;
+  EXPECT_TRUE(check_atom_resolution(*fas2, params).ok()) << "at " << suggested;
+  params.density = suggested * 0.9;
+  EXPECT_FALSE(check_atom_resolution(*fas2, params).ok()) << "the suggestion is not far above what is needed";
 }
 
 TEST(AtomResolution, RealMoleculesPassAtEveryDensity) {
