@@ -110,13 +110,14 @@ status check_atom_resolution(const molecule& mol, const mesh_params& params) {
   // own (with t0 ≥ e^{-d} no atom alone reaches t0), and one whose centre lies at least the smallest radius inside
   // it sits in a feature the mesh resolves. Near t0 = e^{-d} every atom's own sphere is tiny while the molecule's
   // surface is not (gly at d = −1, t0 = 2.7 was refused whole before, naming its first atom).
-  const gaussian_field field(mol, params.d, params.t0);
+  std::optional<gaussian_field> field;  // built when an atom needs it (most small atoms are buried)
   std::size_t first_refused = 0, refused = 0;
   double nearest_of_first = 0, largest_needed_density = 0;
   for (const std::size_t i : small) {
     const vec3& centre = mol.atoms[i].center;
     if (resolvable_field && resolvable_field->value(centre) >= params.t0) continue;
-    const std::optional<double> nearest = surface_within(field, centre, min_surface_radius);
+    if (!field) field.emplace(mol, params.d, params.t0);
+    const std::optional<double> nearest = surface_within(*field, centre, min_surface_radius);
     if (!nearest) continue;
     if (refused++ == 0) first_refused = i, nearest_of_first = *nearest;
     largest_needed_density = std::max(largest_needed_density, density_resolving(*nearest));
