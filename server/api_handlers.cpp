@@ -157,6 +157,9 @@ std::optional<std::string> percent_decode(std::string_view text) {
 
 using parameter_map = std::map<std::string, std::string, std::less<>>;
 
+/// A client's name, as an error message quotes it: at most 32 bytes.
+std::string shown_name(const std::string& name) { return name.size() <= 32 ? name : name.substr(0, 32) + "..."; }
+
 /// "a=1&b=2" → {a: 1, b: 2}. A repeated name or a bad escape is an error naming it.
 result<parameter_map> parse_query(std::string_view query) {
   parameter_map out;
@@ -169,9 +172,10 @@ result<parameter_map> parse_query(std::string_view query) {
     auto name = percent_decode(pair.substr(0, equals));
     auto value = percent_decode(equals == std::string_view::npos ? std::string_view{} : pair.substr(equals + 1));
     if (!name || !value) return status(errc::invalid_argument, "malformed percent-escape in the query string");
-    if (!out.emplace(std::move(*name), std::move(*value)).second) {
-      return status(errc::invalid_argument, "query parameter given twice");
+    if (out.contains(*name)) {
+      return status(errc::invalid_argument, "query parameter '" + shown_name(*name) + "' given twice");
     }
+    out.emplace(std::move(*name), std::move(*value));
   }
   return out;
 }
@@ -182,8 +186,7 @@ status only_known(const parameter_map& params, std::span<const std::string_view>
     bool found = false;
     for (std::string_view k : known) found = found || name == k;
     if (!found) {
-      const std::string shown = name.size() <= 32 ? name : name.substr(0, 32) + "...";
-      return status(errc::invalid_argument, std::string("unknown ") + where + " '" + shown + "'");
+      return status(errc::invalid_argument, std::string("unknown ") + where + " '" + shown_name(name) + "'");
     }
   }
   return status::success();
@@ -742,7 +745,7 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
       return done(error_reply(400, "invalid_input", "only the field 'structure' (or 'pqr') may carry a file", route));
     }
     if (!form.emplace(part.name, part.body).second) {
-      return done(error_reply(400, "invalid_argument", "a form field is given twice", route));
+      return done(error_reply(400, "invalid_argument", "form field '" + shown_name(part.name) + "' given twice", route));
     }
   }
   if (const status known = only_known(form, upload_fields(), "form field"); !known.ok()) {

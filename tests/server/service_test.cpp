@@ -199,6 +199,14 @@ TEST_F(ServiceTest, BadRequestsGetTheRightStatusAndTheServerKeepsServing) {
   expect_error(post("/mesh", gly_, {{"density", "1\xff"}}), 400, "invalid_argument");
   expect_error(post("/mesh", "ATOM 1 N GLY 1 \xfe\xff 0 0 0 1.5\n"), 400, "invalid_input");
   expect_error(post("/mesh", gly_, {{"pqr", "twice"}}), 400, "invalid_input");
+  // A repeated parameter is named (a sweep found "a form field is given twice" without the field).
+  const http_reply twice_in_form = post("/mesh", gly_, {{"density", "2"}, {"density", "0.5"}});
+  expect_error(twice_in_form, 400, "invalid_argument");
+  EXPECT_NE(twice_in_form.body.find("form field 'density' given twice"), std::string::npos) << twice_in_form.body;
+  const http_reply twice_in_query = post("/mesh?density=2&density=0.5", gly_);
+  expect_error(twice_in_query, 400, "invalid_argument");
+  EXPECT_NE(twice_in_query.body.find("query parameter 'density' given twice"), std::string::npos)
+      << twice_in_query.body;
   expect_error(round_trip(port_, "POST /mesh HTTP/1.1\r\nHost: t\r\nContent-Type: multipart/form-data; boundary=b\r\n"
                                "Content-Length: 47\r\n\r\n--b\r\nContent-Disposition: form-data; name=\"d\"\r\n\r\n"),
                400, "invalid_input");  // truncated multipart body
