@@ -1,6 +1,7 @@
 #include "server/api_handlers.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <array>
 #include <chrono>
 #include <map>
@@ -121,7 +122,22 @@ struct target_parts {
 };
 
 /// Origin-form targets only ("/path?query"); "*", absolute-form and empty targets are refused.
+/// The path and query of a request target in origin form ("/mesh?x=1") or absolute form ("http://host/mesh?x=1",
+/// which RFC 9112 §3.2.2 says a server must accept; the authority is ignored, as is Host for routing); nothing for
+/// any other form ("*", "host:port", a relative path).
 std::optional<target_parts> split_target(std::string_view target) {
+  for (const std::string_view scheme : {"http://", "https://"}) {
+    if (target.size() < scheme.size() || !std::equal(scheme.begin(), scheme.end(), target.begin(),
+                                                     [](char a, char b) { return a == std::tolower(static_cast<unsigned char>(b)); })) {
+      continue;
+    }
+    const std::string_view rest = target.substr(scheme.size());
+    const auto path = rest.find_first_of("/?");
+    if (path == std::string_view::npos) return target_parts{"/", {}};
+    if (rest[path] == '?') return target_parts{"/", rest.substr(path + 1)};
+    target = rest.substr(path);
+    break;
+  }
   if (target.empty() || target.front() != '/') return std::nullopt;
   const auto question = target.find('?');
   if (question == std::string_view::npos) return target_parts{target, {}};
@@ -570,7 +586,10 @@ boost::asio::thread_pool& api_handlers::parsing_pool(std::size_t body_bytes, boo
 
 std::variant<reply, body_plan> api_handlers::plan(const request_head& head, const std::string& client_address) {
   const auto target = split_target(to_std(head.target()));
-  if (!target) return error_reply(400, "bad_request", "the request target must be an absolute path", "(bad target)");
+  if (!target) {
+    return error_reply(400, "bad_request", "the request target must be an absolute path or an http(s) URL",
+                       "(bad target)");
+  }
   const route_match match = match_route(target->path);
   if (match.id == route_id::unknown) return error_reply(404, "not_found", "no such resource", "(unknown)");
   const route_info route = info(match.id);

@@ -384,8 +384,14 @@ TEST_F(HttpServerTest, MethodsTargetsAndHeadRequests) {
   expect_error(put, 405, "method_not_allowed");
   EXPECT_EQ(put.header("allow"), "GET, HEAD, DELETE, OPTIONS");
   EXPECT_EQ(request("DELETE", "/healthz").header("allow"), "GET, HEAD, OPTIONS");
-  // Request targets other than origin-form: 400, the request being well framed the connection may stay.
-  for (const char* target : {"*", "http://test/healthz", "healthz", "//healthz"}) {
+  // Request targets other than origin-form and absolute-form: 400, the request being well framed the connection
+  // may stay. The absolute form is routed by its path (RFC 9112 §3.2.2: a server must accept it).
+  for (const char* target : {"http://test/healthz", "https://test:8080/healthz?x=1", "HTTP://test/healthz"}) {
+    raw_connection connection(port_);
+    ASSERT_TRUE(connection.send(std::string("GET ") + target + " HTTP/1.1\r\nHost: t\r\n\r\n"));
+    EXPECT_EQ(connection.read_reply().status, 200) << target;
+  }
+  for (const char* target : {"*", "test:80", "healthz", "//healthz"}) {
     raw_connection connection(port_);
     ASSERT_TRUE(connection.send(std::string("GET ") + target + " HTTP/1.1\r\nHost: t\r\n\r\n"));
     const http_reply r = connection.read_reply();
