@@ -72,23 +72,28 @@ TEST(AtomResolution, BuriedSmallAtomsAreMeshedExposedOnesRefused) {
   EXPECT_EQ(exposed.message().rfind("atom 2 (radius 0.2", 0), 0u) << exposed.message();
 }
 
-TEST(AtomResolution, WithT0AboveEMinusDNoAtomHasASphereOfItsOwnAndTheMoleculesSurfaceDecides) {
-  // d = −0.05, t0 = 5 > e^0.05: the surface is made by groups of atoms only. gly's exists (φ ≥ 6.2 at every centre)
-  // and was refused whole, naming its first atom, before the rule knew this case.
+/// gly passes the rule at (d, t0) and is meshed, certified, by both paths.
+void expect_gly_meshed(double d, double t0) {
   const result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
   ASSERT_TRUE(gly.ok());
-  mesh_params collective;
-  collective.d = -0.05;
-  collective.t0 = 5.0;
-  collective.threads = 1;
-  EXPECT_TRUE(check_atom_resolution(*gly, collective).ok());
+  mesh_params params;
+  params.d = d;
+  params.t0 = t0;
+  params.threads = 1;
+  EXPECT_TRUE(check_atom_resolution(*gly, params).ok()) << "d = " << d << ", t0 = " << t0;
   for (const mesh_method method : {mesh_method::trace, mesh_method::lattice}) {
-    collective.method = method;
-    const result<mesh_output> out = mesh(*gly, collective);
+    params.method = method;
+    const result<mesh_output> out = mesh(*gly, params);
     ASSERT_TRUE(out.ok()) << method_name(method) << ": " << out.error().message();
     EXPECT_TRUE(out->certified) << method_name(method);
     EXPECT_GT(out->mesh.positions.size(), 50u) << method_name(method);
   }
+}
+
+TEST(AtomResolution, WithT0AboveEMinusDNoAtomHasASphereOfItsOwnAndTheMoleculesSurfaceDecides) {
+  // d = −0.05, t0 = 5 > e^0.05: the surface is made by groups of atoms only. gly's exists (φ ≥ 6.2 at every centre)
+  // and was refused whole, naming its first atom, before the rule knew this case.
+  expect_gly_meshed(-0.05, 5.0);
   // A lone atom never reaches such a t0: its surface is empty, which is what the error says.
   mesh_params high;
   high.t0 = 3.0;
@@ -101,18 +106,9 @@ TEST(AtomResolution, WithT0AboveEMinusDNoAtomHasASphereOfItsOwnAndTheMoleculesSu
 }
 
 TEST(AtomResolution, NearEMinusDEveryOwnSphereIsTinyButTheMoleculesSurfaceDecides) {
-  // d = −1, t0 = 2.7 just under e: each atom alone has a sphere of 0.12 r, yet gly's surface keeps well clear of
+  // d = −1, t0 = 2.7 just under e: each atom alone has a sphere of 0.08 r, yet gly's surface keeps well clear of
   // every centre. Before the molecule's surface decided, gly was refused whole, naming its first atom.
-  const result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
-  ASSERT_TRUE(gly.ok());
-  mesh_params params;
-  params.d = -1;
-  params.t0 = 2.7;
-  params.threads = 1;
-  EXPECT_TRUE(check_atom_resolution(*gly, params).ok());
-  const result<mesh_output> out = mesh(*gly, params);
-  ASSERT_TRUE(out.ok()) << out.error().message();
-  EXPECT_TRUE(out->certified);
+  expect_gly_meshed(-1, 2.7);
 }
 
 TEST(AtomResolution, TheSuggestedDensityResolvesEveryAtomTooSmall) {
