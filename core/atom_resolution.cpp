@@ -1,5 +1,8 @@
 #include "core/atom_resolution.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -41,8 +44,8 @@ std::array<vec3, 14> probe_directions() {
   return out;
 }
 
-/// Samples along each probe direction up to `reach` Å.
-constexpr int reach_samples = 4;
+/// Samples along each probe direction up to `reach` Å (then bisection where one lies outside).
+constexpr int reach_samples = 2;
 
 /// When the centre lies inside the surface (φ ≥ t0) and the surface comes within `reach` Å of it along a probe
 /// direction: the nearest such distance (Å, by bisection). Nothing otherwise (centre outside, or the surface
@@ -84,7 +87,7 @@ double density_resolving(double radius) {
 
 double mesh_edge_length(double density) noexcept { return std::sqrt(2.0 / (std::sqrt(3.0) * density)); }
 
-status check_atom_resolution(const molecule& mol, const mesh_params& params) {
+status check_atom_resolution(const molecule& mol, const mesh_params& params, const progress_token& progress) {
   const double edge = mesh_edge_length(params.density);
   const double min_surface_radius = parameter_ranges::min_atom_surface_radius_per_edge * edge;
   const double factor = surface_radius_factor(params.d, params.t0);
@@ -110,17 +113,26 @@ status check_atom_resolution(const molecule& mol, const mesh_params& params) {
   // own (with t0 ≥ e^{-d} no atom alone reaches t0), and one whose centre lies at least the smallest radius inside
   // it sits in a feature the mesh resolves. Near t0 = e^{-d} every atom's own sphere is tiny while the molecule's
   // surface is not (gly at d = −1, t0 = 2.7 was refused whole before, naming its first atom).
-  std::optional<gaussian_field> field;  // built when an atom needs it (most small atoms are buried)
+  std::vector<std::size_t> exposed;
+  for (const std::size_t i : small) {
+    if (!(resolvable_field && resolvable_field->value(mol.atoms[i].center) >= params.t0)) exposed.push_back(i);
+  }
+  if (exposed.empty()) return status::success();
+  const gaussian_field field(mol, params.d, params.t0);
+  std::vector<std::optional<double>> nearest(exposed.size());  // in parallel, then read in atom order
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, exposed.size(), 64), [&](const auto& range) {
+    if (progress.cancelled()) return;
+    for (std::size_t n = range.begin(); n != range.end(); ++n) {
+      nearest[n] = surface_within(field, mol.atoms[exposed[n]].center, min_surface_radius);
+    }
+  });
+  if (progress.cancelled()) return status{errc::cancelled, "meshing was cancelled"};
   std::size_t first_refused = 0, refused = 0;
   double nearest_of_first = 0, largest_needed_density = 0;
-  for (const std::size_t i : small) {
-    const vec3& centre = mol.atoms[i].center;
-    if (resolvable_field && resolvable_field->value(centre) >= params.t0) continue;
-    if (!field) field.emplace(mol, params.d, params.t0);
-    const std::optional<double> nearest = surface_within(*field, centre, min_surface_radius);
-    if (!nearest) continue;
-    if (refused++ == 0) first_refused = i, nearest_of_first = *nearest;
-    largest_needed_density = std::max(largest_needed_density, density_resolving(*nearest));
+  for (std::size_t n = 0; n < exposed.size(); ++n) {
+    if (!nearest[n]) continue;
+    if (refused++ == 0) first_refused = exposed[n], nearest_of_first = *nearest[n];
+    largest_needed_density = std::max(largest_needed_density, density_resolving(*nearest[n]));
   }
   if (refused == 0) return status::success();
   const atom& a = mol.atoms[first_refused];

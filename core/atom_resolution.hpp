@@ -4,6 +4,7 @@
 
 #include "core/mesher.hpp"
 #include "core/molecule.hpp"
+#include "core/progress.hpp"
 #include "core/status.hpp"
 
 namespace tracemesh {
@@ -16,10 +17,12 @@ double mesh_edge_length(double density) noexcept;
 /// usual case); or when its centre is buried in the surface of the atoms that pass so; or, on the surface of all
 /// the atoms, when its centre lies outside it (it makes no feature of its own: with t0 ≥ e^{-d} no atom alone
 /// reaches t0) or at least that radius inside it (sampled along 14 directions). Otherwise it is too small.
-/// @param params  validated parameters (density, d, t0)
+/// @param params    validated parameters (density, d, t0)
+/// @param progress  polled while the molecule's surface is sampled around the atoms (errc::cancelled)
 /// @return errc::unresolvable_input naming the first atom too small ("atom N" = the N-th atom record, 1-based), its
 ///         radius, how near the surface passes and the smallest radius resolved, and the density that resolves
 ///         every atom; ok otherwise.
-status check_atom_resolution(const molecule& mol, const mesh_params& params);
+status check_atom_resolution(const molecule& mol, const mesh_params& params,
+                             const progress_token& progress = progress_token{});
 
 }  // namespace tracemesh

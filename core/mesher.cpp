@@ -327,11 +327,14 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
     return status{errc::limit_exceeded, std::to_string(mol.atoms.size()) + " atoms exceed the limit of " +
                                             std::to_string(limits.max_atoms)};
   }
-  if (status s = check_atom_resolution(mol, params); !s) return s;
   const int threads = params.threads == 0 ? tbb::task_arena::automatic : static_cast<int>(params.threads);
   tbb::task_arena arena(threads);
   result<mesh_output> out = status{errc::internal_error, "not run"};
   arena.execute([&] {
+    if (status s = check_atom_resolution(mol, params, progress); !s) {
+      out = s;
+      return;
+    }
     out = mesh_with_fallbacks(mol, params, limits, progress);
   });
   return out;

@@ -133,6 +133,19 @@ TEST(AtomResolution, TheSuggestedDensityResolvesEveryAtomTooSmall) {
   EXPECT_FALSE(check_atom_resolution(*fas2, params).ok()) << "the suggestion is not far above what is needed";
 }
 
+TEST(AtomResolution, SamplingTheMoleculesSurfaceStopsWhenCancelled) {
+  // At t0 above e^{-d} every atom is looked at on the molecule's surface (1.5 s for 1k4r_5asu's 90,180 atoms on
+  // 2 threads): a cancelled job does not wait for it.
+  const result<molecule> fas2 = read_pqr_file(testing::molecule_path("fas2.pqr"));
+  ASSERT_TRUE(fas2.ok());
+  mesh_params params;
+  params.t0 = 3.0;
+  progress_token cancelled;
+  cancelled.cancel();
+  EXPECT_EQ(check_atom_resolution(*fas2, params, cancelled).code(), errc::cancelled);
+  EXPECT_TRUE(check_atom_resolution(*fas2, params).ok());
+}
+
 TEST(AtomResolution, RealMoleculesPassAtEveryDensity) {
   for (const char* name : {"gly.pqr", "adp.pqr", "fas2.pqr", "villin_1vii.pqr"}) {
     const result<molecule> mol = read_pqr_file(testing::molecule_path(name));
