@@ -11,8 +11,14 @@ namespace tracemesh {
 
 namespace {
 
+/// A UTF-8 byte order mark some editors put first.
+constexpr std::string_view utf8_bom = "\xEF\xBB\xBF";
+
 result<read_molecule_result> parse_text(std::string_view text, const structure_options& options,
                                         const mesh_limits& limits) {
+  // Dropped here, for every reader: the PDB reader took it for part of the first record, whose atom was lost
+  // without a word, and the mmCIF reader refused "data_" behind it.
+  if (text.starts_with(utf8_bom)) text.remove_prefix(utf8_bom.size());
   const input_format format = detect_input_format(text, limits.max_line_bytes);
   result<molecule> mol = [&]() -> result<molecule> {
     switch (format) {

@@ -66,6 +66,10 @@ TEST(MoleculeReader, EveryFormatOfFas2GivesTheSameAtomsAndMesh) {
       {"mmCIF", testing::to_mmcif(atoms), input_format::mmcif},
       {"mmCIF, gzip", gzip(testing::to_mmcif(atoms)), input_format::mmcif},
       {"xyzr", testing::to_xyzr(atoms, radii_set::bondi), input_format::xyzr},
+      // A UTF-8 byte order mark first: the PDB reader lost the first atom behind it, the mmCIF reader refused it.
+      {"PDB, BOM", "\xEF\xBB\xBF" + testing::to_pdb(atoms), input_format::pdb},
+      {"mmCIF, BOM", "\xEF\xBB\xBF" + testing::to_mmcif(atoms), input_format::mmcif},
+      {"xyzr, BOM", "\xEF\xBB\xBF" + testing::to_xyzr(atoms, radii_set::bondi), input_format::xyzr},
   };
   for (const auto& other : others) {
     const read_molecule_result read = read_ok(other.bytes);
