@@ -203,8 +203,17 @@ std::string atom_label(const gemmi::Chain& chain, const gemmi::Residue& residue,
          std::to_string(residue.seqid.num.value) + ")";
 }
 
+/// Water as simulation packages name it, besides the PDB's names that gemmi knows (HOH, WAT, DOD, H2O): CHARMM's
+/// TIP3 (TIP when cut to three columns), TIP4, TIP5, AMBER's T3P, T4P, T5P and GROMACS's SOL.
+bool is_force_field_water(const std::string& name) {
+  for (const std::string_view water : {"TIP", "TIP3", "TIP4", "TIP5", "T3P", "T4P", "T5P", "SOL"}) {
+    if (name == water) return true;
+  }
+  return false;
+}
+
 bool is_water(const gemmi::Residue& residue) {
-  return residue.is_water() || residue.entity_type == gemmi::EntityType::Water;
+  return residue.is_water() || residue.entity_type == gemmi::EntityType::Water || is_force_field_water(residue.name);
 }
 bool is_ligand(const gemmi::Residue& residue) {
   if (is_water(residue)) return false;

@@ -73,6 +73,18 @@ TEST(PdbReader, HydrogensWatersAndLigandsFollowTheOptions) {
             "kept)");
 }
 
+TEST(PdbReader, WatersNamedBySimulationPackagesAreWatersToo) {
+  // CHARMM's TIP3 (TIP in three columns), AMBER's T3P, GROMACS's SOL: a sweep found them meshed by default.
+  for (const char* name : {"TIP", "T3P", "SOL", "WAT"}) {
+    const std::string pdb = peptide + "TER\n" + pdb_atom("HETATM", 10, " OH2", ' ', name, 201, -9, -9, -9, 1, "O");
+    EXPECT_EQ(parse_ok(pdb).atoms.size(), 9u) << name << " is dropped by default";
+    structure_options keep;
+    keep.keep_waters = true;
+    keep.keep_ligands = false;
+    EXPECT_EQ(parse_ok(pdb, keep).atoms.size(), 10u) << name << " is a water, not a ligand";
+  }
+}
+
 TEST(PdbReader, KeepsTheHighestOccupancyAlternateLocation) {
   const std::string pdb = pdb_atom("ATOM", 1, " N", ' ', "SER", 1, 0, 0, 0, 1, "N") +
                           pdb_atom("ATOM", 2, " OG", 'A', "SER", 1, 1, 0, 0, 0.3, "O") +
