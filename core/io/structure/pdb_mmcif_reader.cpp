@@ -346,10 +346,18 @@ constexpr const char* required_atom_site_tags[] = {
     "_atom_site.Cartn_x", "_atom_site.Cartn_y",     "_atom_site.Cartn_z",      "_atom_site.occupancy",
     "_atom_site.B_iso_or_equiv", "_atom_site.auth_seq_id"};
 
+/// Whether `block` has any _atom_site column.
+bool has_atom_site(const gemmi::cif::Block& block) {
+  for (const char* tag : required_atom_site_tags) {
+    if (block.has_tag(tag)) return true;
+  }
+  return false;
+}
+
 /// The _atom_site loop gemmi can read (it silently reads no atom when a column it needs is missing).
 status check_atom_site(gemmi::cif::Block& block, const mesh_limits& limits) {
+  if (!has_atom_site(block)) return status::success();  // no atoms: reported as nothing to mesh
   const gemmi::cif::Column ids = block.find_values("_atom_site.id");
-  if (!ids.item()) return status::success();  // no atoms: reported as nothing to mesh
   for (const char* tag : required_atom_site_tags) {
     if (!block.find_values(tag).item()) {
       return {errc::invalid_input, std::string("mmCIF _atom_site has no ") + tag + " column"};
@@ -435,9 +443,20 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
   }
   try {
     if (document.blocks.empty()) return status{errc::nothing_to_mesh, "no atoms with radius > 0: no mmCIF data block"};
+    // The coordinates are the first block's; later blocks (restraints, other entries) are not read.
+    const gemmi::cif::Block& first = document.blocks.front();
+    if (!has_atom_site(first)) {
+      for (std::size_t b = 1; b < document.blocks.size(); ++b) {
+        if (has_atom_site(document.blocks[b])) {
+          return status{errc::invalid_input, "mmCIF: the first data block has no _atom_site, block " +
+                                                 std::to_string(b + 1) + " has: the coordinates are read from the "
+                                                 "first block"};
+        }
+      }
+    }
     if (status checked = check_atom_site(document.blocks.front(), limits); !checked) return checked;
     if (status checked = check_gemmi_integers(document.blocks.front()); !checked) return checked;
-    gemmi::Structure structure = gemmi::make_structure(document);
+    gemmi::Structure structure = gemmi::make_structure_from_block(first);
     document = gemmi::cif::Document();  // free the text's copy before the atoms are made
     return atoms_of(structure, options, limits, "_atom_site row");
   } catch (const std::runtime_error& error) {

@@ -210,6 +210,18 @@ TEST(MmcifReader, ReadsAtomsAltlocsAndWaters) {
   EXPECT_EQ(parse_mmcif(cif, waters)->atoms.size(), 3u);
 }
 
+TEST(MmcifReader, ReadsTheFirstBlockOfSeveral) {
+  // The README's rule, "_atom_site of the first data block": gemmi refused a second block with coordinates.
+  const std::string second = "data_u\nloop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n"
+                             "_atom_site.label_alt_id\n_atom_site.label_asym_id\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n"
+                             "_atom_site.Cartn_z\n_atom_site.occupancy\n_atom_site.B_iso_or_equiv\n"
+                             "_atom_site.auth_seq_id\nATOM 1 O . A 7.0 7.0 7.0 1.0 10 1\nATOM 2 O . A 8.0 7.0 7.0 1.0 10 1\n";
+  const result<molecule> mol = parse_mmcif(cif_header + "ATOM 1 N N . GLY A 1 1 1.0 2.0 3.0 1.0 10 1 A\n" + second);
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  ASSERT_EQ(mol->atoms.size(), 1u);
+  EXPECT_EQ(mol->atoms[0].center.x, 1.0);
+}
+
 TEST(MmcifReader, RejectsBadInputNamingTheLineOrAtom) {
   const struct {
     std::string text, message;
@@ -218,6 +230,13 @@ TEST(MmcifReader, RejectsBadInputNamingTheLineOrAtom) {
        "atom 1 (N GLY A 1): x coordinate is not a finite number"},
       {"data_t\nloop_\n_atom_site.id\n_atom_site.Cartn_x\n1 2.0\n",
        "mmCIF _atom_site has no _atom_site.type_symbol column"},
+      // A loop without its id column was "no _atom_site row" (a sweep find): the missing column is named.
+      {"data_t\nloop_\n_atom_site.type_symbol\n_atom_site.Cartn_x\nC 2.0\n",
+       "mmCIF _atom_site has no _atom_site.id column"},
+      // Coordinates only in a later block: said so (gemmi's text was "2+ blocks are ok if only the first one has
+      // coordinates;\x0a_atom_site in block #2: input").
+      {"data_first\n_entry.id x\n" + cif_header + "ATOM 1 N N . GLY A 1 1 1.0 2.0 3.0 1.0 10 1 A\n",
+       "mmCIF: the first data block has no _atom_site, block 2 has: the coordinates are read from the first block"},
       {"data_t\n_x.y 'unterminated\n", "line 2: column 19: mmCIF syntax: unterminated 'string'"},
       // A fuzz find: gemmi throws std::invalid_argument (not a runtime_error) for a sequence number that is not an
       // integer, which ended the process.
