@@ -245,6 +245,35 @@ std::vector<bool> chosen_conformers(const gemmi::Residue& residue) {
   return keep;
 }
 
+/// Per residue of `chain`, whether its atoms with an altloc are another residue's alternative (microheterogeneity:
+/// SER with altloc A and THR with altloc B at one position, which gemmi reads as two residues of the same number).
+/// Of the residues sharing a number, the one whose altloc atoms reach the highest occupancy keeps them (the first
+/// on a tie); atoms without an altloc belong to every alternative and are kept.
+std::vector<bool> alternative_residues(const gemmi::Chain& chain) {
+  const auto& residues = chain.residues;
+  std::vector<bool> alternative(residues.size(), false);
+  const auto altloc_occupancy = [](const gemmi::Residue& r) {
+    double best = -1;
+    for (const gemmi::Atom& a : r.atoms) {
+      if (a.altloc != '\0') best = std::max(best, static_cast<double>(a.occ));
+    }
+    return best;  // −1: no atom with an altloc
+  };
+  for (std::size_t first = 0; first < residues.size();) {
+    std::size_t end = first + 1;
+    while (end < residues.size() && residues[end].seqid == residues[first].seqid) ++end;
+    if (end - first > 1) {
+      std::size_t kept = first;
+      for (std::size_t r = first + 1; r < end; ++r) {
+        if (altloc_occupancy(residues[r]) > altloc_occupancy(residues[kept])) kept = r;
+      }
+      for (std::size_t r = first; r < end; ++r) alternative[r] = r != kept && altloc_occupancy(residues[r]) >= 0;
+    }
+    first = end;
+  }
+  return alternative;
+}
+
 bool structure_has_atoms(const gemmi::Structure& structure) {
   for (const gemmi::Chain& chain : structure.models.front().chains) {
     for (const gemmi::Residue& residue : chain.residues) {
@@ -261,12 +290,15 @@ result<molecule> atoms_of(gemmi::Structure& structure, const structure_options& 
   if (structure.models.empty()) return detail::check_something_to_mesh(mol, records);
   gemmi::add_entity_types(structure, /*overwrite=*/false);
   for (const gemmi::Chain& chain : structure.models.front().chains) {
-    for (const gemmi::Residue& residue : chain.residues) {
+    const std::vector<bool> alternative = alternative_residues(chain);
+    for (std::size_t r = 0; r < chain.residues.size(); ++r) {
+      const gemmi::Residue& residue = chain.residues[r];
       if (is_water(residue) ? !options.keep_waters : is_ligand(residue) && !options.keep_ligands) continue;
       const std::vector<bool> keep = chosen_conformers(residue);
       for (std::size_t i = 0; i < residue.atoms.size(); ++i) {
         const gemmi::Atom& a = residue.atoms[i];
-        if (!keep[i] || (a.is_hydrogen() && !options.keep_hydrogens)) continue;
+        if (!keep[i] || (alternative[r] && a.altloc != '\0')) continue;
+        if (a.is_hydrogen() && !options.keep_hydrogens) continue;
         if (a.element == gemmi::El::X) {
           return status{errc::invalid_input, atom_label(chain, residue, a) + ": no element (no element symbol, "
                                                                               "and none follows from the atom name)"};

@@ -97,6 +97,28 @@ TEST(PdbReader, KeepsTheHighestOccupancyAlternateLocation) {
   EXPECT_EQ(mol.atoms[2].center.x, 3.0) << "CB: a tie keeps the first";
 }
 
+TEST(PdbReader, KeepsOneResidueWhereAlternateLocationsAreDifferentResidues) {
+  // Microheterogeneity: SER with altloc A (0.6) and THR with altloc B (0.4) at residue 10, which gemmi reads as two
+  // residues of the same number. Both were meshed, their N, CA, C, O and CB twice (a sweep find); SER alone is kept,
+  // with the glycine before it, whose atoms have no altloc. With B the more occupied, THR is kept.
+  const auto microheterogeneous = [](double ser, double thr) {
+    return pdb_atom("ATOM", 1, " CA", ' ', "GLY", 9, -3, 0, 0, 1, "C") +
+           pdb_atom("ATOM", 2, " N", 'A', "SER", 10, 0, 0, 0, ser, "N") +
+           pdb_atom("ATOM", 3, " CA", 'A', "SER", 10, 1, 0, 0, ser, "C") +
+           pdb_atom("ATOM", 4, " OG", 'A', "SER", 10, 2, 0, 0, ser, "O") +
+           pdb_atom("ATOM", 5, " N", 'B', "THR", 10, 0, 1, 0, thr, "N") +
+           pdb_atom("ATOM", 6, " CA", 'B', "THR", 10, 1, 1, 0, thr, "C") +
+           pdb_atom("ATOM", 7, " OG1", 'B', "THR", 10, 2, 1, 0, thr, "O") +
+           pdb_atom("ATOM", 8, " CG2", 'B', "THR", 10, 3, 1, 0, thr, "C");
+  };
+  const molecule ser = parse_ok(microheterogeneous(0.6, 0.4));
+  ASSERT_EQ(ser.atoms.size(), 4u);
+  for (std::size_t i = 1; i < 4; ++i) EXPECT_EQ(ser.atoms[i].center.y, 0.0) << "SER's atom " << i;
+  const molecule thr = parse_ok(microheterogeneous(0.4, 0.6));
+  ASSERT_EQ(thr.atoms.size(), 5u);
+  for (std::size_t i = 1; i < 5; ++i) EXPECT_EQ(thr.atoms[i].center.y, 1.0) << "THR's atom " << i;
+}
+
 TEST(PdbReader, ReadsOnlyTheFirstModel) {
   const std::string pdb = "MODEL        1\n" + pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 0, 0, 0, 1, "C") +
                           "ENDMDL\nMODEL        2\n" + pdb_atom("ATOM", 1, " CA", ' ', "GLY", 1, 5, 0, 0, 1, "C") +
