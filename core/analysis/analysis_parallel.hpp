@@ -13,8 +13,9 @@
 
 namespace tracemesh::detail {
 
-/// Items per chunk of the analysis loops: large enough to amortise scheduling, small enough to balance 2+ cores.
-inline constexpr std::size_t analysis_chunk_size = 1 << 14;
+/// Items per chunk of the analysis loops: large enough to amortise scheduling, small enough to balance 2+ cores even
+/// on a small mesh (2¹⁴ left fas2's 7,000 triangles in one chunk: its certificate took 4.6 ms instead of 4.2).
+inline constexpr std::size_t analysis_chunk_size = 1 << 11;
 
 inline std::size_t chunk_count(std::size_t items, std::size_t chunk_size = analysis_chunk_size) {
   return (items + chunk_size - 1) / chunk_size;

@@ -178,7 +178,7 @@ std::vector<std::uint64_t> entries_per_chunk(const std::vector<bounds>& boxes,
                                              const std::vector<triangle_defect>& defects, const uniform_grid& grid) {
   std::vector<std::uint64_t> counts(chunk_count(boxes.size()), 0);
   for_each_chunk(boxes.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
-    std::uint64_t count = 0;  // ≤ 2¹⁴ triangles × 2³² cells: no overflow
+    std::uint64_t count = 0;  // ≤ analysis_chunk_size triangles × 2³² cells: no overflow
     for (std::size_t t = begin; t < end; ++t) {
       if (tested(defects, t)) count += grid.cells_overlapped(boxes[t]);
     }

@@ -1,5 +1,6 @@
 #include "core/trace/trace_mesher.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -78,14 +79,17 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
   std::vector<std::vector<vec3>> dips_per_block(dips ? blocks.size() : 0);
   std::vector<line_root_stats> block_stats(blocks.size());
   std::atomic<std::size_t> done{0};
+  line_root_settings settings;
+  settings.degree = degree;
+  if (dips) settings.dip_ratio = untouched_cavity_settings{}.dip_ratio;
+  // One finder per thread, copied from one whose tables (quadrature, Legendre → Bernstein) are computed once: made
+  // per range, they took 3% of fas2's run time. A finder's results do not depend on its history.
+  tbb::enumerable_thread_specific<line_root_finder> finders{line_root_finder(settings)};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
     if (progress.cancelled()) return;
     std::vector<std::uint32_t> atoms;
     block_line_roots roots;
-    line_root_settings settings;
-    settings.degree = degree;
-    if (dips) settings.dip_ratio = untouched_cavity_settings{}.dip_ratio;
-    line_root_finder finder(settings);
+    line_root_finder& finder = finders.local();
     for (std::size_t n = r.begin(); n != r.end(); ++n) {
       const lattice_index& b = blocks[n];
       field.atoms_near_box(lat.block_box(b), atoms);
