@@ -67,6 +67,11 @@ struct remesh_options {
   /// Check every stage of a round (true), or only its end, a failure redoing the patch's round (false: one check
   /// per round instead of one per stage; patches are small, so a redo is cheap).
   bool check_every_stage = false;
+  /// A mesh of fewer triangles than this is remeshed as one patch whose round is not checked for self-intersections
+  /// and inward components at its end (remesh_stats::unchecked; vertices are still settled onto the surface, and the
+  /// result's topology is still compared with the input's). For a caller that certifies the result anyway and runs
+  /// the pass again, checked, should that fail: mesh_molecule. 0: every round is checked.
+  std::size_t unchecked_below_triangles = 0;
   /// Edge of the chunks the mesh is cut into, in units of L (see remesh_chunks.hpp); at least 16. Twice the edge means
   /// about 8 times fewer patches, each doing more work per redo.
   double chunk_edges = 48;
@@ -90,6 +95,7 @@ struct remesh_stats {
   std::size_t unchanged_patches = 0;  ///< patches whose rounds all failed, left as they were
   std::size_t final_collapses = 0;    ///< short edges collapsed at the end (final_collapse_below)
   std::size_t remade_components = 0;  ///< small components made again (remesh_small_components.hpp)
+  bool unchecked = false;  ///< the mesh was remeshed as one patch without the check (unchecked_below_triangles)
 };
 
 /// Improves `mesh` in place.

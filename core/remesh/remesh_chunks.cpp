@@ -474,6 +474,7 @@ result<remesh_stats> remesh_in_chunks(surface_mesh& mesh, const gaussian_field& 
     }
     add_stats(total, out->stats);
     total.input_returned = out->stats.input_returned;
+    total.unchecked = out->stats.unchecked;
     mesh.positions = std::move(out->mesh.positions);
     mesh.normals = std::move(out->mesh.normals);
     mesh.triangles = std::move(out->mesh.triangles);

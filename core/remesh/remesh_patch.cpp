@@ -279,7 +279,12 @@ result<remesh_patch_output> remesh_patch(const remesh_patch_input& input, const 
   const double l = options.target_edge;
   stage_limits limits{options.max_triangles, options.freeze_radius * l,
                       options.check_every_stage ? max_stage_retries : 0, options.check_every_stage};
-  const offending_finder finder = finder_with(context, input_vertices);
+  // A whole mesh the caller certifies anyway (remesh_options::unchecked_below_triangles) finds nothing to refuse.
+  stats.unchecked = context.triangles.empty() && !context.bounded &&
+                    input.triangles.size() < options.unchecked_below_triangles;
+  const offending_finder finder =
+      stats.unchecked ? [](const remesh_mesh&, const surface_mesh&) { return std::vector<std::uint32_t>{}; }
+                      : finder_with(context, input_vertices);
 
   // Level 2 of remesh.hpp: should a round end unclean, restart from the input with its vertices near the offending
   // triangles frozen, until clean (at worst everything is frozen and the input comes back).

@@ -400,5 +400,32 @@ TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_l
   EXPECT_EQ(out->mesh.positions, lattice->mesh.positions);
 }
 
+/// How many times `stage` was timed (once per run of it).
+std::size_t runs_of(const std::vector<stage_timing>& timings, mesh_stage stage) {
+  return static_cast<std::size_t>(
+      std::count_if(timings.begin(), timings.end(), [&](const stage_timing& t) { return t.stage == stage; }));
+}
+
+// The quality pass of a small mesh leaves its final whole-mesh check to the certificate, which makes the same tests
+// (mesher.cpp, unchecked_quality_pass_triangles). fas2 at d = −15, t0 = 10, 0.5 v/Å² on the lattice path: that pass
+// leaves triangles its check would have refused, the certificate fails, and the pass runs again, checked, from the
+// raw mesh: the job is certified and its timings show both passes.
+TEST(mesher_quality_pass, a_pass_left_unchecked_that_fails_the_certificate_runs_again_checked) {
+  const result<mesh_output> out =
+      mesh_file("fas2.pqr", sharp_params(mesh_method::lattice, 0.5, -15, 10, refine_mode::full));
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  EXPECT_EQ(runs_of(out->timings, mesh_stage::refining), 2u);
+  EXPECT_EQ(runs_of(out->timings, mesh_stage::certifying), 2u);
+}
+
+TEST(mesher_quality_pass, a_pass_whose_mesh_is_certified_runs_once) {
+  const result<mesh_output> out = mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -1, 1, refine_mode::full));
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  EXPECT_EQ(runs_of(out->timings, mesh_stage::refining), 1u);
+  EXPECT_EQ(runs_of(out->timings, mesh_stage::certifying), 1u);
+}
+
 }  // namespace
 }  // namespace tracemesh

@@ -724,6 +724,33 @@ TEST(RemeshSurface, TrianglesLongerThanHalfACellStayOutOfThePatches) {
               0.05);
 }
 
+// unchecked_below_triangles: a whole mesh under it is not checked at the end of its round. Where the check would have
+// found nothing, that is the checked pass's very mesh; patches are checked against their context whatever it says.
+TEST(RemeshSurface, AWholeMeshLeftUncheckedIsTheCheckedMeshWhenThatIsClean) {
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.6}, {{2.1, 0.4, 0}, 1.3}, {{0.9, 1.8, 0.6}, 1.1}}), -1.0,
+                             1.0);
+  const surface_mesh input = marching_tetrahedra(field, 0.35);
+  remesh_options unchecked = options_for(0.4);
+  unchecked.unchecked_below_triangles = input.triangles.size() + 1;
+  const remesh_run checked_run = remesh_ok(input, field, options_for(0.4));
+  const remesh_run unchecked_run = remesh_ok(input, field, unchecked);
+  EXPECT_FALSE(checked_run.stats.unchecked);
+  EXPECT_TRUE(unchecked_run.stats.unchecked);
+  EXPECT_EQ(unchecked_run.mesh.triangles, checked_run.mesh.triangles);
+  EXPECT_EQ(unchecked_run.mesh.positions, checked_run.mesh.positions);  // bitwise
+
+  unchecked.unchecked_below_triangles = input.triangles.size();  // "fewer than": this mesh is checked
+  EXPECT_FALSE(remesh_ok(input, field, unchecked).stats.unchecked);
+
+  const gaussian_field chain = chain_field();
+  const surface_mesh chain_input = marching_tetrahedra(chain, 0.35);
+  remesh_options chunked = chunked_options(0.4);
+  chunked.unchecked_below_triangles = chain_input.triangles.size() + 1;
+  const remesh_run patches = remesh_ok(chain_input, chain, chunked);
+  EXPECT_FALSE(patches.stats.unchecked);
+  EXPECT_EQ(patches.mesh.positions, remesh_ok(chain_input, chain, chunked_options(0.4)).mesh.positions);
+}
+
 TEST(RemeshPatch, KeepsAPatchThatWouldCutItsContext) {
   // A patch whose input already crosses a fixed context triangle can never pass its check: it comes back as it was.
   const gaussian_field field(make_molecule({{{0, 0, 0}, 1.5}}), -1.0, 1.0);
