@@ -41,8 +41,8 @@ constexpr int trace_refine_iterations = 2;
 /// Meshes of fewer raw triangles have their quality pass's final whole-mesh check (self-intersections, inward
 /// components) left to the certificate, which makes the same tests: on fas2 the check took 3 of the 48 ms. Should the
 /// certificate fail, the pass runs again with the check. Measured on the ladder at 1 and 2 v/Å², both paths: no
-/// pass over a whole mesh under 84,000 triangles (gly to mache) failed its check, while 2 of the 4 whole-mesh passes
-/// of 76,000–98,000 triangles did (achbp, 1ihm_asu at 1 v/Å²), for which running the pass twice would cost more
+/// whole-mesh pass of gly, adp, villin_1vii, fas2 or mache (up to 82,834 raw triangles) failed its check, while
+/// those of achbp and 1ihm_asu at 1 v/Å² (75,944 and 97,860) did, for which running the pass twice would cost more
 /// than the check saves.
 constexpr std::size_t unchecked_quality_pass_triangles = 20'000;
 
