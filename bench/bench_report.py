@@ -15,7 +15,8 @@ Subcommands:
   paper DATA_DIR OUT_DIR
       Reads DATA_DIR/rows.jsonl and DATA_DIR/meta.json (bench/run_paper.sh writes both) and writes
       OUT_DIR/report.md with the figures fig5_edge_ratio.png, fig6_convergence.png and fig3_linear_cost.png.
-      Needs matplotlib (Debian: python3-matplotlib).
+      A "note" in meta.json (e.g. on rows measured apart and appended to rows.jsonl) joins the report's first
+      paragraph. Needs matplotlib (Debian: python3-matplotlib).
 """
 
 import argparse
@@ -482,6 +483,7 @@ def paper_report(data_dir, out_dir):
         f"Rows not marked otherwise use 2 threads. "
         + (f"Molecules over {int(max_atoms):,} atoms were skipped (PAPER_MAX_ATOMS)." if max_atoms else
            "All molecules were measured.")
+        + (f" {meta['note']}" if meta.get("note") else "")
         + f" Raw rows: `{data_dir.name}/rows.jsonl` (JSON) and `{data_dir.name}/rows.md` (Markdown). A cell that "
         "says failed is a row whose run reported an error or whose process died; \"Failed rows\" at the end gives "
         "each reason.",
