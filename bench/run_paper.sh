@@ -104,7 +104,7 @@ draw_topology() {  # the meshes (~25 MB) go to a temporary folder, not to $data
     "$cli" "$mache_pqr" --method lattice --density 8 -o "$meshes/lattice8.off" &&
     "$python" "$bench_root/bench/paper/topology_figure.py" --pqr "$mache_pqr" --trace "$meshes/trace2.off" \
       --trace-report "$meshes/trace2.json" --lattice "$meshes/lattice8.off" --seed "tunnel neck":-0.3,11.31,8.93 \
-      --title "mache: the trace path (2 v/Å²) misses a tunnel 0.17 Å wide and a void no x-parallel line meets" \
+      --title "mache at 2 v/Å²: a tunnel 0.17 Å wide that the trace path closes" \
       -o "$paper_dir/topology_mache.png" || status=1
   rm -rf "$meshes"
   return $status

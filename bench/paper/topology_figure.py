@@ -238,7 +238,8 @@ def main():
             seeds.append(("lattice cavity the trace lacks", list(c)))
     if not seeds:
         raise SystemExit("topology_figure: nothing to show (no seed and no unmatched lattice cavity)")
-    fig, axes = plt.subplots(1, len(seeds), figsize=(5.2 * len(seeds), 6.4), squeeze=False)
+    # At least 8.5 in wide: the title and the legend's three columns must fit above and below a single panel.
+    fig, axes = plt.subplots(1, len(seeds), figsize=(max(5.2 * len(seeds), 8.5), 6.4), squeeze=False)
     for ax, (label, seed) in zip(axes[0], seeds):
         point, phi, ev = critical_point(field, seed)
         handles = panel(ax, field, meshes, h, label, point, phi, ev)
