@@ -238,9 +238,11 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   surface_mesh raw_for_checked_pass;
   bool unchecked = false;
   if (refined) {
-    if (out.mesh.triangles.size() < unchecked_quality_pass_triangles) raw_for_checked_pass = out.mesh;
-    result<remesh_stats> pass = refine_mesh(out.mesh, field, params, edge, limits, unchecked_quality_pass_triangles,
-                                            progress);
+    // One decision: the pass may skip its check only when the raw mesh was kept for the checked one.
+    const bool may_skip_check = out.mesh.triangles.size() < unchecked_quality_pass_triangles;
+    if (may_skip_check) raw_for_checked_pass = out.mesh;
+    result<remesh_stats> pass = refine_mesh(out.mesh, field, params, edge, limits,
+                                            may_skip_check ? unchecked_quality_pass_triangles : 0, progress);
     if (!pass) return pass.error();
     unchecked = pass->unchecked;
     clock.finish(mesh_stage::refining);
