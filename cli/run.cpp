@@ -58,11 +58,11 @@ void print_summary(const mesh_output& output) {
   if (used == mesh_method::trace) {
     const trace_stats& t = output.trace;
     std::fprintf(stderr,
-                 "tracemesh: trace: %zu lines, %zu polygons, %zu fallback loops, %zu welded edges, %zu level-shifted strips, "
-                 "%zu untouched cavities (%zu left out), %zu line grid retries, %zu raw vertices, %.1f field evaluations "
-                 "per vertex\n",
-                 t.lines, t.polygons, t.fallback_loops, t.welded_edges, t.level_shifted_strips, t.untouched_cavities,
-                 t.untouched_cavities_left, t.grid_retries, t.raw_vertices,
+                 "tracemesh: trace: %zu lines, %zu polygons, %zu fallback loops, %zu welded edges, %zu collapsed raw "
+                 "edges, %zu level-shifted strips, %zu untouched cavities (%zu left out), %zu line grid retries, %zu raw "
+                 "vertices, %.1f field evaluations per vertex\n",
+                 t.lines, t.polygons, t.fallback_loops, t.welded_edges, t.collapsed_raw_edges, t.level_shifted_strips,
+                 t.untouched_cavities, t.untouched_cavities_left, t.grid_retries, t.raw_vertices,
                  t.raw_vertices == 0 ? 0.0
                                      : static_cast<double>(t.field_evaluations) / static_cast<double>(t.raw_vertices));
   }

@@ -155,7 +155,8 @@ result<surface_mesh> raw_mesh_at_origin(const molecule& mol, const gaussian_fiel
   clock.finish(mesh_stage::culling);
   if (params.method == mesh_method::lattice) return mesh_lattice_blocks(field, *lat, *blocks, limits, progress, clock);
   const gaussian_field walk_field(mol, params.d, params.t0, trace_walk_tolerance);
-  return mesh_trace_blocks(field, walk_field, *lat, *blocks, params.trace, limits, progress, clock, stats);
+  return mesh_trace_blocks(field, walk_field, *lat, *blocks, params.trace, params.refine == refine_mode::none, limits,
+                           progress, clock, stats);
 }
 
 /// The raw mesh with the trace path's lines at y = (j + line_offset[0])·h̃, z = (k + line_offset[1])·h̃: the

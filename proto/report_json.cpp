@@ -39,6 +39,7 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
       {"retraced_arcs", stats.retraced_arcs},
       {"fallback_loops", stats.fallback_loops},
       {"welded_edges", stats.welded_edges},
+      {"collapsed_raw_edges", stats.collapsed_raw_edges},
       {"level_shifted_strips", stats.level_shifted_strips},
       {"untouched_cavities", stats.untouched_cavities},
       {"untouched_cavities_left", stats.untouched_cavities_left},

@@ -1,14 +1,17 @@
 #pragma once
 /// @file short_edge_collapse.hpp
 /// Collapsing a mesh's short edges where that is safe, checked by the certificate's own tests: the one mesh edit
-/// that two stages share.
+/// that three steps of two stages share.
 ///
 /// - The raw trace mesh (not part of the paper's method): where a line grazes the surface across a thin cap, the two
 ///   return arcs through its two roots (one in each plane through the line) bound a lens whose middle points lie
 ///   about the cap's height apart (1e-4 Å and less on 3j6r_asu at 1 v/Å²). Such an edge is harmless to the
 ///   certificate but not to what comes after: a Draco grid of 0.01 Å merges its ends, the quality pass keeps it
-///   wherever it has to freeze the region, and a boundary-element solver stalls on it (method.md §8). Edges between
-///   two arc points under h̃/100 are collapsed ("welded"); line roots are never moved or removed.
+///   wherever it has to freeze the region, and a boundary-element solver stalls on it (method.md §8). Edges at an arc
+///   point under h̃/100 are collapsed ("welded"), the arc point going; line roots are never moved or removed.
+/// - The raw trace mesh delivered as it is (refine=none; not the paper's either): where a line meets the surface at a
+///   grazing angle, the first points of its xy and xz arcs leave the root in nearly the same direction and lie close
+///   together. Edges at an arc point under h̃/2 are collapsed the same way (trace_mesher.cpp).
 /// - The quality pass: where a patch's rounds failed near two sheets of surface that come close, its vertices stay
 ///   frozen and keep the raw mesh's short edges (1k4r_5asu at 2 v/Å²: 0.041 × the median edge). Edges under
 ///   0.15 L are collapsed at its end.
@@ -23,7 +26,7 @@
 
 namespace tracemesh {
 
-/// Collapses, shortest first, every edge of `mesh` shorter than `max_length` Å whose two ends are numbered
+/// Collapses, shortest first, every edge of `mesh` shorter than `max_length` Å with an end numbered
 /// `first_movable_vertex` or above (the vertices before it are never removed), where:
 /// - its component keeps more than `min_component_vertices` vertices: 8 by default, as a tiny cavity is the quality
 ///   pass's to reshape whole (remesh_small_components.hpp; on mache at 1 v/Å² a collapse in the raw mesh turned a

@@ -36,9 +36,22 @@ constexpr double tangent_tolerance = 1e-6;
 constexpr double tangent_pair_slope = 0.05;
 constexpr double tangent_pair_gap = 1e-2;
 constexpr double tangent_cap_height = 1e-4;
-/// Raw edges between two arc points shorter than this × h̃ are welded (short_edge_collapse.hpp): 0.01 Å at 1 v/Å²,
-/// where a Draco grid's step is 0.01 Å at most and 0.6 mÅ after the four extra bits it may take.
+/// Raw edges at an arc point shorter than this × h̃ are welded (short_edge_collapse.hpp): 0.01 Å at 1 v/Å², where a
+/// Draco grid's step is 0.01 Å at most and 0.6 mÅ after the four extra bits it may take.
 constexpr double weld_below = 1e-2;
+/// When the polygons' triangles are delivered as they are (refine=none; not the paper's), raw edges at an arc point
+/// shorter than this × the arcs' point spacing are collapsed as well, the arc point going. Where a line meets the
+/// surface at a grazing angle, the first points of its xy and xz arcs leave the root in nearly the same direction
+/// and lie close together, in thin triangles that kept the raw edge-ratio mean under 0.70 (README "Deviations":
+/// 0.687 → 0.706 on mache at 1 v/Å²; swept from 0.3 to 0.6). Not before the quality pass, whose own collapses do
+/// the same: from the collapsed mesh it gained nothing and ran a second round on mache at 2 v/Å² (0.21 → 0.41 s).
+constexpr double raw_collapse_below = 0.5;
+/// How far apart the traced points of a raw mesh are (Å).
+struct point_spacing {
+  double resample = 0;        ///< the interior points an arc keeps are about this far apart
+  double collapse_below = 0;  ///< edges at an arc point shorter than this are collapsed (0: only the welds)
+};
+
 /// Rounds of re-tracing strips whose lines gained late roots, before giving up.
 constexpr int max_late_root_rounds = 8;
 
@@ -279,12 +292,11 @@ surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cel
   return mesh;
 }
 
-/// The triangulated polygons of the blocks (the body of mesh_trace_blocks), arcs resampled about
-/// `resample_spacing` Å apart; with `seeds` (not null), the lines' dips are stored there for the search for
-/// untouched cavities.
+/// The triangulated polygons of the blocks (the body of mesh_trace_blocks), their points spaced as `points` says;
+/// with `seeds` (not null), the lines' dips are stored there for the search for untouched cavities.
 result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_field& walk_field, const lattice& lat,
                                    const std::vector<lattice_index>& blocks, const trace_parameters& params,
-                                   double resample_spacing, std::vector<vec3>* seeds, progress_token& progress,
+                                   const point_spacing& points, std::vector<vec3>* seeds, progress_token& progress,
                                    stage_clock& clock, trace_stats& stats, trace_lines& lines_out) {
   const double h = lat.spacing();
   stats.line_spacing = h;
@@ -304,7 +316,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
   settings.max_step = stats.step;
   settings.cos_bound = params.cos_bound;
   settings.extreme_tolerance = params.extreme_tolerance;
-  settings.resample_spacing = resample_spacing;
+  settings.resample_spacing = points.resample;
   settings.walk_field = &walk_field;
   if (status s = trace_all_strips(field, settings, surface, progress, stats); !s) return s;
   number_interior_points(surface, stats);
@@ -338,16 +350,20 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
                                             " cells with an open or untriangulable loop, " +
                                             std::to_string(intersecting_cells) + " cells with intersecting triangles"};
   }
-  stats.welded_edges += collapse_short_edges(mesh, first_arc_point, weld_below * h);  // never a root
+  // Never a root: every line point stays a vertex (Algorithm 2).
+  stats.welded_edges += collapse_short_edges(mesh, first_arc_point, weld_below * h);
+  if (points.collapse_below > 0) {
+    stats.collapsed_raw_edges += collapse_short_edges(mesh, first_arc_point, points.collapse_below);
+  }
   return mesh;
 }
 
 /// The cavity in `cavity`'s box, meshed by the trace path on the box's own grid (its line through the minimum
 /// guarantees roots): the atoms whose cutoff reaches the box, moved so that the box starts at the origin, give φ
-/// inside the box, and the box's faces hold no surface, so every polygon closes inside it. Arcs are resampled
-/// about `resample_spacing` Å apart.
+/// inside the box, and the box's faces hold no surface, so every polygon closes inside it. Its points are spaced as
+/// `points` says.
 result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const untouched_cavity& cavity,
-                                           const trace_parameters& params, double resample_spacing,
+                                           const trace_parameters& params, const point_spacing& points,
                                            trace_stats& stats) {
   std::vector<std::uint32_t> near;
   field.atoms_near_box(cavity.box, near);
@@ -369,8 +385,8 @@ result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const un
   progress_token progress;  // the job's token is polled between cavities; this one keeps the job's stages in order
   trace_stats local_stats;
   trace_lines lines;
-  auto mesh = mesh_polygons(local_field, local_field, lat, blocks, params, resample_spacing, nullptr, progress, clock,
-                            local_stats, lines);
+  auto mesh =
+      mesh_polygons(local_field, local_field, lat, blocks, params, points, nullptr, progress, clock, local_stats, lines);
   stats.field_evaluations += local_stats.field_evaluations;
   stats.fallback_loops += local_stats.fallback_loops;
   if (!mesh) return mesh;
@@ -380,6 +396,7 @@ result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const un
                         p.y <= cavity.box.hi.y && p.z >= cavity.box.lo.z && p.z <= cavity.box.hi.z;
     if (!inside) return status{errc::internal_error, "an untouched cavity's mesh left its box"};
   }
+  stats.welded_edges += local_stats.welded_edges;  // the piece's own, now that it is kept
   return mesh;
 }
 
@@ -395,7 +412,8 @@ void append(surface_mesh& mesh, const surface_mesh& piece) {
 }
 
 /// Finds the cavities no line touched (untouched_cavities.hpp) and appends their meshes. A cavity whose local trace
-/// fails is left out (the mesh stays closed without it) and counted.
+/// fails is left out (the mesh stays closed without it) and counted. Their short edges are not collapsed for
+/// delivery (raw_collapse_below): a void a few Å² in area, meshed on a grid finer than h̃, would lose a third of it.
 status add_untouched_cavities(const gaussian_field& field, const trace_lines& lines, double h,
                               const std::vector<vec3>& seeds, const trace_parameters& params,
                               progress_token& progress, surface_mesh& mesh, trace_stats& stats) {
@@ -407,8 +425,8 @@ status add_untouched_cavities(const gaussian_field& field, const trace_lines& li
     if (progress.cancelled()) return cancelled_status();
     // Arc points as far apart as on the job's own lines, so that the void gets about the job's density; if that
     // trace fails, the local grid's own spacing.
-    auto piece = mesh_untouched_cavity(field, cavity, params, resample_spacing_factor * h, stats);
-    if (!piece) piece = mesh_untouched_cavity(field, cavity, params, resample_spacing_factor * cavity.spacing, stats);
+    auto piece = mesh_untouched_cavity(field, cavity, params, {resample_spacing_factor * h}, stats);
+    if (!piece) piece = mesh_untouched_cavity(field, cavity, params, {resample_spacing_factor * cavity.spacing}, stats);
     if (!piece) {
       ++stats.untouched_cavities_left;
       continue;
@@ -426,19 +444,21 @@ double trace_line_spacing(double density) { return line_spacing_at_unit_density 
 result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussian_field& walk_field,
                                        const lattice& lat,
                                        const std::vector<lattice_index>& blocks, const trace_parameters& params,
-                                       const mesh_limits& limits, progress_token& progress, stage_clock& clock,
-                                       trace_stats& stats) {
+                                       bool delivered_as_is, const mesh_limits& limits, progress_token& progress,
+                                       stage_clock& clock, trace_stats& stats) {
   std::vector<vec3> seeds;
   trace_lines lines;
-  auto mesh = mesh_polygons(field, walk_field, lat, blocks, params, resample_spacing_factor * lat.spacing(), &seeds,
-                            progress, clock, stats, lines);
+  const double resample = resample_spacing_factor * lat.spacing();
+  const point_spacing points{resample, delivered_as_is ? raw_collapse_below * resample : 0.0};
+  auto mesh = mesh_polygons(field, walk_field, lat, blocks, params, points, &seeds, progress, clock, stats, lines);
   if (!mesh) return mesh;
   if (status s = add_untouched_cavities(field, lines, lat.spacing(), seeds, params, progress, *mesh, stats); !s) {
     return s;
   }
   number_vertices_by_first_use(*mesh);
-  stats.raw_vertices = mesh->positions.size();
-  stats.raw_triangles = mesh->triangles.size();
+  // The polygons' own counts, whatever was collapsed for delivery: each collapse took one vertex and two triangles.
+  stats.raw_vertices = mesh->positions.size() + stats.collapsed_raw_edges;
+  stats.raw_triangles = mesh->triangles.size() + 2 * stats.collapsed_raw_edges;
   if (mesh->triangles.size() > limits.max_triangles) {
     return status{errc::limit_exceeded, "mesh has " + std::to_string(mesh->triangles.size()) + " triangles (limit " +
                                             std::to_string(limits.max_triangles) + ")"};

@@ -26,10 +26,13 @@ double trace_line_spacing(double density);
 /// roots, tracing and triangulating on `clock` and fills `stats`. Errors: limit_exceeded, nothing_to_mesh,
 /// cancelled, internal_error (a polygon that could not be closed or triangulated even by the counted fallback).
 /// `walk_field`: the same surface's field with a looser cutoff, on which the traces walk between lines.
+/// `delivered_as_is` (refine=none): edges at an arc point under h̃/2 are collapsed too, but in untouched cavities
+/// (trace_mesher.cpp, raw_collapse_below; stats.collapsed_raw_edges), while stats.raw_vertices and raw_triangles
+/// count the polygons' own.
 result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussian_field& walk_field,
                                        const lattice& lat,
                                        const std::vector<lattice_index>& blocks, const trace_parameters& params,
-                                       const mesh_limits& limits, progress_token& progress, stage_clock& clock,
-                                       trace_stats& stats);
+                                       bool delivered_as_is, const mesh_limits& limits, progress_token& progress,
+                                       stage_clock& clock, trace_stats& stats);
 
 }  // namespace tracemesh

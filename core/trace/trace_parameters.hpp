@@ -41,8 +41,10 @@ struct trace_stats {
   /// strips whose arcs were traced at t0·(1 ± ε) because the contour at t0 crosses itself in their plane
   std::size_t level_shifted_strips = 0;
   std::size_t fallback_loops = 0;       ///< polygons triangulated with a Steiner point on the surface
-  /// raw edges between two arc points shorter than a hundredth of h̃, collapsed (short_edge_collapse.hpp)
+  /// raw edges at an arc point shorter than a hundredth of h̃, collapsed (short_edge_collapse.hpp)
   std::size_t welded_edges = 0;
+  /// refine=none only: raw edges at an arc point shorter than half of h̃, collapsed as well (trace_mesher.cpp)
+  std::size_t collapsed_raw_edges = 0;
   /// cavities that no line touched, found from the lines' dips and meshed on a finer grid of their own
   /// (untouched_cavities.hpp); and those found but whose local trace failed (left out of the mesh)
   std::size_t untouched_cavities = 0;

@@ -84,7 +84,9 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     expect_certified(*raw);
     EXPECT_EQ(raw->method, mesh_method::trace);
     EXPECT_EQ(raw->refine, refine_mode::none);
-    EXPECT_GE(r.quality.edge_ratio_mean, 0.65);
+    // Issue 10's target, 0.70, once the short edges are collapsed for delivery (README "Deviations": without them
+    // 0.688–0.698 on villin_1vii, fas2 and mache); gly's 246 triangles, mostly where its atoms meet, reach 0.687.
+    EXPECT_GE(r.quality.edge_ratio_mean, r.triangles >= 1000 ? 0.70 : 0.68);
     // Issue 10's target for the raw mesh is under 1%; on the smallest meshes a few triangles are a large share (gly
     // at density 1: 2 of its 268, where two arcs dip to 0.03 h̃ of one line at the same x), hence "or 3 triangles".
     const double below = r.quality.fraction_below_0_2 * static_cast<double>(r.triangles);
@@ -95,8 +97,8 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     EXPECT_NEAR(r.area, area, 0.025 * area);
     EXPECT_NEAR(r.volume, volume, 0.015 * volume);
     const trace_stats& t = raw->trace;
-    EXPECT_EQ(t.raw_vertices, r.vertices);
-    EXPECT_EQ(t.raw_triangles, r.triangles);
+    EXPECT_EQ(t.raw_vertices, r.vertices + t.collapsed_raw_edges);  // the polygons, less the edges collapsed
+    EXPECT_EQ(t.raw_triangles, r.triangles + 2 * t.collapsed_raw_edges);
     EXPECT_EQ(t.arcs, 2 * (t.polynomial_roots + t.bracketed_roots + t.late_roots));  // one arc per root and strip
     EXPECT_GT(t.lines, 0u);
     EXPECT_GT(t.polygons, 0u);

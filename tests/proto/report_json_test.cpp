@@ -88,6 +88,7 @@ trace_stats sample_trace_stats() {
   t.retraced_arcs = 8;
   t.fallback_loops = 9;
   t.welded_edges = 15;
+  t.collapsed_raw_edges = 17;
   t.level_shifted_strips = 12;
   t.untouched_cavities = 13;
   t.untouched_cavities_left = 14;
@@ -167,6 +168,7 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"retraced_arcs", 8},
                                    {"fallback_loops", 9},
                                    {"welded_edges", 15},
+                                   {"collapsed_raw_edges", 17},
                                    {"level_shifted_strips", 12},
                                    {"untouched_cavities", 13},
                                    {"untouched_cavities_left", 14},

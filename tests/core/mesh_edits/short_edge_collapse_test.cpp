@@ -128,12 +128,20 @@ TEST(short_edge_collapse, a_short_edge_that_a_collapse_makes_is_collapsed_in_tur
   expect_closed_oriented_manifold(m);
 }
 
+// Vertices before the first movable one are the raw trace mesh's line roots: an edge between two of them stays, and
+// an edge from one of them to a movable vertex loses the movable end.
 TEST(short_edge_collapse, a_vertex_before_the_first_movable_one_is_never_removed) {
-  surface_mesh m = bipyramid_with_split_edge(1e-4);
+  surface_mesh m = bipyramid_with_split_edge(1e-4);  // the short edge joins vertices 0 and 12
   const surface_mesh before = m;
-  EXPECT_EQ(collapse_short_edges(m, 1, 1e-2), 0u);  // vertex 0 is not movable (a root of the raw trace mesh)
+  EXPECT_EQ(collapse_short_edges(m, 13, 1e-2), 0u);  // neither end movable
   EXPECT_EQ(m.positions, before.positions);
   EXPECT_EQ(m.triangles, before.triangles);
+
+  EXPECT_EQ(collapse_short_edges(m, 1, 1e-2), 1u);  // vertex 12 movable, vertex 0 not
+  const surface_mesh expected = bipyramid();
+  EXPECT_EQ(m.positions, expected.positions) << "vertex 0 stays where it was";
+  EXPECT_EQ(canonical(m.triangles), canonical(expected.triangles));
+  expect_closed_oriented_manifold(m);
 }
 
 TEST(short_edge_collapse, an_edge_at_or_over_the_length_is_kept) {
