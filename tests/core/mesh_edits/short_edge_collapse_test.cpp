@@ -281,5 +281,47 @@ TEST(short_edge_collapse, a_collapse_whose_triangles_would_meet_another_triangle
   EXPECT_EQ(m.positions, before.positions);
 }
 
+// The same bulge over the tetrahedron, and a second split edge far from it, (5, 6) split 0.2 Å from vertex 5 by
+// vertex 13. Only the collapse that meets the tetrahedron is undone: the other stays, and the mesh is the one
+// without the second split.
+TEST(short_edge_collapse, a_collapse_that_fails_is_undone_alone) {
+  surface_mesh m = bipyramid_with_split_edge(0.25);
+  for (vec3& p : m.positions) p = p * 10;
+  const std::uint32_t top = 10, bottom = 11;
+  const vec3 edge_start = m.positions[0], edge_end = m.positions[1];
+  m.positions[12] = edge_start + normalized(edge_end - edge_start) * 0.25 + normalized(edge_start + edge_end) * 0.2;
+  const vec3 centre = (edge_start + edge_end + m.positions[top]) / 3;
+  const auto add_tetrahedron = [&](surface_mesh& mesh) {
+    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
+    for (const vec3& corner : {vec3{0.01, 0.01, 0.01}, vec3{0.01, -0.01, -0.01}, vec3{-0.01, 0.01, -0.01},
+                               vec3{-0.01, -0.01, 0.01}}) {
+      mesh.positions.push_back(centre + corner);
+      mesh.normals.push_back(normalized(corner));
+    }
+    for (const triangle& t : std::vector<triangle>{{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}}) {
+      mesh.triangles.push_back({first + t[0], first + t[1], first + t[2]});
+    }
+  };
+  surface_mesh expected = m;
+  add_tetrahedron(expected);
+
+  const std::uint32_t split = 13;
+  m.positions.push_back(m.positions[5] + normalized(m.positions[6] - m.positions[5]) * 0.2);
+  m.normals.push_back(normalized(m.positions.back()));
+  for (triangle& t : m.triangles) {
+    if (t == triangle{5, 6, top}) t = {5, split, top};
+    if (t == triangle{6, 5, bottom}) t = {6, split, bottom};
+  }
+  m.triangles.push_back({split, 6, top});
+  m.triangles.push_back({split, 5, bottom});
+  add_tetrahedron(m);
+  expect_closed_oriented_manifold(m);
+
+  EXPECT_EQ(collapse_short_edges(m, 0, 0.5), 1u);
+  EXPECT_EQ(m.positions, expected.positions);
+  EXPECT_EQ(canonical(m.triangles), canonical(expected.triangles));
+  expect_closed_oriented_manifold(m);
+}
+
 }  // namespace
 }  // namespace tracemesh
