@@ -13,6 +13,11 @@
 namespace tracemesh::detail {
 namespace {
 
+/// failing_moved_triangles() tests this many moved triangles at a time: the raw 1k4r_capsid at 1 v/Å² moves about a
+/// million in its short-edge collapses, and tested at once they raised the job's peak from 1,047 to 1,321 MB
+/// (2¹⁵ at a time: 992 MB, but 2 s slower, every batch scanning the whole mesh for the triangles near it).
+constexpr std::size_t moved_triangles_per_batch = std::size_t{1} << 17;
+
 box3 box_of(const surface_mesh& mesh, std::uint32_t f) {
   const auto& t = mesh.triangles[f];
   box3 b{mesh.positions[t[0]], mesh.positions[t[0]]};
@@ -147,7 +152,17 @@ std::vector<std::uint32_t> failing_moved_triangles(const surface_mesh& mesh, con
                                                    std::vector<std::uint32_t> moving) {
   std::sort(moving.begin(), moving.end());
   moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
-  return failing_among(mesh, moving, triangles_near(mesh, alive, moving));
+  // In batches of consecutive triangles, so that the local mesh stays small: each batch is tested against every
+  // triangle near it, the other batches' included, so every pair is tested.
+  std::vector<std::uint32_t> failing;
+  for (std::size_t first = 0; first < moving.size(); first += moved_triangles_per_batch) {
+    const std::vector<std::uint32_t> batch(
+        moving.begin() + static_cast<std::ptrdiff_t>(first),
+        moving.begin() + static_cast<std::ptrdiff_t>(std::min(moving.size(), first + moved_triangles_per_batch)));
+    const std::vector<std::uint32_t> found = failing_among(mesh, batch, triangles_near(mesh, alive, batch));
+    failing.insert(failing.end(), found.begin(), found.end());
+  }
+  return failing;
 }
 
 std::vector<std::uint32_t> failing_moved_triangles_among(const surface_mesh& mesh, std::vector<std::uint32_t> moving,
