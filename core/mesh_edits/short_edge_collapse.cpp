@@ -21,9 +21,6 @@ constexpr std::uint32_t smallest_closed_component = 4;
 /// undone whole, so rounds must outlast the refusals: collapsing achbp's raw edges under h̃/2 refused 22, 12, 4 and 0
 /// collapses in turn (of about 2,970), and 3 rounds collapsed none.
 constexpr int max_collapse_rounds = 8;
-/// In a round, the collapses that fail are undone with those after them that touched what they touched, and the
-/// triangles put back are tested again, up to this many times; should they still fail, the round is undone whole.
-constexpr int max_undo_steps = 4;
 /// Passes over the edges, each over the short edges at the vertices the previous one kept: a collapse joins the kept
 /// end to the removed end's neighbours, and one of them may lie close to it (1k4r_capsid at 2 v/Å²: three close
 /// line roots and arc points left an edge of 0.031 × the median after the one pass there was).
@@ -44,8 +41,6 @@ struct candidate_edge {
 struct collapse {
   std::uint32_t kept, removed;
   candidate_edge cause;  ///< the short edge this collapse was made for (itself, or one beside its removed corner)
-  std::array<std::uint32_t, 2> dropped;  ///< the two triangles on the edge
-  std::size_t first_change, end_change;  ///< its records in collapser::changed_
 };
 
 /// The edges with a movable end shorter than max_length, shortest first, each once; with `at` (one flag per
@@ -162,7 +157,6 @@ class collapser {
       if (!(dot(before, after) > 0)) return false;
     }
     alive_[on_edge[0]] = alive_[on_edge[1]] = 0;
-    const std::size_t first_change = changed_.size();
     for (const std::uint32_t f : around_b) {
       if (!alive_[f]) continue;
       changed_.push_back({f, mesh_.triangles[f]});
@@ -171,103 +165,32 @@ class collapser {
     }
     removed_[b] = 1;
     --component_vertices_[component];
-    collapses_.push_back({a, b, cause, {on_edge[0], on_edge[1]}, first_change, changed_.size()});
+    collapses_.push_back({a, b, cause});
     return true;
   }
 
   std::size_t collapses() const { return collapses_.size(); }
 
-  /// The triangles the collapses moved: those around every kept end.
-  std::vector<std::uint32_t> moved_triangles() {
+  /// The collapses some of whose triangles now meet another triangle or are degenerate, by the certificate's own
+  /// tests: the triangles around every kept end against each other and against every triangle whose bounding box
+  /// meets theirs (the others did not move).
+  std::vector<collapse> collapses_that_fail_the_certificate() {
     std::vector<std::uint32_t> moving;
     for (const collapse& done : collapses_) {
       for (const std::uint32_t f : live(done.kept)) moving.push_back(f);
     }
-    return moving;
-  }
-
-  /// The corners of the triangles of `moving` left meeting another triangle or degenerate, by the certificate's own
-  /// tests: against each other and against every triangle whose bounding box meets theirs (the others are as they
-  /// were when last tested, or never moved). Empty when they pass.
-  std::unordered_set<std::uint32_t> corners_failing_the_certificate(std::vector<std::uint32_t> moving) const {
-    std::unordered_set<std::uint32_t> corners;
+    std::unordered_set<std::uint32_t> bad_corners;
     for (const std::uint32_t f : detail::failing_moved_triangles(mesh_, alive_, std::move(moving))) {
-      for (const std::uint32_t v : mesh_.triangles[f]) corners.insert(v);
+      for (const std::uint32_t v : mesh_.triangles[f]) bad_corners.insert(v);
     }
-    return corners;
-  }
-
-  /// The corners failing after undo_collapses_at() put back the triangles `put_back`: those and the triangles the
-  /// collapses left changed near them, tested against each other and against everything near them. Every other
-  /// pair of triangles is as it was when corners_failing_the_certificate() passed it.
-  std::unordered_set<std::uint32_t> corners_failing_around(const std::vector<std::uint32_t>& put_back) const {
-    const std::vector<std::uint32_t> near = detail::triangles_near(mesh_, alive_, put_back);
-    std::vector<char> changed(mesh_.triangles.size(), 0);
+    std::vector<collapse> refused;
     for (const collapse& done : collapses_) {
-      for (std::size_t k = done.first_change; k < done.end_change; ++k) changed[changed_[k].first] = 1;
+      if (bad_corners.count(done.kept) != 0) refused.push_back(done);
     }
-    std::vector<std::uint32_t> moving = put_back;
-    for (const std::uint32_t f : near) {
-      if (changed[f]) moving.push_back(f);
-    }
-    std::unordered_set<std::uint32_t> corners;
-    for (const std::uint32_t f : detail::failing_moved_triangles_among(mesh_, std::move(moving), near)) {
-      for (const std::uint32_t v : mesh_.triangles[f]) corners.insert(v);
-    }
-    return corners;
+    return refused;
   }
 
-  /// Undoes, latest first, the collapses kept at one of `corners` and every later collapse that touched a vertex an
-  /// undone one touched: each collapse left then sees the mesh it was made on, so its checks still hold. Returns the
-  /// triangles put back (alive), which must be tested again (corners_failing_around). On the raw 1k4r_capsid at
-  /// 1 v/Å² about a thousand of 175,579 collapses failed; testing again only around what was put back spares whole
-  /// rounds of 2.6 s.
-  std::vector<std::uint32_t> undo_collapses_at(const std::unordered_set<std::uint32_t>& corners) {
-    std::vector<char> touched(mesh_.positions.size(), 0), undone(collapses_.size(), 0);
-    for (std::size_t i = 0; i < collapses_.size(); ++i) {
-      const std::vector<std::uint32_t> vertices = vertices_touched(collapses_[i]);
-      const bool after_an_undone_one = std::any_of(vertices.begin(), vertices.end(), [&](std::uint32_t v) {
-        return touched[v] != 0;
-      });
-      if (!after_an_undone_one && corners.count(collapses_[i].kept) == 0) continue;
-      undone[i] = 1;
-      for (const std::uint32_t v : vertices) touched[v] = 1;
-    }
-    std::vector<std::uint32_t> put_back;
-    for (std::size_t i = collapses_.size(); i-- > 0;) {
-      if (!undone[i]) continue;
-      const collapse& done = collapses_[i];
-      for (std::size_t k = done.end_change; k-- > done.first_change;) {
-        mesh_.triangles[changed_[k].first] = changed_[k].second;
-        put_back.push_back(changed_[k].first);
-      }
-      for (const std::uint32_t f : done.dropped) {
-        alive_[f] = 1;
-        put_back.push_back(f);
-      }
-      removed_[done.removed] = 0;
-    }
-    std::size_t kept = 0;
-    for (std::size_t i = 0; i < collapses_.size(); ++i) {
-      if (!undone[i]) collapses_[kept++] = collapses_[i];
-    }
-    collapses_.resize(kept);
-    std::erase_if(put_back, [&](std::uint32_t f) { return !alive_[f]; });
-    return put_back;
-  }
-
-  /// The candidate edges that caused a collapse kept at one of `corners`, sorted.
-  std::vector<candidate_edge> causes_of_collapses_at(const std::unordered_set<std::uint32_t>& corners) const {
-    std::vector<candidate_edge> causes;
-    for (const collapse& done : collapses_) {
-      if (corners.count(done.kept) != 0) causes.push_back(done.cause);
-    }
-    std::sort(causes.begin(), causes.end());
-    return causes;
-  }
-
-  /// Puts every triangle back as it was before the collapses (the vertices were not moved), after
-  /// undo_collapses_at() too: the earliest record of each triangle is its state before any collapse.
+  /// Puts every triangle back as it was before the collapses (the vertices were not moved).
   void undo() {
     for (auto it = changed_.rbegin(); it != changed_.rend(); ++it) mesh_.triangles[it->first] = it->second;
   }
@@ -315,16 +238,6 @@ class collapser {
     return list;
   }
   std::size_t live_count(std::uint32_t v) { return live(v).size(); }
-  /// The vertices whose triangles `done` read or changed: its kept end and the corners of the triangles it dropped
-  /// and of those it changed, as they were before it (after, they only have the kept end instead of the removed one).
-  std::vector<std::uint32_t> vertices_touched(const collapse& done) const {
-    std::vector<std::uint32_t> vertices{done.kept};
-    for (const std::uint32_t f : done.dropped) vertices.insert(vertices.end(), mesh_.triangles[f].begin(), mesh_.triangles[f].end());
-    for (std::size_t k = done.first_change; k < done.end_change; ++k) {
-      vertices.insert(vertices.end(), changed_[k].second.begin(), changed_[k].second.end());
-    }
-    return vertices;
-  }
   std::uint32_t third_corner(std::uint32_t f, std::uint32_t a, std::uint32_t b) const {
     for (const std::uint32_t v : mesh_.triangles[f]) {
       if (v != a && v != b) return v;
@@ -372,31 +285,16 @@ std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges,
   for (int round = 0; round < max_collapse_rounds && !edges.empty(); ++round) {
     collapser w(mesh, edges, first_movable_vertex, min_component_vertices, labels);
     for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b, true, e);
-    std::unordered_set<std::uint32_t> failing = w.corners_failing_the_certificate(w.moved_triangles());
-    std::unordered_set<std::uint32_t> failed = failing;  // every corner that failed in this round
-    std::vector<candidate_edge> refused = w.causes_of_collapses_at(failing);
-    for (int step = 0; step < max_undo_steps && !failing.empty(); ++step) {
-      const std::vector<std::uint32_t> put_back = w.undo_collapses_at(failing);
-      if (put_back.empty()) break;  // no collapse of this round's there: the round is undone whole
-      failing = w.corners_failing_around(put_back);
-      const std::vector<candidate_edge> more = w.causes_of_collapses_at(failing);
-      refused.insert(refused.end(), more.begin(), more.end());
-      failed.insert(failing.begin(), failing.end());
-    }
-    if (failing.empty()) {
+    const std::vector<collapse> refused = w.collapses_that_fail_the_certificate();
+    if (refused.empty()) {
       const std::size_t collapsed = w.collapses();
       kept_ends = w.compact();
       return collapsed;
     }
-    // Refused in the next round, from the mesh as it was: every collapse kept at a failing corner, and every short
-    // edge with an end there. Without the second, a refused collapse's place went to a neighbour's, which failed
-    // there in turn (the raw 2buk_capsid at 1 v/Å² took 6 rounds, refusing 41, 16, 2, 2, 2 and 0 collapses of
-    // 19,680, each round 0.26 s).
-    std::sort(refused.begin(), refused.end());
-    std::erase_if(edges, [&](const candidate_edge& e) {
-      return failed.count(e.a) != 0 || failed.count(e.b) != 0 || std::binary_search(refused.begin(), refused.end(), e);
-    });
     w.undo();
+    std::erase_if(edges, [&](const candidate_edge& e) {
+      return std::any_of(refused.begin(), refused.end(), [&](const collapse& r) { return r.cause == e; });
+    });
   }
   return 0;
 }

@@ -282,9 +282,9 @@ TEST(short_edge_collapse, a_collapse_whose_triangles_would_meet_another_triangle
 }
 
 // The same bulge over the tetrahedron, and a second split edge far from it, (5, 6) split 0.2 Å from vertex 5 by
-// vertex 13. Only the collapse that meets the tetrahedron is undone: the other stays, and the mesh is the one
+// vertex 13. Only the collapse that meets the tetrahedron is refused: the other is made, and the mesh is the one
 // without the second split.
-TEST(short_edge_collapse, a_collapse_that_fails_is_undone_alone) {
+TEST(short_edge_collapse, a_collapse_that_fails_is_refused_and_the_others_are_made) {
   surface_mesh m = bipyramid_with_split_edge(0.25);
   for (vec3& p : m.positions) p = p * 10;
   const std::uint32_t top = 10, bottom = 11;
