@@ -37,10 +37,47 @@ bool boxes_meet(const box3& a, const box3& b) {
   return true;
 }
 
-/// The live triangles whose bounding boxes meet those of `moving` (sorted), `moving` included. One parallel pass
-/// over the triangles, with the moving boxes hashed in a grid of cells as large as the largest of them or of a
-/// sample of the mesh's triangles; a bit per hashed cell turns most triangles away before any lookup (on
-/// 1k4r_capsid at 2 v/Å² the pass looks at ten million triangles for a few thousand moved ones).
+/// The triangles of `moving` (sorted, unique) that are degenerate or meet another triangle of `nearby` (sorted,
+/// `moving` included): the triangles of `nearby` that did not move are not tested against each other.
+std::vector<std::uint32_t> failing_among(const surface_mesh& mesh, const std::vector<std::uint32_t>& moving,
+                                         const std::vector<std::uint32_t>& nearby) {
+  // The nearby triangles as a mesh of their own; group 1 (tested before, not against each other) for those that
+  // did not move.
+  surface_mesh local;
+  std::vector<std::uint8_t> groups;
+  std::unordered_map<std::uint32_t, std::uint32_t> local_vertex;
+  for (const std::uint32_t f : nearby) {
+    std::array<std::uint32_t, 3> t{};
+    for (std::size_t i = 0; i < 3; ++i) {
+      const std::uint32_t v = mesh.triangles[f][i];
+      const auto [it, added] = local_vertex.try_emplace(v, static_cast<std::uint32_t>(local.positions.size()));
+      if (added) local.positions.push_back(mesh.positions[v]);
+      t[i] = it->second;
+    }
+    local.triangles.push_back(t);
+    groups.push_back(std::binary_search(moving.begin(), moving.end(), f) ? 0 : 1);
+  }
+  const std::vector<triangle_defect> defects = classify_triangles(local);
+  std::vector<std::uint32_t> failing;
+  const auto add_if_moving = [&](std::uint32_t local_triangle) {
+    if (groups[local_triangle] == 0) failing.push_back(nearby[local_triangle]);
+  };
+  for (std::uint32_t t = 0; t < defects.size(); ++t) {
+    if (defects[t] != triangle_defect::none) add_if_moving(t);
+  }
+  for (const auto& pair : find_intersecting_pairs(local, defects, groups)) {
+    for (const std::uint32_t t : pair) add_if_moving(t);
+  }
+  std::sort(failing.begin(), failing.end());
+  failing.erase(std::unique(failing.begin(), failing.end()), failing.end());
+  return failing;
+}
+
+}  // namespace
+
+// One parallel pass over the triangles, with the moving boxes hashed in a grid of cells as large as the largest of
+// them or of a sample of the mesh's triangles; a bit per hashed cell turns most triangles away before any lookup (on
+// 1k4r_capsid at 2 v/Å² the pass looks at ten million triangles for a few thousand moved ones).
 std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::vector<char>& alive,
                                           const std::vector<std::uint32_t>& moving) {
   double cell = 0;
@@ -110,44 +147,6 @@ std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::v
   for (const auto& part : near_in_block) near.insert(near.end(), part.begin(), part.end());
   return near;
 }
-
-/// The triangles of `moving` (sorted, unique) that are degenerate or meet another triangle of `nearby` (sorted,
-/// `moving` included): the triangles of `nearby` that did not move are not tested against each other.
-std::vector<std::uint32_t> failing_among(const surface_mesh& mesh, const std::vector<std::uint32_t>& moving,
-                                         const std::vector<std::uint32_t>& nearby) {
-  // The nearby triangles as a mesh of their own; group 1 (tested before, not against each other) for those that
-  // did not move.
-  surface_mesh local;
-  std::vector<std::uint8_t> groups;
-  std::unordered_map<std::uint32_t, std::uint32_t> local_vertex;
-  for (const std::uint32_t f : nearby) {
-    std::array<std::uint32_t, 3> t{};
-    for (std::size_t i = 0; i < 3; ++i) {
-      const std::uint32_t v = mesh.triangles[f][i];
-      const auto [it, added] = local_vertex.try_emplace(v, static_cast<std::uint32_t>(local.positions.size()));
-      if (added) local.positions.push_back(mesh.positions[v]);
-      t[i] = it->second;
-    }
-    local.triangles.push_back(t);
-    groups.push_back(std::binary_search(moving.begin(), moving.end(), f) ? 0 : 1);
-  }
-  const std::vector<triangle_defect> defects = classify_triangles(local);
-  std::vector<std::uint32_t> failing;
-  const auto add_if_moving = [&](std::uint32_t local_triangle) {
-    if (groups[local_triangle] == 0) failing.push_back(nearby[local_triangle]);
-  };
-  for (std::uint32_t t = 0; t < defects.size(); ++t) {
-    if (defects[t] != triangle_defect::none) add_if_moving(t);
-  }
-  for (const auto& pair : find_intersecting_pairs(local, defects, groups)) {
-    for (const std::uint32_t t : pair) add_if_moving(t);
-  }
-  std::sort(failing.begin(), failing.end());
-  failing.erase(std::unique(failing.begin(), failing.end()), failing.end());
-  return failing;
-}
-
-}  // namespace
 
 std::vector<std::uint32_t> failing_moved_triangles(const surface_mesh& mesh, const std::vector<char>& alive,
                                                    std::vector<std::uint32_t> moving) {

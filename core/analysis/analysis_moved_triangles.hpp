@@ -17,6 +17,10 @@ namespace tracemesh::detail {
 std::vector<std::uint32_t> failing_moved_triangles(const surface_mesh& mesh, const std::vector<char>& alive,
                                                    std::vector<std::uint32_t> moving);
 
+/// The live triangles whose bounding boxes meet those of `moving` (`moving` included), sorted.
+std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::vector<char>& alive,
+                                          const std::vector<std::uint32_t>& moving);
+
 /// As failing_moved_triangles, but each triangle of `moving` is tested only against the others of `moving` and
 /// against `others` (no search of the mesh): for a second look after some edits were undone, `others` being the
 /// triangles the undoing restored (they passed the certificate before, but not against the edits kept).
