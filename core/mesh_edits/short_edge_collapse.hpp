@@ -39,7 +39,9 @@ namespace tracemesh {
 /// - the two ends have no common neighbour but those two corners (the link condition: the result stays manifold);
 /// - no triangle of the removed end turns over or degenerates when that end moves onto the kept one;
 /// - the certificate's own tests find none of the moved triangles degenerate or meeting another triangle (a
-///   collapse that fails is undone and the others made again, for a few rounds).
+///   collapse that fails is undone with its round and the others made again, for a few rounds; in a pass of 10,000
+///   edges or more, first alone with the later collapses that touched what it touched, its edges going to the next
+///   pass).
 /// The two triangles on the edge go, the removed end's others take the kept end instead, and the unused vertex is
 /// dropped (the others keep their order, as do normals and atom indices when there is one per vertex).
 /// Precondition: `mesh` is closed and oriented. Returns the edges collapsed.

@@ -75,6 +75,43 @@ std::vector<triangle> canonical(std::vector<triangle> triangles) {
 
 void expect_closed_oriented_manifold(const surface_mesh& m) { testing::expect_certified_report(analyze_mesh(m)); }
 
+/// Appends `piece` moved by `shift` to `mesh`: its own vertices, normals and triangles.
+void append(surface_mesh& mesh, const surface_mesh& piece, const vec3& shift) {
+  const auto first = static_cast<std::uint32_t>(mesh.positions.size());
+  for (std::size_t v = 0; v < piece.positions.size(); ++v) {
+    mesh.positions.push_back(piece.positions[v] + shift);
+    mesh.normals.push_back(piece.normals[v]);
+  }
+  for (const triangle& t : piece.triangles) mesh.triangles.push_back({first + t[0], first + t[1], first + t[2]});
+}
+
+/// A closed tetrahedron 0.02 Å across about the origin, counter-clockwise from outside.
+surface_mesh small_tetrahedron() {
+  surface_mesh m;
+  for (const vec3& corner : {vec3{0.01, 0.01, 0.01}, vec3{0.01, -0.01, -0.01}, vec3{-0.01, 0.01, -0.01},
+                             vec3{-0.01, -0.01, 0.01}}) {
+    m.positions.push_back(corner);
+    m.normals.push_back(normalized(corner));
+  }
+  m.triangles = {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}};
+  return m;
+}
+
+/// bipyramid_with_split_edge(0.25) scaled to radius 10, its split vertex 12 pushed 0.2 Å outwards (a bulge over
+/// triangle (0, 1, top)).
+surface_mesh bulged_bipyramid() {
+  surface_mesh m = bipyramid_with_split_edge(0.25);
+  for (vec3& p : m.positions) p = p * 10;
+  const vec3 edge_start = m.positions[0], edge_end = m.positions[1];
+  m.positions[12] = edge_start + normalized(edge_end - edge_start) * 0.25 + normalized(edge_start + edge_end) * 0.2;
+  return m;
+}
+
+/// Where a small tetrahedron lies under the bulge of bulged_bipyramid(): the centroid of triangle (0, 1, top).
+vec3 under_the_bulge(const surface_mesh& bulged) {
+  return (bulged.positions[0] + bulged.positions[1] + bulged.positions[10]) / 3;
+}
+
 TEST(short_edge_collapse, a_hair_short_edge_collapses_back_into_the_closed_mesh) {
   surface_mesh m = bipyramid_with_split_edge(1e-4);
   expect_closed_oriented_manifold(m);
@@ -254,26 +291,14 @@ TEST(short_edge_collapse, a_collapse_that_would_turn_a_triangle_over_is_refused)
   EXPECT_EQ(m.positions, before.positions);
 }
 
+// A bipyramid of radius 10 whose equator edge (0, 1) is split 0.25 Å from vertex 0 by vertex 12 pushed 0.2 Å
+// outwards: the split bulges the surface over the centroid of triangle (0, 1, top) by about 0.07 Å. A tetrahedron
+// of 0.02 Å sits there, under the bulge: collapsing 12 onto 0 flattens the surface back through it.
 TEST(short_edge_collapse, a_collapse_whose_triangles_would_meet_another_triangle_is_undone) {
-  // A bipyramid of radius 10 whose equator edge (0, 1) is split 0.25 Å from vertex 0 by vertex 12 pushed 0.2 Å
-  // outwards: the split bulges the surface over the centroid of triangle (0, 1, top) by about 0.07 Å. A tetrahedron
-  // of 0.02 Å sits there, under the bulge: collapsing 12 onto 0 flattens the surface back through it.
-  surface_mesh m = bipyramid_with_split_edge(0.25);
-  for (vec3& p : m.positions) p = p * 10;
-  const vec3 edge_start = m.positions[0], edge_end = m.positions[1], top = m.positions[10];
-  m.positions[12] = edge_start + normalized(edge_end - edge_start) * 0.25 + normalized(edge_start + edge_end) * 0.2;
+  surface_mesh m = bulged_bipyramid();
   surface_mesh collapsed_alone = m;
   EXPECT_EQ(collapse_short_edges(collapsed_alone, 0, 0.5), 1u) << "the collapse itself is allowed";
-  const vec3 centre = (edge_start + edge_end + top) / 3;
-  const auto first = static_cast<std::uint32_t>(m.positions.size());
-  for (const vec3& corner : {vec3{0.01, 0.01, 0.01}, vec3{0.01, -0.01, -0.01}, vec3{-0.01, 0.01, -0.01},
-                             vec3{-0.01, -0.01, 0.01}}) {
-    m.positions.push_back(centre + corner);
-    m.normals.push_back(normalized(corner));
-  }
-  for (const triangle& t : std::vector<triangle>{{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}}) {
-    m.triangles.push_back({first + t[0], first + t[1], first + t[2]});
-  }
+  append(m, small_tetrahedron(), under_the_bulge(m));
   expect_closed_oriented_manifold(m);
   const surface_mesh before = m;
   EXPECT_EQ(collapse_short_edges(m, 0, 0.5), 0u);
@@ -285,25 +310,11 @@ TEST(short_edge_collapse, a_collapse_whose_triangles_would_meet_another_triangle
 // vertex 13. Only the collapse that meets the tetrahedron is refused: the other is made, and the mesh is the one
 // without the second split.
 TEST(short_edge_collapse, a_collapse_that_fails_is_refused_and_the_others_are_made) {
-  surface_mesh m = bipyramid_with_split_edge(0.25);
-  for (vec3& p : m.positions) p = p * 10;
+  surface_mesh m = bulged_bipyramid();
   const std::uint32_t top = 10, bottom = 11;
-  const vec3 edge_start = m.positions[0], edge_end = m.positions[1];
-  m.positions[12] = edge_start + normalized(edge_end - edge_start) * 0.25 + normalized(edge_start + edge_end) * 0.2;
-  const vec3 centre = (edge_start + edge_end + m.positions[top]) / 3;
-  const auto add_tetrahedron = [&](surface_mesh& mesh) {
-    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
-    for (const vec3& corner : {vec3{0.01, 0.01, 0.01}, vec3{0.01, -0.01, -0.01}, vec3{-0.01, 0.01, -0.01},
-                               vec3{-0.01, -0.01, 0.01}}) {
-      mesh.positions.push_back(centre + corner);
-      mesh.normals.push_back(normalized(corner));
-    }
-    for (const triangle& t : std::vector<triangle>{{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}}) {
-      mesh.triangles.push_back({first + t[0], first + t[1], first + t[2]});
-    }
-  };
+  const vec3 centre = under_the_bulge(m);
   surface_mesh expected = m;
-  add_tetrahedron(expected);
+  append(expected, small_tetrahedron(), centre);
 
   const std::uint32_t split = 13;
   m.positions.push_back(m.positions[5] + normalized(m.positions[6] - m.positions[5]) * 0.2);
@@ -314,12 +325,30 @@ TEST(short_edge_collapse, a_collapse_that_fails_is_refused_and_the_others_are_ma
   }
   m.triangles.push_back({split, 6, top});
   m.triangles.push_back({split, 5, bottom});
-  add_tetrahedron(m);
+  append(m, small_tetrahedron(), centre);
   expect_closed_oriented_manifold(m);
 
   EXPECT_EQ(collapse_short_edges(m, 0, 0.5), 1u);
   EXPECT_EQ(m.positions, expected.positions);
   EXPECT_EQ(canonical(m.triangles), canonical(expected.triangles));
+  expect_closed_oriented_manifold(m);
+}
+
+// The same, among ten thousand other short edges (one in each of as many small bipyramids, side by side): a pass
+// that long undoes only the collapse that fails (short_edge_collapse.cpp: undone_alone_from_edges), and every other
+// is made.
+TEST(short_edge_collapse, among_ten_thousand_short_edges_only_the_one_that_fails_is_refused) {
+  surface_mesh m = bulged_bipyramid();
+  const vec3 bulge = m.positions[12];
+  append(m, small_tetrahedron(), under_the_bulge(m));
+  constexpr int others = 10'000;
+  const surface_mesh small = bipyramid_with_split_edge(1e-4);
+  for (int k = 0; k < others; ++k) append(m, small, {30.0 + 3.0 * (k % 100), 3.0 * (k / 100), 0});
+  const std::size_t vertices = m.positions.size();
+
+  EXPECT_EQ(collapse_short_edges(m, 0, 0.5), static_cast<std::size_t>(others));
+  EXPECT_EQ(m.positions.size(), vertices - others);
+  EXPECT_NE(std::find(m.positions.begin(), m.positions.end(), bulge), m.positions.end()) << "its collapse refused";
   expect_closed_oriented_manifold(m);
 }
 
