@@ -185,39 +185,38 @@ class collapser {
 
   std::size_t collapses() const { return collapses_.size(); }
 
-  /// The collapses some of whose triangles now meet another triangle or are degenerate, by the certificate's own
-  /// tests: the triangles around every kept end against each other and against every triangle whose bounding box
-  /// meets theirs (the others did not move).
-  std::vector<collapse> collapses_that_fail_the_certificate() {
-    std::vector<std::uint32_t> moving;
-    for (const collapse& done : collapses_) {
-      for (const std::uint32_t f : live(done.kept)) moving.push_back(f);
-    }
+  /// The causes of the collapses some of whose triangles now meet another triangle or are degenerate, by the
+  /// certificate's own tests: the triangles around every kept end against each other and against every triangle
+  /// whose bounding box meets theirs (the others did not move).
+  std::vector<candidate_edge> causes_of_collapses_that_fail() {
     std::unordered_set<std::uint32_t> bad_corners;
-    for (const std::uint32_t f : detail::failing_moved_triangles(mesh_, alive_, std::move(moving))) {
+    for (const std::uint32_t f : detail::failing_moved_triangles(mesh_, alive_, moved_triangles())) {
       for (const std::uint32_t v : mesh_.triangles[f]) bad_corners.insert(v);
     }
-    std::vector<collapse> refused;
+    std::vector<candidate_edge> causes;
     for (const collapse& done : collapses_) {
-      if (bad_corners.count(done.kept) != 0) refused.push_back(done);
+      if (bad_corners.count(done.kept) != 0) causes.push_back(done.cause);
     }
-    return refused;
+    return causes;
   }
 
   /// Whether the collapses pass the certificate's tests once those that fail are undone alone (undo_collapses()), in
-  /// up to max_undo_steps steps; when they do not, the caller undoes the round whole.
-  bool settle_by_undoing_the_failed_ones() {
-    std::vector<std::uint32_t> moving;
-    for (const collapse& done : collapses_) {
-      for (const std::uint32_t f : live(done.kept)) moving.push_back(f);
-    }
-    std::vector<std::uint32_t> failing = detail::failing_moved_triangles(mesh_, alive_, std::move(moving));
-    for (int step = 0; step < max_undo_steps && !failing.empty(); ++step) {
+  /// up to max_undo_steps steps. When they do not, the caller undoes the round whole and refuses `failed_causes`:
+  /// the causes of every collapse found failing on the way, those already undone included (so the round made again
+  /// does not repeat them). Left empty when the failures could not be traced to a collapse.
+  bool settle_by_undoing_the_failed_ones(std::vector<candidate_edge>& failed_causes) {
+    std::vector<std::uint32_t> failing = detail::failing_moved_triangles(mesh_, alive_, moved_triangles());
+    for (int step = 0; !failing.empty(); ++step) {
       const std::vector<char> failed = collapses_changing(failing);
-      if (std::none_of(failed.begin(), failed.end(), [](char flag) { return flag != 0; })) return false;
+      for (std::size_t i = 0; i < collapses_.size(); ++i) {
+        if (failed[i]) failed_causes.push_back(collapses_[i].cause);
+      }
+      if (step == max_undo_steps || std::none_of(failed.begin(), failed.end(), [](char flag) { return flag != 0; })) {
+        return false;
+      }
       failing = failing_triangles_around(undo_collapses(failed));
     }
-    return failing.empty();
+    return true;
   }
 
   /// Puts every triangle back as it was before the collapses (the vertices were not moved), after
@@ -271,6 +270,15 @@ class collapser {
     return list;
   }
   std::size_t live_count(std::uint32_t v) { return live(v).size(); }
+
+  /// The triangles the collapses moved: those now around a kept end.
+  std::vector<std::uint32_t> moved_triangles() {
+    std::vector<std::uint32_t> moved;
+    for (const collapse& done : collapses_) {
+      for (const std::uint32_t f : live(done.kept)) moved.push_back(f);
+    }
+    return moved;
+  }
 
   /// The triangles that fail the certificate's tests after undo_collapses() put back `put_back`: those and the
   /// triangles the collapses left changed near them, tested against each other and against everything near them.
@@ -404,20 +412,19 @@ std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges,
   for (int round = 0; round < max_collapse_rounds && !edges.empty(); ++round) {
     collapser w(mesh, edges, first_movable_vertex, min_component_vertices, labels);
     for (const candidate_edge& e : edges) w.try_collapse(e.a, e.b, true, e);
-    if (edges.size() >= undone_alone_from_edges && w.settle_by_undoing_the_failed_ones()) {
-      const std::size_t collapsed = w.collapses();
-      kept_ends = w.compact();
-      return collapsed;
-    }
-    const std::vector<collapse> refused = w.collapses_that_fail_the_certificate();
-    if (refused.empty()) {
+    std::vector<candidate_edge> refused;
+    const bool settled = edges.size() >= undone_alone_from_edges ? w.settle_by_undoing_the_failed_ones(refused)
+                                                                 : false;
+    if (!settled && refused.empty()) refused = w.causes_of_collapses_that_fail();
+    if (settled || refused.empty()) {
       const std::size_t collapsed = w.collapses();
       kept_ends = w.compact();
       return collapsed;
     }
     w.undo();
+    std::sort(refused.begin(), refused.end());
     std::erase_if(edges, [&](const candidate_edge& e) {
-      return std::any_of(refused.begin(), refused.end(), [&](const collapse& r) { return r.cause == e; });
+      return std::binary_search(refused.begin(), refused.end(), e);
     });
   }
   return 0;
