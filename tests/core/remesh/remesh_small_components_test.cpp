@@ -74,6 +74,27 @@ void expect_on_surface_with_normals(const gaussian_field& field, const surface_m
   }
 }
 
+double max_x(const std::vector<vec3>& points) {
+  double x = -1e300;
+  for (const vec3& p : points) x = std::max(x, p.x);
+  return x;
+}
+
+/// Adds a large tetrahedron (6 Å across, never small) with a face in the plane x = `wall` covering y, z in [−3, 3]
+/// about the axis, and its fourth corner at x = 5.
+void add_wall_tetrahedron(surface_mesh& m, double wall) {
+  const auto base = static_cast<std::uint32_t>(m.positions.size());
+  for (const vec3& p : {vec3{wall, -3, -3}, vec3{wall, 3, -3}, vec3{wall, 0, 3}, vec3{5, 0, 0}}) {
+    m.positions.push_back(p);
+    m.normals.push_back(normalized(p - vec3{1.5, 0, 0}));
+  }
+  // Outward seen from its inside (x > wall): the face in the plane faces −x.
+  m.triangles.push_back({base, base + 2, base + 1});
+  m.triangles.push_back({base, base + 1, base + 3});
+  m.triangles.push_back({base + 1, base + 2, base + 3});
+  m.triangles.push_back({base + 2, base, base + 3});
+}
+
 /// Six atoms of radius r at ±1.7 r on the axes: φ(0) = 6·e^(−1.89) ≈ 0.91 < 1, and the gaps between them are
 /// closed (φ ≈ 1.19 at the centres of the octahedron's faces), so a small void surrounds the origin.
 molecule octahedral_void(double r) {
@@ -97,8 +118,10 @@ TEST(remesh_small_components, a_sliver_tetrahedron_of_a_small_sphere_is_made_reg
   testing::expect_certified_report(analyze_mesh(m));
   expect_on_surface_with_normals(field, m);
   EXPECT_EQ(m.positions.size(), 4U);  // a sphere of π/4 Å² asks for fewer vertices than 4 (one per 2 triangles of L)
-  EXPECT_GT(worst_quality(m), 0.9);
-  EXPECT_GT(shortest_edge(m), 0.5);  // the sliver's is 0.06; a regular tetrahedron in this sphere has edges of 0.816
+  // The sliver's shortest edge is 0.06; a regular tetrahedron in this sphere has edges of 0.816 (0.815 here;
+  // polishing that stopped once every triangle's quality reached 0.9 left 0.736).
+  EXPECT_GT(worst_quality(m), 0.98) << worst_quality(m);
+  EXPECT_GT(shortest_edge(m), 0.8) << shortest_edge(m);
 }
 
 TEST(remesh_small_components, a_sliver_tetrahedron_of_a_tiny_cavity_is_made_regular_and_faces_into_the_cavity) {
@@ -112,7 +135,8 @@ TEST(remesh_small_components, a_sliver_tetrahedron_of_a_tiny_cavity_is_made_regu
 
   testing::expect_certified_report(analyze_mesh(m));
   expect_on_surface_with_normals(field, m);
-  EXPECT_GT(worst_quality(m), 0.8);
+  EXPECT_GT(worst_quality(m), 0.98) << worst_quality(m);
+  EXPECT_GT(shortest_edge(m), 0.83) << shortest_edge(m);  // 0.845; 0.807 when polishing stopped at quality 0.9
   for (const triangle& t : m.triangles) {  // outward from the molecule is into the void, towards its centre
     const vec3 &a = m.positions[t[0]], &b = m.positions[t[1]], &c = m.positions[t[2]];
     EXPECT_LT(dot(detail::area_vector(a, b, c), a + b + c), 0);
@@ -137,16 +161,7 @@ TEST(remesh_small_components, a_remake_that_would_cut_another_component_is_not_m
   const gaussian_field field(molecule{{atom{{0, 0, 0}, 0.5, 0}}, 0}, -1, 1);
   surface_mesh m = sliver_tetrahedron(field, {0, 0, 0}, 2);
   ASSERT_LT(std::max({m.positions[0].x, m.positions[1].x, m.positions[2].x, m.positions[3].x}), 0.16);
-  const auto base = static_cast<std::uint32_t>(m.positions.size());
-  for (const vec3& p : {vec3{0.16, -3, -3}, vec3{0.16, 3, -3}, vec3{0.16, 0, 3}, vec3{5, 0, 0}}) {
-    m.positions.push_back(p);
-    m.normals.push_back(normalized(p - vec3{1.5, 0, 0}));
-  }
-  // Outward seen from its inside (x > 0.16): the face in the plane faces −x.
-  m.triangles.push_back({base, base + 2, base + 1});
-  m.triangles.push_back({base, base + 1, base + 3});
-  m.triangles.push_back({base + 1, base + 2, base + 3});
-  m.triangles.push_back({base + 2, base, base + 3});
+  add_wall_tetrahedron(m, 0.16);
   testing::expect_certified_report(analyze_mesh(m));
   const surface_mesh before = m;
 
@@ -154,6 +169,34 @@ TEST(remesh_small_components, a_remake_that_would_cut_another_component_is_not_m
 
   EXPECT_EQ(m.positions, before.positions);
   EXPECT_EQ(m.triangles, before.triangles);
+}
+
+TEST(remesh_small_components, a_lengthened_remake_that_would_cut_another_component_falls_back_to_the_polished_one) {
+  // A cigar of three atoms along x (1.8 Å long, 0.9 Å wide): polished, its tetrahedron stays within x < 0.5;
+  // lengthened, a corner goes out to x = 0.72. A wall at x = 0.6 lets the first through, not the second.
+  const gaussian_field field(
+      molecule{{atom{{-0.5, 0, 0}, 0.45, 0}, atom{{0, 0, 0}, 0.45, 0}, atom{{0.5, 0, 0}, 0.45, 0}}, 0}, -1, 1);
+  const double wall = 0.6, target_edge = 1.3;
+  const surface_mesh sliver = sliver_tetrahedron(field, {0, 0, 0}, 2);
+  surface_mesh alone = sliver;
+  ASSERT_EQ(detail::resample_small_components(alone, field, target_edge), 1U);
+  ASSERT_GT(max_x(alone.positions), wall);
+  surface_mesh m = sliver;
+  add_wall_tetrahedron(m, wall);
+
+  EXPECT_EQ(detail::resample_small_components(m, field, target_edge), 1U);
+
+  testing::expect_certified_report(analyze_mesh(m));
+  surface_mesh cigar;  // the remade component: after the wall's 4 vertices and 4 triangles
+  cigar.positions.assign(m.positions.begin() + 4, m.positions.end());
+  for (auto it = m.triangles.begin() + 4; it != m.triangles.end(); ++it) {
+    cigar.triangles.push_back({(*it)[0] - 4, (*it)[1] - 4, (*it)[2] - 4});
+  }
+  ASSERT_EQ(cigar.positions.size(), 4U);
+  EXPECT_LT(max_x(cigar.positions), wall);
+  EXPECT_GE(worst_quality(cigar), 0.9);
+  EXPECT_GT(shortest_edge(cigar), 0.9);                   // 0.98; the sliver's 0.07
+  EXPECT_GT(shortest_edge(alone), shortest_edge(cigar));  // 1.06 lengthened
 }
 
 }  // namespace
