@@ -45,7 +45,12 @@ namespace tracemesh {
 /// The two triangles on the edge go, the removed end's others take the kept end instead, and the unused vertex is
 /// dropped (the others keep their order, as do normals and atom indices when there is one per vertex).
 /// Precondition: `mesh` is closed and oriented. Returns the edges collapsed.
+/// What to do where a short edge's ends have a third common neighbour e (the link condition fails): leave the edge
+/// (the raw trace mesh, whose triangles must stay those of its polygons), or first flip the edge from an end to e
+/// (the quality pass), keeping the flip only when the certificate's tests pass it.
+enum class blocked_links { left, flipped };
+
 std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length,
-                                 std::uint32_t min_component_vertices = 8);
+                                 std::uint32_t min_component_vertices = 8, blocked_links links = blocked_links::left);
 
 }  // namespace tracemesh

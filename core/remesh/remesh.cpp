@@ -62,7 +62,8 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
   stats.remade_components = detail::resample_small_components(mesh, field, l);
   // After the remakes: a small cavity whose remake the certificate's tests refused (a thin wall to another sheet,
   // which its new faces would cross) may still lose its short edges, down to a tetrahedron.
-  stats.final_collapses = collapse_short_edges(mesh, 0, options.final_collapse_below * l, smallest_collapsed_component);
+  stats.final_collapses = collapse_short_edges(mesh, 0, options.final_collapse_below * l, smallest_collapsed_component,
+                                               blocked_links::flipped);
   return stats;
 }
 

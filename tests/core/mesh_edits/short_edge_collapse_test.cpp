@@ -352,5 +352,48 @@ TEST(short_edge_collapse, among_ten_thousand_short_edges_only_the_one_that_fails
   expect_closed_oriented_manifold(m);
 }
 
+/// A closed slab: a square top at z = 0 (4 × 4 Å) over a bottom of two triangles at z = −1. The top's short edge
+/// (b, a) = (0, 1), 0.05 Å long, is the base of the thin triangle (a, b, e) that is not a face: four vertices lie
+/// inside it, so a and b have a third common neighbour, e, besides the corners c and d of the edge's triangles.
+/// Top: 0 b (0.05, 0), 1 a (0, 0), 2 e (0.02, 1.2), 3 c (0.025, 0.15), 4 g (0.038, 0.4), 5 k (0.027, 0.8),
+/// 6 d (0.025, −1), 7–10 the corners (−2, −2), (2, −2), (2, 2), (−2, 2); 11–14 the corners below them.
+surface_mesh slab_with_a_blocked_short_edge() {
+  surface_mesh m;
+  m.positions = {{0.05, 0, 0}, {0, 0, 0},  {0.02, 1.2, 0}, {0.025, 0.15, 0}, {0.038, 0.4, 0},
+                 {0.027, 0.8, 0}, {0.025, -1, 0}, {-2, -2, 0}, {2, -2, 0}, {2, 2, 0}, {-2, 2, 0},
+                 {-2, -2, -1}, {2, -2, -1}, {2, 2, -1}, {-2, 2, -1}};
+  const std::uint32_t b = 0, a = 1, e = 2, c = 3, g = 4, k = 5, d = 6, B0 = 7, B1 = 8, B2 = 9, B3 = 10;
+  m.triangles = {// inside (a, b, e)
+                 {a, b, c}, {a, c, e}, {c, b, g}, {g, b, k}, {k, b, e}, {c, g, k}, {c, k, e},
+                 // the rest of the top
+                 {b, a, d}, {a, B0, d}, {d, B0, B1}, {b, d, B1}, {b, B1, B2}, {b, B2, e}, {e, B2, B3}, {a, e, B3},
+                 {a, B3, B0},
+                 // the bottom, facing down
+                 {11, 13, 12}, {11, 14, 13}};
+  for (std::uint32_t i = 0; i < 4; ++i) {  // the sides, between the top's corner 7 + i and the bottom's 11 + i
+    const std::uint32_t top = 7 + i, next = 7 + (i + 1) % 4;
+    m.triangles.push_back({next, top, top + 4});
+    m.triangles.push_back({next, top + 4, next + 4});
+  }
+  for (const vec3& p : m.positions) m.normals.push_back(p.z == 0 ? vec3{0, 0, 1} : vec3{0, 0, -1});
+  return m;
+}
+
+TEST(short_edge_collapse, an_edge_whose_ends_have_a_third_common_neighbour_is_left_unless_links_may_be_flipped) {
+  surface_mesh m = slab_with_a_blocked_short_edge();
+  expect_closed_oriented_manifold(m);
+  const surface_mesh before = m;
+
+  EXPECT_EQ(collapse_short_edges(m, 0, 0.1), 0u);  // collapsing it would pinch the top along (a, e)
+  EXPECT_EQ(m.triangles, before.triangles);
+
+  // The quality pass flips (a, e) into (c, corner (−2, 2)) first; then a goes onto b.
+  EXPECT_EQ(collapse_short_edges(m, 0, 0.1, 8, blocked_links::flipped), 1u);
+  EXPECT_EQ(m.positions.size(), before.positions.size() - 1);
+  EXPECT_EQ(m.positions[0], before.positions[0]);  // b, the kept end
+  EXPECT_EQ(std::find(m.positions.begin(), m.positions.end(), before.positions[1]), m.positions.end());
+  expect_closed_oriented_manifold(m);
+}
+
 }  // namespace
 }  // namespace tracemesh
