@@ -115,6 +115,30 @@ vec3 area_normal(const surface_mesh& mesh, const triangle& t) {
   return cross(mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
 }
 
+/// The neighbours of v, from `around`, its triangles: sorted, each once.
+std::vector<std::uint32_t> neighbours_of(const surface_mesh& mesh, const std::vector<std::uint32_t>& around,
+                                         std::uint32_t v) {
+  std::vector<std::uint32_t> out;
+  for (const std::uint32_t f : around) {
+    for (const std::uint32_t w : mesh.triangles[f]) {
+      if (w != v) out.push_back(w);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// The neighbours a and b share, from their triangles around_a and around_b: sorted.
+std::vector<std::uint32_t> common_neighbours(const surface_mesh& mesh, const std::vector<std::uint32_t>& around_a,
+                                             const std::vector<std::uint32_t>& around_b, std::uint32_t a,
+                                             std::uint32_t b) {
+  const std::vector<std::uint32_t> na = neighbours_of(mesh, around_a, a), nb = neighbours_of(mesh, around_b, b);
+  std::vector<std::uint32_t> common;
+  std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
+  return common;
+}
+
 class collapser {
  public:
   /// `labels`: the components of `mesh` (the same for every round: a round that fails is undone whole).
@@ -160,9 +184,8 @@ class collapser {
       if (!try_collapse(near_end, corner, false, cause) && !try_collapse(far_end, corner, false, cause)) return false;
       return try_collapse(a, b, false, cause);
     }
-    if (common_neighbours(around_a, around_b, a, b) != std::vector<std::uint32_t>{std::min(c, d), std::max(c, d)}) {
-      return false;
-    }
+    const std::vector<std::uint32_t> corners{std::min(c, d), std::max(c, d)};
+    if (common_neighbours(mesh_, around_a, around_b, a, b) != corners) return false;
     for (const std::uint32_t f : around_b) {
       if (f == on_edge[0] || f == on_edge[1]) continue;
       triangle moved = mesh_.triangles[f];
@@ -371,25 +394,6 @@ class collapser {
     }
     return a;  // cannot happen: a triangle has three distinct corners
   }
-  std::vector<std::uint32_t> neighbours(const std::vector<std::uint32_t>& around, std::uint32_t v) const {
-    std::vector<std::uint32_t> out;
-    for (const std::uint32_t f : around) {
-      for (const std::uint32_t w : mesh_.triangles[f]) {
-        if (w != v) out.push_back(w);
-      }
-    }
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
-    return out;
-  }
-  std::vector<std::uint32_t> common_neighbours(const std::vector<std::uint32_t>& around_a,
-                                               const std::vector<std::uint32_t>& around_b, std::uint32_t a,
-                                               std::uint32_t b) const {
-    const std::vector<std::uint32_t> na = neighbours(around_a, a), nb = neighbours(around_b, b);
-    std::vector<std::uint32_t> common;
-    std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
-    return common;
-  }
 
   surface_mesh& mesh_;
   std::uint32_t first_movable_;
@@ -411,19 +415,6 @@ std::vector<std::uint32_t> triangles_at(const surface_mesh& mesh, local_incidenc
     if (contains(mesh.triangles[f], v)) at.push_back(f);
   }
   return at;
-}
-
-std::vector<std::uint32_t> neighbours_of(const surface_mesh& mesh, const std::vector<std::uint32_t>& around,
-                                         std::uint32_t v) {
-  std::vector<std::uint32_t> out;
-  for (const std::uint32_t f : around) {
-    for (const std::uint32_t w : mesh.triangles[f]) {
-      if (w != v) out.push_back(w);
-    }
-  }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
-  return out;
 }
 
 /// A flip made: two triangles and their corners before it.
@@ -495,11 +486,7 @@ bool collapsible(const surface_mesh& mesh, local_incidence& incidence, const can
     }
   }
   std::sort(corners.begin(), corners.end());
-  const std::vector<std::uint32_t> na = neighbours_of(mesh, around_a, edge.a);
-  const std::vector<std::uint32_t> nb = neighbours_of(mesh, around_b, edge.b);
-  std::vector<std::uint32_t> common;
-  std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
-  return corners.size() == 2 && common == corners;
+  return corners.size() == 2 && common_neighbours(mesh, around_a, around_b, edge.a, edge.b) == corners;
 }
 
 /// For each of `edges` whose ends a and b have a common neighbour e besides the third corners of the edge's two
@@ -519,10 +506,9 @@ std::size_t flip_edges_blocking_links(surface_mesh& mesh, const std::vector<cand
   };
   for (const candidate_edge& edge : edges) {
     if (touched[edge.a] || touched[edge.b]) continue;
-    const std::vector<std::uint32_t> na = neighbours_of(mesh, triangles_at(mesh, incidence, edge.a), edge.a);
-    const std::vector<std::uint32_t> nb = neighbours_of(mesh, triangles_at(mesh, incidence, edge.b), edge.b);
-    std::vector<std::uint32_t> common;
-    std::set_intersection(na.begin(), na.end(), nb.begin(), nb.end(), std::back_inserter(common));
+    const std::vector<std::uint32_t> common =
+        common_neighbours(mesh, triangles_at(mesh, incidence, edge.a), triangles_at(mesh, incidence, edge.b), edge.a,
+                          edge.b);
     if (common.size() != 3) continue;  // two are the edge's corners; more than one other is left alone
     for (const std::uint32_t e : common) {
       if (touched[e]) continue;
