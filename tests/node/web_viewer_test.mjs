@@ -110,12 +110,15 @@ function readPly(bytes) {
 /// same atom index; returns the number of mismatches (and reports the first few).
 function compareAtomIndices(what, decoded, reference, tolerance = 0.02) {
   const cell = 0.05;
-  const key = (x, y, z) => `${Math.floor(x / cell)},${Math.floor(y / cell)},${Math.floor(z / cell)}`;
+  // Cells by integer index: neighbours found as index ± 1, not as the cell of (x ± cell), which rounding can skip
+  // (z = 24.25 − 0.05 falls in cell 483, not 484).
+  const cellOf = (x, y, z) => [Math.floor(x / cell), Math.floor(y / cell), Math.floor(z / cell)];
+  const key = ([i, j, k]) => `${i},${j},${k}`;
   const grid = new Map();
   const count = reference.atomIndex.length;
   for (let v = 0; v < count; ++v) {
     const p = reference.positions.subarray(3 * v, 3 * v + 3);
-    const k = key(p[0], p[1], p[2]);
+    const k = key(cellOf(p[0], p[1], p[2]));
     if (!grid.has(k)) grid.set(k, []);
     grid.get(k).push(v);
   }
@@ -125,8 +128,9 @@ function compareAtomIndices(what, decoded, reference, tolerance = 0.02) {
     const [x, y, z] = decoded.positions.slice(3 * v, 3 * v + 3);
     let best = -1;
     let bestDistance = Infinity;
+    const [i, j, k] = cellOf(x, y, z);
     for (let dx = -1; dx <= 1; ++dx) for (let dy = -1; dy <= 1; ++dy) for (let dz = -1; dz <= 1; ++dz) {
-      for (const r of grid.get(key(x + dx * cell, y + dy * cell, z + dz * cell)) ?? []) {
+      for (const r of grid.get(key([i + dx, j + dy, k + dz])) ?? []) {
         const d = Math.hypot(reference.positions[3 * r] - x, reference.positions[3 * r + 1] - y, reference.positions[3 * r + 2] - z);
         if (d < bestDistance) [best, bestDistance] = [r, d];
       }
