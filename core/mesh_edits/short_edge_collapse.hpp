@@ -16,8 +16,8 @@
 ///   frozen and keep the raw mesh's short edges (1k4r_5asu at 2 v/Å²: 0.041 × the median edge). Edges under
 ///   0.15 L are collapsed at its end.
 ///
-/// A collapse moves the removed end onto the kept one (the lower-numbered end, a vertex of the surface), so every
-/// vertex stays where it was.
+/// A collapse moves the removed end onto the kept one (the lower-numbered end, a vertex of the surface; or the other
+/// one, when both may move and keeping the lower one is refused), so every vertex stays where it was.
 
 #include <cstddef>
 #include <cstdint>

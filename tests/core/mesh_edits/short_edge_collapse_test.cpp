@@ -277,18 +277,72 @@ TEST(short_edge_collapse, a_collapse_that_would_pinch_the_surface_is_refused_whe
   EXPECT_EQ(m.triangles, before.triangles);
 }
 
-TEST(short_edge_collapse, a_collapse_that_would_turn_a_triangle_over_is_refused) {
-  // Triangle (12, 1, top) has normal (1 − p₁₂) × (top − 1): it changes sign as vertex 12 crosses the line through 1
-  // and the top. With 12 and 0 3 mÅ either side of that line's midpoint (6 mÅ apart), collapsing 12 onto 0 would turn
-  // it over.
+/// Triangle (12, 1, top) has normal (1 − p₁₂) × (top − 1): it changes sign as vertex 12 crosses the line through 1
+/// and the top. With 12 and 0 3 mÅ either side of that line's midpoint (6 mÅ apart), collapsing 12 onto 0 would turn
+/// it over.
+surface_mesh bipyramid_whose_split_vertex_may_not_go_onto_vertex_0() {
   surface_mesh m = bipyramid_with_split_edge(1e-4);
   const vec3 midpoint = (m.positions[1] + m.positions[10]) * 0.5;
   m.positions[12] = midpoint + vec3{3e-3, 0, 0};
   m.positions[0] = midpoint - vec3{3e-3, 0, 0};
+  return m;
+}
+
+TEST(short_edge_collapse, a_collapse_that_would_turn_a_triangle_over_is_refused) {
+  surface_mesh m = bipyramid_whose_split_vertex_may_not_go_onto_vertex_0();
   const surface_mesh before = m;
-  EXPECT_EQ(collapse_short_edges(m, 0, 1e-2), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 1, 1e-2), 0u);  // vertex 0 may not move
   EXPECT_EQ(m.triangles, before.triangles);
   EXPECT_EQ(m.positions, before.positions);
+}
+
+/// A closed slab: a top at z = 0 over a copy of it at z = −1 (its triangles reversed), joined by sides. On the top,
+/// the short edge (a, b) = (0, 1), 0.05 Å long: b's triangle (b, s, r) is a sliver whose line s–r passes between a
+/// and b, so b may not go onto a (it would turn over), while a may go onto b.
+/// Top: 0 a (0, 0), 1 b (0.05, 0), 2 c (0, 0.6), 3 d (0.03, −0.6), 4 t (0.7, −0.2), 5 s (0.575, 0.6), 6 r (0.3, 0.3),
+/// 7 e (−0.6, 0.3), 8 f (−0.6, −0.4); the bottom's vertices are numbered 9 on.
+surface_mesh slab_whose_short_edge_keeps_its_higher_end() {
+  const std::vector<vec3> top{{0, 0, 0},      {0.05, 0, 0},  {0, 0.6, 0},  {0.03, -0.6, 0},  {0.7, -0.2, 0},
+                              {0.575, 0.6, 0}, {0.3, 0.3, 0}, {-0.6, 0.3, 0}, {-0.6, -0.4, 0}};
+  const std::uint32_t a = 0, b = 1, c = 2, d = 3, t = 4, s = 5, r = 6, e = 7, f = 8, n = 9;
+  const std::vector<triangle> top_triangles{{b, d, t}, {b, t, s}, {b, s, r}, {b, r, c}, {b, c, a},
+                                            {b, a, d}, {a, c, e}, {a, e, f}, {a, f, d}};
+  const std::vector<std::uint32_t> boundary{d, t, s, r, c, e, f};  // counter-clockwise seen from above
+  surface_mesh m;
+  for (const vec3& p : top) {
+    m.positions.push_back(p);
+    m.normals.push_back({0, 0, 1});
+  }
+  for (const vec3& p : top) {
+    m.positions.push_back(p + vec3{0, 0, -1});
+    m.normals.push_back({0, 0, -1});
+  }
+  for (const triangle& tri : top_triangles) {
+    m.triangles.push_back(tri);
+    m.triangles.push_back({tri[0] + n, tri[2] + n, tri[1] + n});
+  }
+  for (std::size_t i = 0; i < boundary.size(); ++i) {
+    const std::uint32_t p = boundary[i], q = boundary[(i + 1) % boundary.size()];
+    m.triangles.push_back({q, p, p + n});
+    m.triangles.push_back({q, p + n, q + n});
+  }
+  return m;
+}
+
+TEST(short_edge_collapse, where_the_lower_end_may_not_be_kept_the_other_is_when_both_may_move) {
+  surface_mesh m = slab_whose_short_edge_keeps_its_higher_end();
+  const surface_mesh before = m;
+  expect_closed_oriented_manifold(m);
+
+  EXPECT_EQ(collapse_short_edges(m, 0, 0.1), 2u);  // on the top and on the bottom
+
+  ASSERT_EQ(m.positions.size(), 16u);
+  for (const std::uint32_t gone : {0u, 9u}) {  // a and its copy below went onto b and its copy
+    EXPECT_EQ(std::find(m.positions.begin(), m.positions.end(), before.positions[gone]), m.positions.end());
+  }
+  EXPECT_EQ(m.positions[0], before.positions[1]);
+  EXPECT_EQ(m.positions[8], before.positions[10]);
+  expect_closed_oriented_manifold(m);
 }
 
 // A bipyramid of radius 10 whose equator edge (0, 1) is split 0.25 Å from vertex 0 by vertex 12 pushed 0.2 Å
