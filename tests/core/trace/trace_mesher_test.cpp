@@ -39,6 +39,9 @@ result<mesh_output> mesh_trace(const molecule& mol, double density, refine_mode 
 
 using testing::atoms;
 
+/// h̃ at density 1: the tests below that place atoms against the lines give their lengths in units of it.
+const double unit_h = trace_line_spacing(1.0);
+
 /// Every clause of the certificate, one by one (so a failure says which).
 void expect_certified(const result<mesh_output>& out) {
   ASSERT_TRUE(out.ok()) << out.error().message();
@@ -229,17 +232,17 @@ TEST_P(trace_shapes, hollow_shell_has_a_cavity) {
 
 INSTANTIATE_TEST_SUITE_P(refine, trace_shapes, refine_values, refine_case_name);
 
-// A void so small that no line reaches it at density 1: 100 atoms of radius 2.07 on a sphere of radius 5 centred
-// at (0.13, 0.5, 0.5), the middle of a cell of the h̃ = 1 Å lattice, leave a void of radius ≈ 0.61 Å (φ = 0.80 at
-// its centre). The lines nearest to it are 0.71 Å away, so no line holds a root of it (method.md §7.5). Before the
-// search for untouched cavities it was lost at density 1 (one component); now the lines' dips lead to it, and it
-// is meshed on a local grid of its own (spacing 0.5 Å, one line through its minimum) as a cavity with the area and
-// volume that the trace itself gives at density 4 (h̃ = 0.5 Å, lines through the void: 4.50 Å², −0.63 Å³), and
-// the area of the lattice path's at 20 v/Å² (4.57 Å²; its volume, −0.91 Å³, is larger than the chords of a 0.6 Å
-// sphere at 0.5 Å spacing can enclose). At density 2 (h̃ = 0.71 Å) line (1, 1) passes 0.29 Å from its centre and
-// the lines meet it themselves.
+// A void so small that no line reaches it at density 1 (lengths in units of h̃ there, unit_h): 100 atoms of radius
+// 2.07 on a sphere of radius 5 centred at (0.13, 0.5, 0.5), the middle of a cell of the lattice, leave a void of
+// radius ≈ 0.61 (φ = 0.80 at its centre). The lines nearest to it are 0.71 away, so no line holds a root of it
+// (method.md §7.5). Before the search for untouched cavities it was lost at density 1 (one component); now the
+// lines' dips lead to it, and it is meshed on a local grid of its own (spacing 0.5, one line through its minimum)
+// as a cavity with the area and volume that the trace itself gives at density 4 (h̃ = 0.5, lines through the void;
+// 4.50 Å², −0.63 Å³ with unit_h = 1 Å), and the area of the lattice path's at 20 v/Å² (4.57 Å²; its volume, −0.91
+// Å³, is larger than the chords of a 0.6 Å sphere at 0.5 Å spacing can enclose). At density 2 (h̃ = 0.71) line
+// (1, 1) passes 0.29 from its centre and the lines meet it themselves.
 TEST(trace_mesher, a_void_no_line_reaches_is_found_from_the_lines_dips_and_meshed_on_a_local_grid) {
-  const molecule mol = testing::fibonacci_shell(100, 5, 2.07, {0.13, 0.5, 0.5});
+  const molecule mol = testing::fibonacci_shell(100, 5 * unit_h, 2.07 * unit_h, vec3{0.13, 0.5, 0.5} * unit_h);
   mesh_params fine_lattice;
   fine_lattice.method = mesh_method::lattice;
   fine_lattice.density = 20;
@@ -279,13 +282,13 @@ TEST(trace_mesher, a_void_no_line_reaches_is_found_from_the_lines_dips_and_meshe
 }
 
 // A lattice line (nearly) tangent to the surface: its two roots are a few µÅ to mÅ apart, and every walk point near
-// them is an extreme point. Atom of radius 3 at (0.123, ε, 0), density 1 (h̃ = 1): line (3, 0) at y = 3 cuts the
-// sphere at x = 0.123 ± √(6ε). ε = 0 puts the line exactly on the tangent plane (a double root, left out as a
+// them is an extreme point. Atom of radius 3 at (0.123, ε, 0), density 1, lengths in units of h̃ (unit_h): line
+// (3, 0) at y = 3 cuts the sphere at x = 0.123 ± √(6ε). ε = 0 puts the line exactly on the tangent plane (a double root, left out as a
 // tangency). Known failure, in the README's limits: ε = ±1e-6 (roots 5 mÅ apart, a cap 1 µÅ high) leaves two
 // cells open, an error rather than a wrong mesh.
 TEST(trace_mesher, a_line_nearly_tangent_to_the_surface_still_gives_a_certified_mesh) {
   for (const double eps : {0.0, 1e-12, 1e-8, 1e-4, -1e-4}) {
-    const auto out = mesh_trace(atoms({{{0.123, eps, 0.0}, 3.0, 0}}), 1.0, refine_mode::none);
+    const auto out = mesh_trace(atoms({{vec3{0.123, eps, 0.0} * unit_h, 3.0 * unit_h, 0}}), 1.0, refine_mode::none);
     EXPECT_TRUE(out.ok()) << "engine bug at ε = " << eps << ": " << (out.ok() ? "" : out.error().message());
     if (out.ok()) {
       EXPECT_TRUE(out->certified);
@@ -295,22 +298,23 @@ TEST(trace_mesher, a_line_nearly_tangent_to_the_surface_still_gives_a_certified_
 }
 
 // A line that grazes the surface across a cap thinner than 1e-4 h̃ is a tangency, not two crossings. Atom of
-// radius 3 at (0.123, ε, 0), density 1: line (3, 0) cuts the sphere at x = 0.123 ± √(6ε) across a cap ε high.
+// radius 3 at (0.123, ε, 0), density 1, in units of h̃: line (3, 0) cuts the sphere at x = 0.123 ± √(6ε) across a cap ε high.
 // Meshed, such a cap was a lens of four vertices: its two middle points (one per plane) were ε apart and its
 // triangles had edges of ε and √(6ε)/2 (at ε = 1e-5: a shortest raw edge of 0.0077 Å; on 1k4r_capsid at 1 v/Å² a
 // frozen patch kept one of 5e-5 Å, which broke its Draco encoding). Left out, the mesh is an ordinary sphere,
 // its shortest raw edge a third of h̃ as without the line.
 TEST(trace_mesher, a_line_grazing_the_surface_across_a_hair_thin_cap_makes_no_lens) {
   for (const double eps : {1e-6, 1e-5, 3e-5, 6e-5}) {
-    const auto out = mesh_trace(atoms({{{0.123, eps, 0.0}, 3.0, 0}}), 1.0, refine_mode::none);
+    const auto out = mesh_trace(atoms({{vec3{0.123, eps, 0.0} * unit_h, 3.0 * unit_h, 0}}), 1.0, refine_mode::none);
     expect_certified(out);
     ASSERT_TRUE(out.ok());
     EXPECT_EQ(out->report.components.size(), 1u);
-    EXPECT_GT(out->report.quality.shortest_edge, 0.25) << "a lens at ε = " << eps;
+    EXPECT_GT(out->report.quality.shortest_edge, 0.25 * unit_h) << "a lens at ε = " << eps;
   }
 }
 
-// A line grazing a sphere across a cap 0.5–3 mÅ high where the surface faces (0, 1, 1)/√2: radius 3, centre
+// A line grazing a sphere across a cap 0.5–3 thousandths of h̃ high where the surface faces (0, 1, 1)/√2, in units
+// of h̃: radius 3, centre
 // (0.123, 3 − (3 − ε)/√2, −(3 − ε)/√2), line (3, 0) at distance 3 − ε from it. The cap is thin across both planes
 // through the line, so the return arcs through its two roots keep their middle points at y = 3 + √2·ε and
 // z = √2·ε, about 2ε apart: a lens whose middle edge is welded (short_edge_collapse.hpp). Unwelded, that edge was
@@ -318,19 +322,21 @@ TEST(trace_mesher, a_line_grazing_the_surface_across_a_hair_thin_cap_makes_no_le
 TEST(trace_mesher, a_lens_where_a_line_grazes_a_thin_cap_is_welded) {
   for (const double eps : {5e-4, 1e-3, 3e-3}) {
     const double offset = (3.0 - eps) / std::numbers::sqrt2;
-    const auto out = mesh_trace(atoms({{{0.123, 3.0 - offset, -offset}, 3.0, 0}}), 1.0, refine_mode::none);
+    const auto out =
+        mesh_trace(atoms({{vec3{0.123, 3.0 - offset, -offset} * unit_h, 3.0 * unit_h, 0}}), 1.0, refine_mode::none);
     expect_certified(out);
     ASSERT_TRUE(out.ok());
     EXPECT_EQ(out->report.components.size(), 1u);
     EXPECT_GE(out->trace.welded_edges, 1u) << "ε = " << eps;
-    EXPECT_GT(out->report.quality.shortest_edge, 0.01) << "a lens left at ε = " << eps;
+    EXPECT_GT(out->report.quality.shortest_edge, 0.01 * unit_h) << "a lens left at ε = " << eps;
     expect_consistent_stats(*out, 1.0);
   }
 }
 
-// The same for lines exactly tangent to a sphere centred on a lattice point (y² + z² = r² for some line).
+// The same for lines exactly tangent to a sphere centred on a lattice point: radius j·h̃, so line (j, 0) touches it.
 TEST(trace_mesher, lines_exactly_tangent_to_a_sphere_on_a_lattice_point_give_a_certified_mesh) {
-  for (const auto& [r, density] : std::vector<std::pair<double, double>>{{2.0, 1.0}, {3.0, 2.0}, {1.5, 4.0}}) {
+  for (const auto& [j, density] : std::vector<std::pair<double, double>>{{2.0, 1.0}, {3.0, 2.0}, {3.0, 4.0}}) {
+    const double r = j * trace_line_spacing(density);
     const auto out = mesh_trace(atoms({{{0, 0, 0}, r, 0}}), density, refine_mode::none);
     EXPECT_TRUE(out.ok()) << "engine bug: r = " << r << " at the origin, density " << density << ": "
                           << (out.ok() ? "" : out.error().message());
