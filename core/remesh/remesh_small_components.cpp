@@ -338,7 +338,7 @@ struct remake {
 /// The best remake of `component` (see the file comment) when its worst triangle beats the component's; nullopt
 /// otherwise.
 std::optional<remake> remade(const surface_mesh& mesh, const gaussian_field& field,
-                                 const small_component& component, double target_edge) {
+                             const small_component& component, double target_edge) {
   const small_mesh old = as_small_mesh(mesh, component);
   vec3 centre{};
   for (const vec3& p : old.positions) centre += p;
