@@ -115,6 +115,19 @@ vec3 area_normal(const surface_mesh& mesh, const triangle& t) {
   return cross(mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
 }
 
+/// Whether moving `removed` onto `kept` turns none of `around` (triangles at `removed`) over or flat; those that
+/// also hold `kept` (the edge's two, which go) are skipped.
+bool moves_without_turning(const surface_mesh& mesh, const std::vector<std::uint32_t>& around, std::uint32_t removed,
+                           std::uint32_t kept) {
+  for (const std::uint32_t f : around) {
+    if (contains(mesh.triangles[f], kept)) continue;
+    triangle moved = mesh.triangles[f];
+    std::replace(moved.begin(), moved.end(), removed, kept);
+    if (!(dot(area_normal(mesh, mesh.triangles[f]), area_normal(mesh, moved)) > 0)) return false;
+  }
+  return true;
+}
+
 /// The neighbours of v, from `around`, its triangles: sorted, each once.
 std::vector<std::uint32_t> neighbours_of(const surface_mesh& mesh, const std::vector<std::uint32_t>& around,
                                          std::uint32_t v) {
@@ -186,13 +199,7 @@ class collapser {
     }
     const std::vector<std::uint32_t> corners{std::min(c, d), std::max(c, d)};
     if (common_neighbours(mesh_, around_a, around_b, a, b) != corners) return false;
-    for (const std::uint32_t f : around_b) {
-      if (f == on_edge[0] || f == on_edge[1]) continue;
-      triangle moved = mesh_.triangles[f];
-      std::replace(moved.begin(), moved.end(), b, a);
-      const vec3 before = area_normal(mesh_, mesh_.triangles[f]), after = area_normal(mesh_, moved);
-      if (!(dot(before, after) > 0)) return false;
-    }
+    if (!moves_without_turning(mesh_, around_b, b, a)) return false;
     alive_[on_edge[0]] = alive_[on_edge[1]] = 0;
     const std::size_t first_change = changed_.size();
     for (const std::uint32_t f : around_b) {
@@ -473,14 +480,10 @@ std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, st
 bool collapsible(const surface_mesh& mesh, local_incidence& incidence, const candidate_edge& edge) {
   const std::vector<std::uint32_t> around_a = triangles_at(mesh, incidence, edge.a);
   const std::vector<std::uint32_t> around_b = triangles_at(mesh, incidence, edge.b);
+  if (!moves_without_turning(mesh, around_b, edge.b, edge.a)) return false;
   std::vector<std::uint32_t> corners;
   for (const std::uint32_t f : around_b) {
-    if (!contains(mesh.triangles[f], edge.a)) {
-      triangle moved = mesh.triangles[f];
-      std::replace(moved.begin(), moved.end(), edge.b, edge.a);
-      if (!(dot(area_normal(mesh, mesh.triangles[f]), area_normal(mesh, moved)) > 0)) return false;
-      continue;
-    }
+    if (!contains(mesh.triangles[f], edge.a)) continue;
     for (const std::uint32_t w : mesh.triangles[f]) {
       if (w != edge.a && w != edge.b) corners.push_back(w);
     }
