@@ -37,6 +37,7 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
       {"polygons", stats.polygons},
       {"extreme_points", stats.extreme_points},
       {"retraced_arcs", stats.retraced_arcs},
+      {"untangled_points", stats.untangled_points},
       {"fallback_loops", stats.fallback_loops},
       {"welded_edges", stats.welded_edges},
       {"collapsed_raw_edges", stats.collapsed_raw_edges},

@@ -8,11 +8,6 @@
 namespace tracemesh::detail {
 namespace {
 
-/// A point of a plane, expressed in the two coordinates left after dropping one axis.
-struct point2 {
-  double x, y;
-};
-
 /// The axis along which the normal of (a, b, c) is largest: dropping it projects the triangle's plane onto a
 /// coordinate plane without collapsing it. Any axis whose exact normal component is non-zero would do; the
 /// largest computed one is safely non-zero for a non-degenerate triangle.
@@ -40,14 +35,6 @@ bool strictly_same_side(int s0, int s1, int s2) { return (s0 > 0 && s1 > 0 && s2
 bool within_collinear_segment(const point2& a, const point2& b, const point2& p) {
   return std::min(a.x, b.x) <= p.x && p.x <= std::max(a.x, b.x) && std::min(a.y, b.y) <= p.y &&
          p.y <= std::max(a.y, b.y);
-}
-
-bool segments_intersect_2d(const point2& a, const point2& b, const point2& c, const point2& d) {
-  const int c_side = orient(a, b, c), d_side = orient(a, b, d);
-  const int a_side = orient(c, d, a), b_side = orient(c, d, b);
-  if (c_side * d_side < 0 && a_side * b_side < 0) return true;  // proper crossing
-  return (c_side == 0 && within_collinear_segment(a, b, c)) || (d_side == 0 && within_collinear_segment(a, b, d)) ||
-         (a_side == 0 && within_collinear_segment(c, d, a)) || (b_side == 0 && within_collinear_segment(c, d, b));
 }
 
 bool point_in_triangle_2d(const point2& p, const point2 (&t)[3]) {
@@ -83,6 +70,14 @@ std::array<std::uint32_t, 3> rotate_to_front(const std::array<std::uint32_t, 3>&
 }
 
 }  // namespace
+
+bool segments_intersect_2d(const point2& a, const point2& b, const point2& c, const point2& d) {
+  const int c_side = orient(a, b, c), d_side = orient(a, b, d);
+  const int a_side = orient(c, d, a), b_side = orient(c, d, b);
+  if (c_side * d_side < 0 && a_side * b_side < 0) return true;  // proper crossing
+  return (c_side == 0 && within_collinear_segment(a, b, c)) || (d_side == 0 && within_collinear_segment(a, b, d)) ||
+         (a_side == 0 && within_collinear_segment(c, d, a)) || (b_side == 0 && within_collinear_segment(c, d, b));
+}
 
 bool triangles_intersect(const triangle_corners& t, const triangle_corners& u) {
   const std::array<int, 3> t_sides = sides_of_plane(u, t);

@@ -17,6 +17,14 @@ namespace tracemesh::detail {
 
 using triangle_corners = std::array<vec3, 3>;
 
+/// A point of a plane, expressed in two coordinates (e.g. those left after dropping one axis).
+struct point2 {
+  double x, y;
+};
+
+/// True when closed segments [a, b] and [c, d] of one plane have a common point (touching counts), exactly.
+bool segments_intersect_2d(const point2& a, const point2& b, const point2& c, const point2& d);
+
 /// True when closed triangles t and u have at least one common point (touching counts).
 bool triangles_intersect(const triangle_corners& t, const triangle_corners& u);
 

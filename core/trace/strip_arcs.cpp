@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 
+#include "core/analysis/triangle_intersection.hpp"
+
 namespace tracemesh {
 namespace {
 
@@ -70,6 +72,7 @@ struct strip_lines {
 struct kept_point {
   surface_sample sample;
   std::uint32_t walk_point = 0;
+  double length = 0;  ///< arc length of the point along the walk
 };
 
 /// The point at arc length s (cumulative `length`, strictly inside the walk), interpolated between its two walk
@@ -81,21 +84,22 @@ kept_point point_at_length(const std::vector<surface_sample>& points, const std:
   const double t = segment > 0 ? std::clamp((s - length[n]) / segment, 0.0, 1.0) : 0.5;
   const surface_sample &a = points[n], &b = points[n + 1];
   return {{a.position + (b.position - a.position) * t, a.gradient + (b.gradient - a.gradient) * t, false},
-          static_cast<std::uint32_t>(t < 0.5 ? n : n + 1)};
+          static_cast<std::uint32_t>(t < 0.5 ? n : n + 1), s};
 }
 
 /// The vertex of an arc whose ends are both on the line v = line_v and which keeps no other: its point farthest from
 /// the line. (Where the line cuts a thin cap, this arc and the perpendicular plane's return arc through the same two
 /// roots bound a lens and both points sit at its middle; putting them at a third and two thirds of the span instead
 /// left a cell of 3j6r_asu at 1 v/Å² that no triangulation could close, README "Deviations".)
-kept_point return_arc_point(const std::vector<surface_sample>& points, int v_axis, double line_v) {
+kept_point return_arc_point(const std::vector<surface_sample>& points, const std::vector<double>& length, int v_axis,
+                            double line_v) {
   std::size_t farthest = 1;
   for (std::size_t n = 1; n + 1 < points.size(); ++n) {
     if (std::abs(points[n].position[v_axis] - line_v) > std::abs(points[farthest].position[v_axis] - line_v)) {
       farthest = n;
     }
   }
-  return {points[farthest], static_cast<std::uint32_t>(farthest)};
+  return {points[farthest], static_cast<std::uint32_t>(farthest), length[farthest]};
 }
 
 /// The vertices an arc keeps strictly between its ends, in walk order: every extreme point not within
@@ -132,7 +136,7 @@ std::vector<kept_point> resample(const std::vector<surface_sample>& points, doub
   std::vector<kept_point> kept;
   for (std::size_t f = 0; f + 1 < forced.size(); ++f) {
     const std::uint32_t a = forced[f], b = forced[f + 1];
-    if (f > 0) kept.push_back({points[a], a});
+    if (f > 0) kept.push_back({points[a], a, length[a]});
     const double span = length[b] - length[a];
     const auto pieces = static_cast<long>(std::max(1.0, std::round(span / spacing)));
     for (long q = 1; q < pieces; ++q) {
@@ -140,7 +144,7 @@ std::vector<kept_point> resample(const std::vector<surface_sample>& points, doub
       kept.push_back(point_at_length(points, length, target));
     }
   }
-  if (same_line && kept.empty() && points.size() > 2) kept.push_back(return_arc_point(points, v_axis, line_v));
+  if (same_line && kept.empty() && points.size() > 2) kept.push_back(return_arc_point(points, length, v_axis, line_v));
   return kept;
 }
 
@@ -166,6 +170,16 @@ std::int64_t end_root(std::span<const line_point> roots, double x, int phi_x_sig
   return best;
 }
 
+/// An arc traced but not yet stored: its walk, the points it keeps (polished, in walk order) and its ends.
+struct pending_arc {
+  std::vector<surface_sample> walk;
+  std::vector<double> length;  ///< arc length along the walk
+  std::vector<kept_point> kept;
+  vec3 first, last;            ///< the roots it starts (walk order) and ends at
+  bool canonical = true;
+  strip_arc stored;
+};
+
 /// Puts a point near the contour onto it to 1e-11 Å, keeping its flags; false (p unchanged) when that fails.
 bool polish(const gaussian_field& field, const trace_plane& plane, surface_sample& p, double h,
             std::size_t& evaluations) {
@@ -174,6 +188,97 @@ bool polish(const gaussian_field& field, const trace_plane& plane, surface_sampl
   polished.extreme = p.extreme;
   p = polished;
   return true;
+}
+
+/// Rounds of untangle_arcs (a round splits every crossing edge; one or two rounds untangle the hairpins found).
+constexpr int max_untangle_rounds = 8;
+
+/// One edge of an arc's polyline in its strip's plane (x and the in-plane axis across the strip).
+struct polyline_edge {
+  detail::point2 from, to;
+  std::uint32_t arc, index;  ///< joins vertex `index` and `index + 1` of arc `arc` (vertex 0: its first root)
+  double low_x() const { return std::min(from.x, to.x); }
+};
+
+/// Vertex n of an arc's polyline: its first root, its kept points, its last root.
+const vec3& polyline_vertex(const pending_arc& arc, std::size_t n) {
+  return n == 0 ? arc.first : n == arc.kept.size() + 1 ? arc.last : arc.kept[n - 1].sample.position;
+}
+
+/// The polylines' edges, arc after arc.
+std::vector<polyline_edge> polyline_edges(const std::vector<pending_arc>& arcs, int v_axis) {
+  std::vector<polyline_edge> out;
+  for (std::uint32_t a = 0; a < arcs.size(); ++a) {
+    for (std::uint32_t n = 0; n <= arcs[a].kept.size(); ++n) {
+      const vec3 &p = polyline_vertex(arcs[a], n), &q = polyline_vertex(arcs[a], n + 1);
+      out.push_back({{p.x, p[v_axis]}, {q.x, q[v_axis]}, a, n});
+    }
+  }
+  return out;
+}
+
+/// Edges that meet another edge other than their neighbour on the same arc (exactly: touching counts), as
+/// (arc, index), sorted. Edges are swept in x: only those whose x ranges overlap are tested.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> crossing_edges(std::vector<polyline_edge> edges) {
+  std::sort(edges.begin(), edges.end(), [](const polyline_edge& a, const polyline_edge& b) { return a.low_x() < b.low_x(); });
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
+  for (std::size_t i = 0; i < edges.size(); ++i) {
+    const polyline_edge& a = edges[i];
+    const double a_high_x = std::max(a.from.x, a.to.x);
+    for (std::size_t j = i + 1; j < edges.size() && edges[j].low_x() <= a_high_x; ++j) {
+      const polyline_edge& b = edges[j];
+      if (a.arc == b.arc && (a.index + 1 == b.index || b.index + 1 == a.index)) continue;
+      if (!detail::segments_intersect_2d(a.from, a.to, b.from, b.to)) continue;
+      out.emplace_back(a.arc, a.index);
+      out.emplace_back(b.arc, b.index);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+/// Keeps the walk point between vertices `index` and `index + 1` of `arc` that lies farthest from their chord
+/// (polished onto the contour); false when the walk has no point between them.
+bool split_edge(const gaussian_field& field, const trace_plane& plane, double h, pending_arc& arc, std::uint32_t index,
+                strip_trace& out) {
+  const int v = plane.v_axis();
+  const double s0 = index == 0 ? 0.0 : arc.kept[index - 1].length;
+  const double s1 = index == arc.kept.size() ? arc.length.back() : arc.kept[index].length;
+  const vec3 &p = polyline_vertex(arc, index), &q = polyline_vertex(arc, index + 1);
+  const auto offset = [&](const vec3& w) {  // ∝ the distance from w to the chord pq in the plane
+    return std::abs((q.x - p.x) * (w[v] - p[v]) - (q[v] - p[v]) * (w.x - p.x));
+  };
+  std::size_t best = 0;
+  for (std::size_t n = 1; n + 1 < arc.walk.size(); ++n) {
+    if (!(arc.length[n] > s0 && arc.length[n] < s1)) continue;
+    if (best == 0 || offset(arc.walk[n].position) > offset(arc.walk[best].position)) best = n;
+  }
+  if (best == 0) return false;
+  kept_point k{arc.walk[best], static_cast<std::uint32_t>(best), arc.length[best]};
+  if (!polish(field, plane, k.sample, h, out.evaluations)) ++out.unpolished;
+  arc.kept.insert(arc.kept.begin() + index, k);
+  ++out.untangled_points;
+  return true;
+}
+
+/// The arcs of one strip as kept (straight edges between their kept points) must not cross each other or
+/// themselves, as the contour does not: where the contour makes a hairpin narrower than a chord's sagitta (a pinch
+/// between sharp atoms), the straight edges of its two sides cross, and no cell beside the strip can close its loop.
+/// Each crossing edge keeps its walk point farthest from its chord, until none crosses (Douglas–Peucker, driven by
+/// crossings).
+void untangle_arcs(const gaussian_field& field, const trace_plane& plane, double h, std::vector<pending_arc>& arcs,
+                   strip_trace& out) {
+  for (int round = 0; round < max_untangle_rounds; ++round) {
+    const auto crossing = crossing_edges(polyline_edges(arcs, plane.v_axis()));
+    if (crossing.empty()) return;
+    bool split = false;
+    // From the last edge of each arc back, so that an insertion does not renumber the edges still to split.
+    for (auto it = crossing.rbegin(); it != crossing.rend(); ++it) {
+      split |= split_edge(field, plane, h, arcs[it->first], it->second, out);
+    }
+    if (!split) return;
+  }
 }
 
 /// Distance from root i to the nearest other root of its line (infinity when alone).
@@ -213,6 +318,7 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
   step.extreme_tolerance = settings.extreme_tolerance;
   step.walk_field = settings.walk_field;
 
+  std::vector<pending_arc> pending;
   for (int side = 0; side < 2; ++side) {
     for (std::size_t i = 0; i < roots[side].size(); ++i) {
       if (covered[side][i]) continue;
@@ -252,27 +358,36 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
         out.late_roots.push_back({line_ids[end_side], {end_x, arc.points.back().gradient, true}});
       }
       const double line_v = side == 0 ? step.v_low : step.v_high;
-      const std::vector<kept_point> kept = resample(arc.points, settings.resample_spacing, end_side == side,
-                                                       strip_lines{v, step.v_low, step.v_high}, line_v);
-      strip_arc stored;
-      stored.first_interior = static_cast<std::uint32_t>(out.interior.size());
-      stored.interior_count = static_cast<std::uint32_t>(kept.size());
-      const arc_end from{side, root.x}, to{end_side, end_x};
-      const bool canonical = sign > 0;
-      stored.start = canonical ? from : to;
-      stored.end = canonical ? to : from;
-      for (std::size_t n = 0; n < kept.size(); ++n) {
-        const kept_point& k = kept[canonical ? n : kept.size() - 1 - n];
-        surface_sample p = k.sample;
-        if (!polish(field, surface_plane, p, h, out.evaluations)) {  // a walk point is within the corrector's tolerance
-          p = arc.points[k.walk_point];
-          if (!polish(field, surface_plane, p, h, out.evaluations)) ++out.unpolished;
+      pending_arc p;
+      p.kept = resample(arc.points, settings.resample_spacing, end_side == side,
+                        strip_lines{v, step.v_low, step.v_high}, line_v);
+      for (kept_point& k : p.kept) {
+        if (!polish(field, surface_plane, k.sample, h, out.evaluations)) {  // a walk point is within the corrector's tolerance
+          k.sample = arc.points[k.walk_point];
+          if (!polish(field, surface_plane, k.sample, h, out.evaluations)) ++out.unpolished;
         }
-        out.interior.push_back(p);
-        if (p.extreme) ++out.extreme_points;
       }
-      out.arcs.push_back(stored);
+      const arc_end from{side, root.x}, to{end_side, end_x};
+      p.canonical = sign > 0;
+      p.stored.start = p.canonical ? from : to;
+      p.stored.end = p.canonical ? to : from;
+      p.first = root_position(strip, side, root.x, h);
+      p.last = root_position(strip, end_side, end_x, h);
+      p.length = arc_lengths(arc.points);
+      p.walk = std::move(arc.points);
+      pending.push_back(std::move(p));
     }
+  }
+  untangle_arcs(field, surface_plane, h, pending, out);
+  for (pending_arc& p : pending) {
+    p.stored.first_interior = static_cast<std::uint32_t>(out.interior.size());
+    p.stored.interior_count = static_cast<std::uint32_t>(p.kept.size());
+    for (std::size_t n = 0; n < p.kept.size(); ++n) {
+      const surface_sample& q = p.kept[p.canonical ? n : p.kept.size() - 1 - n].sample;
+      out.interior.push_back(q);
+      if (q.extreme) ++out.extreme_points;
+    }
+    out.arcs.push_back(p.stored);
   }
   for (int side = 0; side < 2; ++side) {
     out.failures += static_cast<std::size_t>(std::count(covered[side].begin(), covered[side].end(), 0));

@@ -48,6 +48,7 @@ struct strip_trace {
   std::size_t extreme_points = 0;  ///< kept interior points with φ_x ≈ 0
   std::size_t retraced = 0;        ///< arcs traced again with a smaller step after a failure or conflict
   std::size_t failures = 0;        ///< roots left without an arc (the mesh cannot close: an error later)
+  std::size_t untangled_points = 0;  ///< kept points added where the arcs' straight edges crossed (untangle_arcs)
   std::size_t unpolished = 0;      ///< kept points left as the walk put them (within the corrector's tolerance)
   /// The arcs were traced at a level t0·(1 ± ε) next to t0, the contour at t0 crossing itself in the strip's plane
   /// (strip_arcs.cpp, level_shifts); their points lie on φ = t0, their ends are the lines' roots.

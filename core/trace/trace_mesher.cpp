@@ -20,9 +20,9 @@ namespace {
 
 /// h̃ = line_spacing_at_unit_density / √density. The paper: h̃ = 1.0 Å ≈ 1 vertex/Å², 0.7 Å ≈ 2 (calibrated in
 /// README "Method": the achieved raw density within ±20% of the request).
-constexpr double line_spacing_at_unit_density = 1.0;
+constexpr double line_spacing_at_unit_density = 0.93;
 /// Kept interior points of an arc are about this × h̃ apart (method.md §7.7 asks for ≤ 1.5 h̃).
-constexpr double resample_spacing_factor = 1.0;
+constexpr double resample_spacing_factor = 1.15;
 /// A root where |φ_x| is below this × |∇φ| is a tangency of its line (a double root), not a crossing…
 constexpr double tangent_tolerance = 1e-6;
 /// …and so are two neighbouring roots of opposite φ_x where |φ_x| is below tangent_pair_slope × |∇φ|, when they are
@@ -205,6 +205,7 @@ void number_interior_points(traced_surface& surface, trace_stats& stats) {
     next += static_cast<std::uint32_t>(t.interior.size());
     stats.arcs += t.arcs.size();
     stats.extreme_points += t.extreme_points;
+    stats.untangled_points += t.untangled_points;
     stats.retraced_arcs += t.retraced;
     stats.level_shifted_strips += t.level_shifted;
   }

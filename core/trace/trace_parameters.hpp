@@ -38,6 +38,8 @@ struct trace_stats {
   std::size_t polygons = 0;             ///< closed polygons of Algorithm 2 (one per surface piece in a cell)
   std::size_t extreme_points = 0;       ///< points with φ_x = 0 (step 4) kept as vertices
   std::size_t retraced_arcs = 0;        ///< arcs traced again with a smaller step after a conflict
+  /// walk points kept in addition where an arc's straight edges crossed another's or its own (strip_arcs.cpp)
+  std::size_t untangled_points = 0;
   /// strips whose arcs were traced at t0·(1 ± ε) because the contour at t0 crosses itself in their plane
   std::size_t level_shifted_strips = 0;
   std::size_t fallback_loops = 0;       ///< polygons triangulated with a Steiner point on the surface

@@ -86,6 +86,7 @@ trace_stats sample_trace_stats() {
   t.polygons = 106;
   t.extreme_points = 7;
   t.retraced_arcs = 8;
+  t.untangled_points = 18;
   t.fallback_loops = 9;
   t.welded_edges = 15;
   t.collapsed_raw_edges = 17;
@@ -166,6 +167,7 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"polygons", 106},
                                    {"extreme_points", 7},
                                    {"retraced_arcs", 8},
+                                   {"untangled_points", 18},
                                    {"fallback_loops", 9},
                                    {"welded_edges", 15},
                                    {"collapsed_raw_edges", 17},
