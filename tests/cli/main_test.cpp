@@ -429,12 +429,12 @@ TEST_F(TracemeshCli, TraceMethodGivesCertifiedMeshesWithTraceReports) {
   }
 }
 
-// fas2 with a sharp kernel leaves cells the trace path cannot close on any line grid (tests/core/mesher_test.cpp):
+// mache with a sharp kernel leaves cells the trace path cannot close on any line grid (tests/core/mesher_test.cpp):
 // the CLI still writes a certified mesh, made by the lattice path, warns in one line and says so in the report.
 TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheReport) {
-  const fs::path off = path("fas2.off");
+  const fs::path off = path("mache.off");
   const run_result result =
-      run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-15", "--t0", "10",
+      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-15", "--t0", "0.3",
            "--density", "0.5", "--method", "trace", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());
@@ -447,12 +447,12 @@ TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheRe
   EXPECT_EQ(result.err.rfind("tracemesh: warning: the trace path failed (", 0), 0u) << result.err;
 }
 
-// fas2 at d = −20, t0 = 0.3 leaves a cell open on the first line grid and closes on the second: no warning (the
+// fas2 at d = −20, t0 = 1 leaves cells open on the first line grid and closes on the second: no warning (the
 // mesh is the trace path's), and the report says where the lines were and how long the failed attempt took.
 TEST_F(TracemeshCli, ATraceRetriedOnAnotherLineGridSaysSoInTheReport) {
   const fs::path off = path("fas2.off");
   const run_result result = run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-20",
-                                 "--t0", "0.3", "--method", "trace", "--refine", "none", "--report", "-"});
+                                 "--t0", "1", "--method", "trace", "--refine", "none", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method_used"), "trace");

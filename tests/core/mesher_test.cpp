@@ -203,11 +203,13 @@ TEST_P(mesher, only_radius_zero_atoms_is_nothing_to_mesh) {
 }
 
 TEST_P(mesher, a_surface_smaller_than_the_sampling_is_the_users_density_not_an_empty_surface) {
-  // d = −12 shrinks gly's surface to spheres of about its atoms' radii, which lines 4.5–4.8 Å apart (density 0.05)
-  // all miss; at density 0.1 they are meshed. The surface exists (φ ≥ e^12 at every centre): before, the error
-  // said it was empty.
-  const result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
+  // d = −12 shrinks gly's surface to spheres of about its atoms' radii, which lines 4.2–4.8 Å apart (density 0.05)
+  // all miss, gly moved by 0.5 Å in y and 2 Å in z (of the 81 moves of 0–4 Å by 0.5 Å, the one where both paths'
+  // samplings miss it); at density 0.1 they are meshed. The surface exists (φ ≥ e^12 at every centre): before, the
+  // error said it was empty.
+  result<molecule> gly = read_pqr_file(testing::molecule_path("gly.pqr"));
   ASSERT_TRUE(gly.ok());
+  for (atom& a : gly->atoms) a.center = a.center + vec3{0, 0.5, 2.0};
   mesh_params params = params_with(0.05);
   params.d = -12;
   params.threads = 1;
@@ -292,14 +294,9 @@ TEST(mesher_sharp_kernel, tiny_cavities_stay_outward_oriented_through_the_qualit
   EXPECT_GT(out->report.cavities, 50u);
 }
 
-// mache at d = −15, t0 = 0.01, 1 v/Å²: walls of cells are tangent to the surface at saddles, where the contour in
-// the wall crosses itself and no walk gets past. Until 2026-11-28 every line grid met such a strip (the first one's
-// raw mesh also came out non-manifold, and the quality pass's refusal of it was mapped to an internal error so that
-// the job was retried) and the lattice path made the mesh: area 32,488 Å² against 36,716 Å² at 4 v/Å². Those strips
-// are now traced at t0·(1 ± ε) (strip_arcs.cpp) and the first grid's trace is certified: area 36,927 Å².
-/// The trace job of `file` at 1 v/Å², d, t0, refined; expects it certified and traced on the first line grid.
-result<mesh_output> traced_on_the_first_grid(const char* file, double d, double t0) {
-  result<mesh_output> out = mesh_file(file, sharp_params(mesh_method::trace, 1, d, t0, refine_mode::full));
+/// The trace job of `file` at `density`, d, t0, refined; expects it certified and traced on the first line grid.
+result<mesh_output> traced_on_the_first_grid(const char* file, double d, double t0, double density = 1) {
+  result<mesh_output> out = mesh_file(file, sharp_params(mesh_method::trace, density, d, t0, refine_mode::full));
   EXPECT_TRUE(out.ok()) << out.error().message();
   if (!out.ok()) return out;
   EXPECT_TRUE(out->certified);
@@ -308,21 +305,36 @@ result<mesh_output> traced_on_the_first_grid(const char* file, double d, double 
   return out;
 }
 
+// Walls of cells tangent to the surface at saddles, where the contour in the wall crosses itself and no walk gets
+// past: until 2026-11-28 every line grid met such a strip on mache at d = −15, t0 = 0.01, 1 v/Å², and the lattice
+// path made the mesh with an area 11.5% under the lattice path's own at 4 v/Å². Those strips are now traced at
+// t0·(1 ± ε) (strip_arcs.cpp). On villin_1vii at d = −15, t0 = 1, 1 v/Å² (h̃ = 0.93 Å) one strip is, and the first
+// grid's trace is certified with the lattice path's area at 4 v/Å² (3,258 Å²) to 1% (0.9% measured).
 TEST(mesher_sharp_kernel, strips_whose_contour_crosses_itself_are_traced_at_a_shifted_level) {
-  const result<mesh_output> out = traced_on_the_first_grid("mache.pqr", -15, 0.01);
+  const result<mesh_output> out = traced_on_the_first_grid("villin_1vii.pqr", -15, 1);
   ASSERT_TRUE(out.ok());
   EXPECT_GT(out->trace.level_shifted_strips, 0u);
-  EXPECT_NEAR(out->report.area, 36716, 0.02 * 36716);  // the lattice path's at 4 v/Å², converged to ~1%
+  EXPECT_NEAR(out->report.area, 3258, 0.01 * 3258);
 }
 
-// fas2 at d = −15, t0 = 10, 1 v/Å²: on the first line grid one loop doubles back on itself along a wall where the
-// contour passes a pinch, every triangulation of the dynamic programme folds over itself, and the job needed the
-// second grid (found 2026-11-28 by bench/sharp_kernel_sweep.py). The loop is now cut into ears in its own plane
-// (loop_triangulation.hpp: triangulate_loop_in_its_plane, a counted fallback) and the first grid is certified.
+// A loop may double back on itself along a wall where the contour passes a pinch; every triangulation of the
+// dynamic programme then folds over itself (found 2026-11-28 on fas2 by bench/sharp_kernel_sweep.py). Such a loop
+// is cut into ears in its own plane (loop_triangulation.hpp: triangulate_loop_in_its_plane, a counted fallback).
+// fas2 at d = −8, t0 = 0.1, 1 v/Å² (h̃ = 0.93 Å) has one, and without that fallback needs the second line grid.
 TEST(mesher_sharp_kernel, a_loop_that_doubles_back_in_a_wall_is_triangulated_in_its_plane) {
-  const result<mesh_output> out = traced_on_the_first_grid("fas2.pqr", -15, 10);
+  const result<mesh_output> out = traced_on_the_first_grid("fas2.pqr", -8, 0.1);
   ASSERT_TRUE(out.ok());
   EXPECT_GT(out->trace.fallback_loops, 0u);
+}
+
+// A crevice between sharp atoms makes the contour in a wall a hairpin narrower than the sagitta of the arc's
+// straight edges, which then cross, and the cells beside the wall cannot close. On fas2 at d = −20, t0 = 0.1,
+// 0.5 v/Å² that happened on all three line grids and the lattice path made the mesh (found 2026-11-29). Crossing
+// edges now keep more walk points (strip_arcs.cpp: untangle_arcs; its own test in strip_arcs_test.cpp).
+TEST(mesher_sharp_kernel, arcs_whose_straight_edges_cross_are_untangled_and_their_cells_close) {
+  const result<mesh_output> out = traced_on_the_first_grid("fas2.pqr", -20, 0.1, 0.5);
+  ASSERT_TRUE(out.ok());
+  EXPECT_GT(out->trace.untangled_points, 0u);
 }
 
 /// Vertices that lie on a line y = (j + offset[0])·h, z = (k + offset[1])·h (to 1e-9·h): the roots of the lines.
@@ -336,13 +348,13 @@ std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_gri
   }));
 }
 
-// A sharp kernel (d = −20) makes creases within much less than a line spacing of a line: on fas2 at t0 = 0.3 and
-// density 1 the trace leaves one cell open on the lines through the origin. It is traced again on lines moved by
+// A sharp kernel (d = −20) makes creases within much less than a line spacing of a line: on fas2 at t0 = 1 and
+// density 1 the trace leaves cells open on the lines through the origin. It is traced again on lines moved by
 // half a spacing in y and z, where every cell closes: the mesh is the trace path's, its roots lie on the moved lines,
 // the failed attempt's time is counted, and it is the same whatever the thread count.
 TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_line_grid) {
   const result<mesh_output> one =
-      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 0.3, refine_mode::none, 1));
+      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 1, refine_mode::none, 1));
   ASSERT_TRUE(one.ok()) << one.error().message();
   EXPECT_TRUE(one->certified);
   EXPECT_TRUE(one->fallback_reason.empty()) << one->fallback_reason;
@@ -356,7 +368,7 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
                                                              one->trace.late_roots);
 
   const result<mesh_output> two =
-      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 0.3, refine_mode::none, 2));
+      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 1, refine_mode::none, 2));
   ASSERT_TRUE(two.ok()) << two.error().message();
   EXPECT_EQ(two->trace.grid_retries, 1u);
   EXPECT_EQ(one->mesh.positions, two->mesh.positions);
@@ -373,14 +385,14 @@ TEST(mesher_retry, a_trace_that_closes_every_cell_is_not_retried) {
   EXPECT_GT(vertices_on_lines(out->mesh, out->trace.line_spacing, {0, 0}), 0u);
 }
 
-// Sharp kernels make creases that the trace path cannot always close on any of its line grids: fas2 at d = −15,
-// t0 = 10 and density 0.5 leaves cells open on all three (found 2026-11-28 among 700 jobs at d ≤ −8, README
-// "Method"). The job is meshed by the lattice path instead, says so, counts the failed attempts' time, and is the
+// Sharp kernels make creases that the trace path cannot always close on any of its line grids: mache at d = −15,
+// t0 = 0.3 and density 0.5 leaves cells open on all three (7 of the 225 jobs of bench/sharp_kernel_sweep.py, all of
+// mache, on 2026-11-29; README "Method"). The job is meshed by the lattice path instead, says so, counts the failed attempts' time, and is the
 // lattice path's very mesh. Should the trace path learn to close these cells, this test needs another input it fails
 // on (tests/cli and tests/integration have the same case).
 TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_lattice_path_and_says_so) {
   const result<mesh_output> out =
-      mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 0.5, -15, 10, refine_mode::full));
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -15, 0.3, refine_mode::full));
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_TRUE(out->certified);
   EXPECT_EQ(out->method, mesh_method::trace);
@@ -393,7 +405,7 @@ TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_l
   EXPECT_GT(out->failed_attempt_seconds, 0.0);
 
   const result<mesh_output> lattice =
-      mesh_file("fas2.pqr", sharp_params(mesh_method::lattice, 0.5, -15, 10, refine_mode::full));
+      mesh_file("mache.pqr", sharp_params(mesh_method::lattice, 0.5, -15, 0.3, refine_mode::full));
   ASSERT_TRUE(lattice.ok()) << lattice.error().message();
   EXPECT_TRUE(lattice->fallback_reason.empty());
   EXPECT_EQ(out->mesh.triangles, lattice->mesh.triangles);

@@ -265,14 +265,14 @@ TEST_F(TracemeshdTest, LatticeMethodWithAndWithoutRefinementGivesCertifiedMeshes
   EXPECT_EQ(metric(server, "tracemesh_mesher_runs_total"), 4);
 }
 
-// A job the trace path cannot close on any line grid (fas2 with a sharp kernel, tests/core/mesher_test.cpp) is done,
+// A job the trace path cannot close on any line grid (mache with a sharp kernel, tests/core/mesher_test.cpp) is done,
 // not failed: the lattice path's certified mesh, a report that says so, and counters an operator can alert on.
 TEST_F(TracemeshdTest, ATraceJobThatFallsBackIsDoneReportedAndCounted) {
   server_process server(work_.path(), {});
   EXPECT_EQ(metric(server, "tracemesh_trace_fallbacks_total"), 0);
   EXPECT_EQ(metric(server, "tracemesh_trace_grid_retries_total"), 0);
   const nlohmann::json job =
-      run_job(server, molecule_path("fas2.pqr"), "-F method=trace -F d=-15 -F t0=10 -F density=0.5");
+      run_job(server, molecule_path("mache.pqr"), "-F method=trace -F d=-15 -F t0=0.3 -F density=0.5");
   const nlohmann::json report = expect_certified_job(server, job);
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method"), "trace");

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -346,6 +347,47 @@ molecule mache_moved_by(const vec3& shift) {
   return moved;
 }
 
+/// The arc's vertices in its strip's plane as (x, v): start root, interior points, end root.
+std::vector<std::array<double, 2>> arc_polyline(const strip_trace& trace, const strip_arc& arc, const strip_id& strip,
+                                                double spacing) {
+  const int v = strip.orientation == 0 ? 1 : 2;
+  const double low = static_cast<double>(strip.orientation == 0 ? strip.j : strip.k) * spacing;
+  std::vector<std::array<double, 2>> out{{arc.start.x, low + arc.start.side * spacing}};
+  for (std::uint32_t n = 0; n < arc.interior_count; ++n) {
+    const vec3& p = trace.interior[arc.first_interior + n].position;
+    out.push_back({p.x, p[v]});
+  }
+  out.push_back({arc.end.x, low + arc.end.side * spacing});
+  return out;
+}
+
+/// Closed segments [a, b] and [c, d] of a plane meet (orientation signs; touching counts).
+bool segments_meet(const std::array<double, 2>& a, const std::array<double, 2>& b, const std::array<double, 2>& c,
+                   const std::array<double, 2>& d) {
+  const auto side = [](const std::array<double, 2>& p, const std::array<double, 2>& q, const std::array<double, 2>& r) {
+    const double t = (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]);
+    return (t > 0) - (t < 0);
+  };
+  return side(a, b, c) * side(a, b, d) <= 0 && side(c, d, a) * side(c, d, b) <= 0;
+}
+
+/// Pairs of straight edges of the strip's arcs that meet, other than neighbours on one arc.
+int meeting_edges(const strip_trace& trace, const strip_id& strip, double spacing) {
+  std::vector<std::vector<std::array<double, 2>>> lines;
+  for (const strip_arc& arc : trace.arcs) lines.push_back(arc_polyline(trace, arc, strip, spacing));
+  int meeting = 0;
+  for (std::size_t a = 0; a < lines.size(); ++a) {
+    for (std::size_t b = a; b < lines.size(); ++b) {
+      for (std::size_t i = 0; i + 1 < lines[a].size(); ++i) {
+        for (std::size_t j = a == b ? i + 2 : 0; j + 1 < lines[b].size(); ++j) {
+          meeting += segments_meet(lines[a][i], lines[a][i + 1], lines[b][j], lines[b][j + 1]);
+        }
+      }
+    }
+  }
+  return meeting;
+}
+
 // mache with a sharp kernel (d = −15, t0 = 1) at 0.5 v/Å² (h̃ = √2 Å): in the xy strip z = −3h̃, y ∈ [−10h̃, −9h̃],
 // a small loop of contour leaves the low line at x ≈ −12.6568 and comes back to it at x ≈ −12.7948. The walk from
 // −12.7948 dies where the loop turns within a hair; the walk from −12.6568 goes round and ends on −12.7948. That
@@ -401,6 +443,43 @@ TEST(strip_arcs, a_contour_that_crosses_itself_is_traced_at_a_level_next_to_t0) 
     EXPECT_LT(field.surface_distance(p.position), 1e-9) << p.position.x << " " << p.position.z;
     EXPECT_GT(p.position.z, -5.0);
     EXPECT_LT(p.position.z, -4.0);
+  }
+}
+
+// fas2 at d = −20, t0 = 0.1, 0.5 v/Å² (h̃ = 0.93·√2 Å, points kept 1.15 h̃ apart): in the xz strip y = 4h̃,
+// z ∈ [24h̃, 25h̃], the arc from the root at x ≈ −9.384 runs into a crevice between sharp atoms, a hairpin about
+// 0.07 Å wide and 1.9 Å deep, and back out. Its kept points, joined by straight edges, made the edge leaving the
+// hairpin cross the one entering it, and the cells on both sides of the strip could not close their loops on any
+// line grid (found 2026-11-29). Edges that cross now keep the walk point farthest from their chord until no two
+// edges of the strip meet.
+TEST(strip_arcs, the_straight_edges_of_a_hairpin_narrower_than_their_sagitta_are_untangled) {
+  const result<molecule> mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  const gaussian_field field(*mol, -20, 0.1);
+  const gaussian_field walk_field(*mol, -20, 0.1, 1e-3);  // as the mesher walks (mesher.cpp: trace_walk_tolerance)
+  const double spacing = 0.93 * std::sqrt(2.0);
+  const strip_id strip{1, 4, 24};
+  const trace_lines lines = strip_lines_near(
+      field, strip, spacing,
+      {-19.458555994842179, -9.3836037053435071, -7.0888683559044585, 2.0991191789470074, 2.7428769284129202,
+       5.1671516640090154},
+      {-19.352641319546251, -16.847896319262539, -15.800431615671723, -8.8137172429077548, -6.8654923631238933,
+       2.3131843097416271});
+  const trace_parameters defaults;
+  strip_settings s = settings(spacing);
+  s.max_step = defaults.step_fraction * spacing;
+  s.cos_bound = defaults.cos_bound;
+  s.extreme_tolerance = defaults.extreme_tolerance;
+  s.resample_spacing = 1.15 * spacing;
+  s.walk_field = &walk_field;
+  const strip_trace trace = trace_strip(field, lines, strip, s);
+  EXPECT_EQ(trace.failures, 0u);
+  expect_each_root_ends_one_arc(lines, trace, strip);
+  EXPECT_GT(trace.untangled_points, 0u);
+  EXPECT_EQ(meeting_edges(trace, strip, spacing), 0);
+  for (const surface_sample& p : trace.interior) {
+    EXPECT_EQ(p.position.y, 4 * spacing);
+    EXPECT_LT(field.surface_distance(p.position), 1e-9) << p.position.x << " " << p.position.z;
   }
 }
 
