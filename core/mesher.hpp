@@ -114,7 +114,9 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// 12: short-edge collapses in passes, each over the short edges a collapse made, and no refusal when t0 ≥ e^{-d},
 /// 2026-11-29; 13: refine=none on the trace path collapses raw edges under h̃/2 and the report's collapsed_raw_edges,
 /// 2026-11-29; 14: the quality pass lengthens small components' shortest edges after polishing and flips an edge
-/// that blocks a collapse's link condition, and a collapse may keep its higher-numbered end, 2026-11-29).
-inline constexpr const char* engine_version = "tracemesh-engine-14";
+/// that blocks a collapse's link condition, and a collapse may keep its higher-numbered end, 2026-11-29; 15: the
+/// trace path's lines 0.93 Å/√density apart with arc points 1.15 h̃ apart, the arcs of a strip untangled and the
+/// report's untangled_points, 2026-11-29).
+inline constexpr const char* engine_version = "tracemesh-engine-15";
 
 }  // namespace tracemesh
