@@ -106,12 +106,11 @@ kept_point return_arc_point(const std::vector<surface_sample>& points, const std
 /// extreme_line_clearance of a line, and between consecutive kept points about one point per `spacing` of arc
 /// length, at equal arc-length fractions (method.md §7.7), interpolated along the walk. An arc whose ends are on the
 /// line v = line_v and which keeps nothing else keeps return_arc_point().
-std::vector<kept_point> resample(const std::vector<surface_sample>& points, double spacing, bool same_line,
-                                 const strip_lines& lines, double line_v) {
+std::vector<kept_point> resample(const std::vector<surface_sample>& points, const std::vector<double>& length,
+                                 double spacing, bool same_line, const strip_lines& lines, double line_v) {
   const int v_axis = lines.v_axis;
   const double h = lines.high - lines.low;
   const double clearance = extreme_line_clearance * h;
-  const std::vector<double> length = arc_lengths(points);
   const std::size_t last = points.size() - 1;
   std::vector<std::uint32_t> forced{0};
   const auto phi_x = [&](std::size_t n) {  // |φ_x| / |g| in the plane
@@ -220,7 +219,8 @@ std::vector<polyline_edge> polyline_edges(const std::vector<pending_arc>& arcs, 
 /// Edges that meet another edge other than their neighbour on the same arc (exactly: touching counts), as
 /// (arc, index), sorted. Edges are swept in x: only those whose x ranges overlap are tested.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> crossing_edges(std::vector<polyline_edge> edges) {
-  std::sort(edges.begin(), edges.end(), [](const polyline_edge& a, const polyline_edge& b) { return a.low_x() < b.low_x(); });
+  std::sort(edges.begin(), edges.end(),
+            [](const polyline_edge& a, const polyline_edge& b) { return a.low_x() < b.low_x(); });
   std::vector<std::pair<std::uint32_t, std::uint32_t>> out;
   for (std::size_t i = 0; i < edges.size(); ++i) {
     const polyline_edge& a = edges[i];
@@ -359,10 +359,12 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
       }
       const double line_v = side == 0 ? step.v_low : step.v_high;
       pending_arc p;
-      p.kept = resample(arc.points, settings.resample_spacing, end_side == side,
+      p.length = arc_lengths(arc.points);
+      p.kept = resample(arc.points, p.length, settings.resample_spacing, end_side == side,
                         strip_lines{v, step.v_low, step.v_high}, line_v);
       for (kept_point& k : p.kept) {
-        if (!polish(field, surface_plane, k.sample, h, out.evaluations)) {  // a walk point is within the corrector's tolerance
+        // An interpolated point that cannot be polished gives way to its walk point (within the corrector's tolerance).
+        if (!polish(field, surface_plane, k.sample, h, out.evaluations)) {
           k.sample = arc.points[k.walk_point];
           if (!polish(field, surface_plane, k.sample, h, out.evaluations)) ++out.unpolished;
         }
@@ -373,7 +375,6 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
       p.stored.end = p.canonical ? to : from;
       p.first = root_position(strip, side, root.x, h);
       p.last = root_position(strip, end_side, end_x, h);
-      p.length = arc_lengths(arc.points);
       p.walk = std::move(arc.points);
       pending.push_back(std::move(p));
     }
