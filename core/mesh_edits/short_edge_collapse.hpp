@@ -37,7 +37,9 @@ namespace tracemesh {
 ///   nearer end of the edge, or else the farther (its three triangles become one; the same conditions apply), then
 ///   the edge is tried again;
 /// - the two ends have no common neighbour but those two corners (the link condition: the result stays manifold);
-/// - no triangle of the removed end turns over or degenerates when that end moves onto the kept one;
+/// - no triangle of the removed end turns over or degenerates when that end moves onto the kept one, unless it
+///   faced against the vertex normals at its corners (mesh.normals, when there is one per vertex) and then faces
+///   along them: the move puts it right;
 /// - the certificate's own tests find none of the moved triangles degenerate or meeting another triangle (a
 ///   collapse that fails is undone with its round and the others made again, for a few rounds; in a pass of 10,000
 ///   edges or more, first alone with the later collapses that touched what it touched, its edges going to the next

@@ -296,6 +296,27 @@ TEST(short_edge_collapse, a_collapse_that_would_turn_a_triangle_over_is_refused)
   EXPECT_EQ(m.positions, before.positions);
 }
 
+// The mirror image: vertex 12 on the wrong side of the line through 1 and the top, so that triangle (12, 1, top)
+// faces against the vertex normals (the outward directions of the bipyramid's vertices); collapsing 12 onto 0, on
+// the right side, turns that triangle over and puts it right. Without the normals the collapse is refused, as above.
+TEST(short_edge_collapse, a_collapse_that_turns_a_triangle_facing_against_the_normals_right_is_made) {
+  surface_mesh m = bipyramid_with_split_edge(1e-4);
+  const vec3 midpoint = (m.positions[1] + m.positions[10]) * 0.5;
+  m.positions[12] = midpoint - vec3{3e-3, 0, 0};
+  m.positions[0] = midpoint + vec3{3e-3, 0, 0};
+  const auto faces_along_the_normals = [](const surface_mesh& mesh, const triangle& t) {
+    const vec3 &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
+    return dot(cross(b - a, c - a), mesh.normals[t[0]] + mesh.normals[t[1]] + mesh.normals[t[2]]) > 0;
+  };
+  ASSERT_FALSE(faces_along_the_normals(m, {12, 1, 10}));
+  surface_mesh without_normals = m;
+  without_normals.normals.clear();
+  EXPECT_EQ(collapse_short_edges(without_normals, 1, 1e-2), 0u);
+  EXPECT_EQ(collapse_short_edges(m, 1, 1e-2), 1u);
+  ASSERT_EQ(m.positions.size(), 12u);
+  for (const triangle& t : m.triangles) EXPECT_TRUE(faces_along_the_normals(m, t)) << t[0] << " " << t[1] << " " << t[2];
+}
+
 /// A closed slab: a top at z = 0 over a copy of it at z = −1 (its triangles reversed), joined by sides. On the top,
 /// the short edge (a, b) = (0, 1), 0.05 Å long: b's triangle (b, s, r) is a sliver whose line s–r passes between a
 /// and b, so b may not go onto a (it would turn over), while a may go onto b.
