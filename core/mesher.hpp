@@ -117,7 +117,8 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// that blocks a collapse's link condition, and a collapse may keep its higher-numbered end, 2026-11-29; 15: the
 /// trace path's lines 0.93 Å/√density apart with arc points 1.15 h̃ apart, the arcs of a strip untangled and the
 /// report's untangled_points, 2026-11-29; 16: a short-edge collapse may turn over a triangle that faced against the
-/// vertex normals when that puts it right, 2026-11-29).
-inline constexpr const char* engine_version = "tracemesh-engine-16";
+/// vertex normals when that puts it right, 2026-11-29; 17: the quality pass's next collapse pass also looks beside a
+/// kept end, 2026-11-29).
+inline constexpr const char* engine_version = "tracemesh-engine-17";
 
 }  // namespace tracemesh
