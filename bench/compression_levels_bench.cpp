@@ -1,5 +1,5 @@
 // Time and size of gzip (zlib levels 1–9) and br (brotli qualities 1–11) on one mesh file, to choose the service's
-// response compression levels (server/content_coding.hpp). Usage: compression_levels_bench <file> [repeats=3]
+// response compression levels (server/http/content_coding.hpp). Usage: compression_levels_bench <file> [repeats=3]
 // Prints one line per setting: output bytes, ratio to the input, median milliseconds to compress. Deterministic
 // sizes; times need a quiet machine.
 #include <algorithm>
@@ -12,11 +12,11 @@
 #include <string>
 #include <vector>
 
-#include "server/content_coding.hpp"
+#include "server/http/content_coding.hpp"
 
 namespace {
 
-/// The service's own compressor (server/content_coding.hpp) at `level`.
+/// The service's own compressor (server/http/content_coding.hpp) at `level`.
 std::string compressed(const std::string& in, tracemesh::server::content_coding coding, int level) {
   auto out = tracemesh::server::compress_at_level(in, coding, level);
   if (!out.ok()) {

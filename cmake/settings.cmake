@@ -18,7 +18,7 @@ if(NOT CMAKE_BUILD_TYPE AND NOT CMAKE_CONFIGURATION_TYPES)
   set(CMAKE_BUILD_TYPE Release CACHE STRING "Build type" FORCE)
 endif()
 # "CI" build type (the sanitizer build): keeps assertions; -O1 -g1 as the AddressSanitizer documentation advises.
-# Measured on server/http_server.cpp with -fsanitize=address,undefined: 283 s of CPU at -O2 -g, 119 s at -O1 -g1
+# Measured on server/http/http_server.cpp with -fsanitize=address,undefined: 283 s of CPU at -O2 -g, 119 s at -O1 -g1
 # (Release -O3: 40 s); line tables (-g1) are all a sanitizer's stack trace needs. (CMake pre-creates an empty
 # CMAKE_CXX_FLAGS_CI, hence FORCE; a build directory made with the old "-O2 -g" default is moved to the new one.)
 if(NOT CMAKE_CXX_FLAGS_CI OR CMAKE_CXX_FLAGS_CI STREQUAL "-O2 -g")

@@ -70,7 +70,7 @@ result<mesh_request> parse_mesh_request(const field_lookup& lookup, mesh_format 
 /// 0.1 → "0.1", -1 → "-1". Locale-free.
 std::string canonical_number(double value);
 
-/// One spelling per parameter set, for job ids (server/job_id.hpp), cache keys and logs:
+/// One spelling per parameter set, for job ids (server/jobs/job_id.hpp), cache keys and logs:
 ///   "density=<n>;d=<n>;t0=<n>;method=<name>;refine=<name>"
 /// followed, when the method is trace, by ";trace_degree=<n>;trace_step=<n>;trace_cos_bound=<n>;
 /// trace_extreme_tolerance=<n>", numbers with canonical_number. The trace fields are left out for the lattice method

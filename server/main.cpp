@@ -10,7 +10,7 @@
 #include <boost/asio/signal_set.hpp>
 
 #include "core/tbb_under_thread_sanitizer.hpp"
-#include "server/logging.hpp"
+#include "server/observability/logging.hpp"
 #include "server/redis/redis_url.hpp"
 #include "server/service.hpp"
 

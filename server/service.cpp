@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <chrono>
 
-#include "server/local_job_coordinator.hpp"
-#include "server/logging.hpp"
+#include "server/jobs/local_job_coordinator.hpp"
+#include "server/observability/logging.hpp"
 
 namespace tracemesh::server {
 

@@ -14,17 +14,17 @@
 #include <boost/asio/thread_pool.hpp>
 #include <spdlog/logger.h>
 
-#include "server/api_handlers.hpp"
-#include "server/access_tokens.hpp"
-#include "server/http_server.hpp"
-#include "server/job_coordinator.hpp"
-#include "server/job_queue.hpp"
-#include "server/job_store.hpp"
-#include "server/mesh_job.hpp"
-#include "server/metrics.hpp"
+#include "server/api/api_handlers.hpp"
+#include "server/admission/access_tokens.hpp"
+#include "server/http/http_server.hpp"
+#include "server/jobs/job_coordinator.hpp"
+#include "server/jobs/job_queue.hpp"
+#include "server/storage/job_store.hpp"
+#include "server/jobs/mesh_job.hpp"
+#include "server/observability/metrics.hpp"
 #include "server/redis/redis_job_coordinator.hpp"
-#include "server/result_cache.hpp"
-#include "server/server_limits.hpp"
+#include "server/storage/result_cache.hpp"
+#include "server/admission/server_limits.hpp"
 
 namespace tracemesh::server {
 

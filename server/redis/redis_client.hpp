@@ -24,7 +24,7 @@
 
 #include "core/status.hpp"
 #include "server/redis/redis_url.hpp"
-#include "server/server_limits.hpp"
+#include "server/admission/server_limits.hpp"
 
 struct redisContext;  // hiredis; kept out of this header
 

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 
-#include "server/job_store.hpp"
-#include "server/logging.hpp"
+#include "server/storage/job_store.hpp"
+#include "server/observability/logging.hpp"
 
 namespace tracemesh::server {
 

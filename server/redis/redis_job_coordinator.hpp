@@ -32,17 +32,17 @@
 
 #include <spdlog/logger.h>
 
-#include "server/job_coordinator.hpp"
-#include "server/job_queue.hpp"
-#include "server/metrics.hpp"
+#include "server/jobs/job_coordinator.hpp"
+#include "server/jobs/job_queue.hpp"
+#include "server/observability/metrics.hpp"
 #include "server/redis/redis_client.hpp"
 #include "server/redis/redis_job_events.hpp"
 #include "server/redis/redis_job_records.hpp"
 #include "server/redis/redis_job_store.hpp"
 #include "server/redis/redis_run_lease.hpp"
 #include "server/redis/redis_work_queue.hpp"
-#include "server/result_cache.hpp"
-#include "server/server_limits.hpp"
+#include "server/storage/result_cache.hpp"
+#include "server/admission/server_limits.hpp"
 
 namespace tracemesh::server {
 

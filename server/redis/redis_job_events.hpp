@@ -31,7 +31,7 @@
 
 #include "core/status.hpp"
 #include "server/redis/redis_url.hpp"
-#include "server/server_limits.hpp"
+#include "server/admission/server_limits.hpp"
 
 namespace tracemesh::server {
 

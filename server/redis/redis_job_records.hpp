@@ -17,7 +17,7 @@
 /// reader on another replica never sees half a record, and writes to a job that has expired never recreate it.
 ///
 /// The result bytes are not here: they stay in the content-addressed disk store on a directory all replicas
-/// mount (server/result_cache.hpp, detail/durable_file.hpp).
+/// mount (server/storage/result_cache.hpp, detail/durable_file.hpp).
 
 #include <chrono>
 #include <cstddef>
@@ -26,7 +26,7 @@
 #include <string>
 
 #include "core/status.hpp"
-#include "server/job_store.hpp"
+#include "server/storage/job_store.hpp"
 #include "server/redis/redis_client.hpp"
 
 namespace tracemesh::server {

@@ -2,7 +2,7 @@
 
 #include <thread>
 
-#include "server/job_store.hpp"
+#include "server/storage/job_store.hpp"
 
 namespace tracemesh::server {
 

@@ -17,12 +17,12 @@
 #include <set>
 #include <string>
 
-#include "server/job_record_store.hpp"
-#include "server/metrics.hpp"
+#include "server/storage/job_record_store.hpp"
+#include "server/observability/metrics.hpp"
 #include "server/redis/redis_job_records.hpp"
 #include "server/redis/redis_run_lease.hpp"
-#include "server/result_cache.hpp"
-#include "server/server_limits.hpp"
+#include "server/storage/result_cache.hpp"
+#include "server/admission/server_limits.hpp"
 
 namespace tracemesh::server {
 

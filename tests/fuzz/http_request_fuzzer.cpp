@@ -1,5 +1,5 @@
 // Fuzz target for tracemeshd's HTTP request handling (service-test-list item 54): whole request bytes into one
-// connection (server/detail/http_session.hpp) over a Beast test stream, with the real request planning, API
+// connection (server/http/detail/http_session.hpp) over a Beast test stream, with the real request planning, API
 // handlers, job queue and memory cache behind it and a fake mesher (a tetrahedron, at once).
 //
 // Input: the first byte picks how many bytes each read of the server returns (1..256, so the HTTP and multipart
@@ -30,13 +30,13 @@
 #include <boost/beast/http.hpp>
 #include <nlohmann/json.hpp>
 
-#include "server/api_handlers.hpp"
-#include "server/local_job_coordinator.hpp"
-#include "server/detail/http_session.hpp"
-#include "server/job_queue.hpp"
-#include "server/logging.hpp"
-#include "server/mesh_job.hpp"
-#include "server/result_cache.hpp"
+#include "server/api/api_handlers.hpp"
+#include "server/jobs/local_job_coordinator.hpp"
+#include "server/http/detail/http_session.hpp"
+#include "server/jobs/job_queue.hpp"
+#include "server/observability/logging.hpp"
+#include "server/jobs/mesh_job.hpp"
+#include "server/storage/result_cache.hpp"
 
 namespace tracemesh::server::detail {
 

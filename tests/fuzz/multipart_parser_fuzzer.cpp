@@ -1,4 +1,4 @@
-// Fuzz target for server/multipart_parser.hpp (service-test-list item 52).
+// Fuzz target for server/http/multipart_parser.hpp (service-test-list item 52).
 // Input: the first byte picks a chunk size (1..256), the rest is a multipart body for the fixed boundary below.
 // The body is parsed whole and in chunks; both parses must agree on the status and on every part, and no
 // limit may be exceeded by what the parser stores.
@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "server/multipart_parser.hpp"
+#include "server/http/multipart_parser.hpp"
 
 namespace {
 

@@ -1,5 +1,5 @@
-// Fuzz target for the response-side header parsers: Accept-Encoding negotiation (server/content_coding.hpp) and
-// Range / If-Range decisions (server/byte_range.hpp). Input: the first line is the Range field, the second the
+// Fuzz target for the response-side header parsers: Accept-Encoding negotiation (server/http/content_coding.hpp) and
+// Range / If-Range decisions (server/http/byte_range.hpp). Input: the first line is the Range field, the second the
 // If-Range field, the rest the Accept-Encoding field; the representation length is the input's size times 7.
 // Checks, beyond "no crash": a partial range lies inside the representation and is not empty; Content-Range names
 // it; negotiation of an incompressible response never picks gzip or br; a field that names no coding at all (no
@@ -11,8 +11,8 @@
 #include <string>
 #include <string_view>
 
-#include "server/byte_range.hpp"
-#include "server/content_coding.hpp"
+#include "server/http/byte_range.hpp"
+#include "server/http/content_coding.hpp"
 
 namespace {
 

@@ -29,8 +29,8 @@
 #include <nlohmann/json.hpp>
 
 #include "core/analysis/mesh_analysis.hpp"
-#include "server/job_store.hpp"
-#include "server/result_cache.hpp"
+#include "server/storage/job_store.hpp"
+#include "server/storage/result_cache.hpp"
 #include "support/delivered_mesh.hpp"
 #include "support/event_stream.hpp"
 #include "support/pqr_edits.hpp"

@@ -24,8 +24,9 @@
 #include <nlohmann/json.hpp>
 
 #include "proto/openapi.hpp"
-#include "server/logging.hpp"
+#include "server/observability/logging.hpp"
 #include "server/service.hpp"
+#include "support/eventually.hpp"
 #include "support/test_http_client.hpp"
 #include "support/test_paths.hpp"
 
@@ -118,15 +119,7 @@ inline std::string atom_line(int serial, double x, double radius = 1.5) {
   return line.str();
 }
 
-/// Polls `condition` every millisecond for up to `within`; its last value.
-inline bool eventually(const std::function<bool()>& condition, std::chrono::milliseconds within = 5s) {
-  const auto deadline = std::chrono::steady_clock::now() + within;
-  while (!condition()) {
-    if (std::chrono::steady_clock::now() >= deadline) return condition();
-    std::this_thread::sleep_for(1ms);
-  }
-  return true;
-}
+using tracemesh::testing::eventually;
 
 inline const nlohmann::json& openapi() {
   static const nlohmann::json document = nlohmann::json::parse(proto::openapi_document());

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "proto/api_types.hpp"
-#include "server/content_hash.hpp"
+#include "server/storage/content_hash.hpp"
 #include "server/service_fixture.hpp"
 
 namespace tracemesh::server::test {

@@ -6,7 +6,7 @@
 #include <memory>
 #include <string>
 
-#include "server/job_store.hpp"
+#include "server/storage/job_store.hpp"
 #include "support/redis_process.hpp"
 
 namespace tracemesh::server::test {

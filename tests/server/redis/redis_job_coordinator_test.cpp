@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <thread>
 
-#include "server/logging.hpp"
+#include "server/observability/logging.hpp"
 #include "support/redis_process.hpp"
 
 namespace tracemesh::server::test {

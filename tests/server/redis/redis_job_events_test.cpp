@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "redis_fixture.hpp"
+#include "support/eventually.hpp"
 #include "server/redis/redis_job_records.hpp"
 
 namespace tracemesh::server::test {
@@ -14,15 +15,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-/// Waits up to 10 s for `done`; true when it held.
-bool eventually(const std::function<bool()>& done) {
-  const auto deadline = std::chrono::steady_clock::now() + 10s;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() >= deadline) return false;
-    std::this_thread::sleep_for(2ms);
-  }
-  return true;
-}
+using tracemesh::testing::eventually;
 
 const std::string events_job_id(64, '1');
 const std::string other_job(64, '2');

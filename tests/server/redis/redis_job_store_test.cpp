@@ -7,7 +7,7 @@
 #include <thread>
 
 #include "redis_fixture.hpp"
-#include "server/job_store.hpp"
+#include "server/storage/job_store.hpp"
 
 namespace tracemesh::server::test {
 namespace {
