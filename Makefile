@@ -6,14 +6,27 @@ JOBS             ?= $(shell nproc)
 LISTEN           ?= 127.0.0.1:8080
 CACHE_DIR        ?= $(CURDIR)/cache
 CMAKE_FLAGS      ?=
+# The larger molecules the benchmarks read (1k4r_capsid, 2buk_capsid, ...): docs/benchmarks.md says how that set is
+# made. The suite reads only tests/data/molecules/.
+TRACEMESH_MOLECULES_DIR ?= $(if $(wildcard $(CURDIR)/../shared/molecules),$(abspath $(CURDIR)/../shared/molecules),$(CURDIR)/tests/data/molecules)
+export TRACEMESH_MOLECULES_DIR
 
-.PHONY: deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp fuzz fuzz-campaign image test-image clean
+.PHONY: deps deps-run build-run install package deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp fuzz fuzz-campaign image test-image clean
+
+# What building and running tracemesh and tracemeshd needs (`make run`), and what the suite adds (`make test`).
+deps-run:
+	@bash scripts/install-deps.sh --build-only
 
 deps:
 	@bash scripts/install-deps.sh
 
+# The two programs only, without the suite's libraries and tools.
+build-run: deps-run
+	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release -DTRACEMESH_BUILD_TESTS=OFF -DTRACEMESH_BUILD_BENCH=OFF $(CMAKE_FLAGS)
+	cmake --build $(BUILD_DIR) -j $(JOBS) --target tracemesh tracemeshd
+
 build: deps
-	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
+	cmake -S . -B $(BUILD_DIR) -DCMAKE_BUILD_TYPE=Release -DTRACEMESH_BUILD_TESTS=ON -DTRACEMESH_BUILD_BENCH=ON $(CMAKE_FLAGS)
 	cmake --build $(BUILD_DIR) -j $(JOBS)
 
 test: build
@@ -39,12 +52,18 @@ test-tsan: deps
 	@if ls $(TSAN_DIR)/tsan-report.* > /dev/null 2>&1; then cat $(TSAN_DIR)/tsan-report.*; \
 	  echo "test-tsan: ThreadSanitizer reports above ($(TSAN_DIR)/tsan-report.*)" >&2; exit 1; fi
 
-run: build
-	@if [ -x $(BUILD_DIR)/bin/tracemeshd ]; then \
-	  mkdir -p $(CACHE_DIR) && exec $(BUILD_DIR)/bin/tracemeshd --listen $(LISTEN) --cache-dir $(CACHE_DIR); \
-	else \
-	  $(BUILD_DIR)/bin/tracemesh tests/data/example.pqr -o example.off --report -; \
-	fi
+run: build-run
+	mkdir -p $(CACHE_DIR)
+	exec $(BUILD_DIR)/bin/tracemeshd --listen $(LISTEN) --cache-dir $(CACHE_DIR)
+
+# Installs the programs, man pages, docs and the systemd unit under PREFIX (default /usr/local), as `cmake --install`.
+PREFIX           ?= /usr/local
+install: build-run
+	cmake --install $(BUILD_DIR) --prefix $(PREFIX)
+
+# The Debian package (CPack) in $(BUILD_DIR): tracemesh_<version>_<arch>.deb.
+package: build-run
+	cd $(BUILD_DIR) && cpack -G DEB
 
 # The molecule ladder, lattice vs trace (bench/run_ladder.sh: RUNS, MAX_ATOMS, MOLECULES, THREADS...).
 bench: build
@@ -53,12 +72,12 @@ bench: build
 # Load: 1,000 mixed requests at 64 concurrent against tracemeshd; Markdown p50/p99 table, fails on any 5xx
 # (bench/load_bench.py: LOAD_ARGS="--requests 200 --seed 3" ...).
 bench-load: build
-	python3 bench/load_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(CURDIR)/../shared/molecules $(LOAD_ARGS)
+	python3 bench/load_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(TRACEMESH_MOLECULES_DIR) $(LOAD_ARGS)
 
 # Scaling out: a mixed job stream through nginx to 1 and 2 replicas (Redis, one core each) and cache-hit GETs through
 # nginx vs one replica (bench/replicas_bench.py: REPLICAS_ARGS="--ladder fas2.pqr,mache.pqr --densities 1" ...).
 bench-replicas: build
-	python3 bench/replicas_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(CURDIR)/../shared/molecules $(REPLICAS_ARGS)
+	python3 bench/replicas_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(TRACEMESH_MOLECULES_DIR) $(REPLICAS_ARGS)
 
 # Chaos: 100 rounds of kill -9 at seeded random moments while jobs run and uploads stream (10 run in `make test`).
 CHAOS_ROUNDS ?= 100

@@ -12,11 +12,11 @@ if [[ $build_dir != /* ]]; then
   if [[ -d $build_dir ]]; then build_dir=$(cd "$build_dir" && pwd); else build_dir=$bench_root/$build_dir; fi
 fi
 bench_bin=$build_dir/bin/ladder_bench
-molecules_dir=${MOLECULES_DIR:-$bench_root/../shared/molecules}
+molecules_dir=${TRACEMESH_MOLECULES_DIR:-$bench_root/../shared/molecules}
 [[ -d $molecules_dir ]] && molecules_dir=$(cd "$molecules_dir" && pwd)
 row_timeout=${ROW_TIMEOUT:-3600}
 
-# The ladder, smallest first: "file atoms" (atoms as in /work/shared/molecules/README.md, so filters need no reading).
+# The ladder, smallest first: "file atoms" (atom counts written out, so filters need no reading).
 ladder=(
   "gly.pqr 7" "adp.pqr 39" "villin_1vii.pqr 596" "fas2.pqr 906" "mache.pqr 8279" "achbp.pqr 16090"
   "3j6r_asu.pqr 17214" "1ihm_asu.pqr 22281" "2buk_12asu.pqr 34284" "1k4r_5asu.pqr.gz 90180"

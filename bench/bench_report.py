@@ -27,7 +27,7 @@ from pathlib import Path
 
 PATHS = ("trace raw", "trace refined", "lattice refined")
 COLOURS = {"trace raw": "tab:orange", "trace refined": "tab:blue", "lattice refined": "0.35"}
-LADDER = (  # name, atoms (as in /work/shared/molecules/README.md); bench/bench_lib.sh holds the same list
+LADDER = (  # name, atoms (docs/benchmarks.md lists them); bench/bench_lib.sh holds the same list
     ("gly", 7), ("adp", 39), ("villin_1vii", 596), ("fas2", 906), ("mache", 8279), ("achbp", 16090),
     ("3j6r_asu", 17214), ("1ihm_asu", 22281), ("2buk_12asu", 34284), ("1k4r_5asu", 90180),
     ("2buk_capsid", 171420), ("1rb8_capsid", 589680), ("1k4r_capsid", 1082160),

@@ -192,7 +192,8 @@ def report(results, wall_seconds, args) -> int:
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--daemon", default="build/bin/tracemeshd")
-    parser.add_argument("--molecules", default=os.path.join(os.path.dirname(__file__), "..", "..", "shared", "molecules"))
+    parser.add_argument("--molecules", default=os.environ.get("TRACEMESH_MOLECULES_DIR",
+                        os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "data", "molecules")))
     parser.add_argument("--requests", type=int, default=1000)
     parser.add_argument("--concurrency", type=int, default=64)
     parser.add_argument("--seed", type=int, default=12)

@@ -2,7 +2,7 @@
 """Scaling-out benchmark (make bench-replicas): tracemeshd replicas sharing Redis and one result directory
 (`--store redis://…`) behind nginx (docker/nginx's replicas upstream), as real processes on loopback ports.
 
-1. Throughput: the same mixed stream of asynchronous jobs (the ladder fas2 … 1k4r_5asu of ../shared/molecules, each at
+1. Throughput: the same mixed stream of asynchronous jobs (the ladder fas2 … 1k4r_5asu of $TRACEMESH_MOLECULES_DIR, each at
    the given densities) is sent at once through nginx to 1 and then to 2 replicas, each replica pinned to a core of
    its own (taskset), with one worker and one mesher thread; every run starts from an empty Redis and an empty result
    directory. Reports jobs per minute (jobs ÷ time from the first POST to the last job done) and the p50/p99 of the
@@ -195,7 +195,7 @@ def wrk(url: str, duration: int) -> dict:
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--daemon", required=True)
-    parser.add_argument("--molecules", default=os.path.join(REPO, "..", "shared", "molecules"))
+    parser.add_argument("--molecules", default=os.environ.get("TRACEMESH_MOLECULES_DIR", os.path.join(REPO, "tests", "data", "molecules")))
     parser.add_argument("--ladder", default=LADDER)
     parser.add_argument("--densities", default="1,1.2")
     parser.add_argument("--replicas", default="1,2")

@@ -7,7 +7,7 @@
 # Usage: bench/run_ladder.sh [RUNS] [MAX_ATOMS]          (`make bench` builds, then runs this)
 # Environment, all optional:
 #   BUILD_DIR      build tree with bin/ladder_bench (default: build)
-#   MOLECULES_DIR  the ladder's PQR files (default: ../shared/molecules beside the repository)
+#   TRACEMESH_MOLECULES_DIR  the ladder's PQR files (docs/benchmarks.md; default ../shared/molecules)
 #   RUNS           runs per row (default 3)            MAX_ATOMS  skip molecules with more atoms
 #   MOLECULES      names to keep, e.g. "gly fas2 mache" (default: the whole ladder)
 #   DENSITIES      (default "1 2")                     PATHS      (default "lattice trace-raw trace-refined")

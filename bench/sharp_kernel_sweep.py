@@ -67,7 +67,7 @@ def main():
     parser.add_argument("--baseline", help="another tracemesh binary to compare with")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--molecules", default="mache,fas2,villin_1vii")
-    parser.add_argument("--molecules-dir", default=os.path.join(ROOT, "..", "shared", "molecules"))
+    parser.add_argument("--molecules-dir", default=os.environ.get("TRACEMESH_MOLECULES_DIR", os.path.join(ROOT, "tests", "data", "molecules")))
     parser.add_argument("--d", default="-20,-15,-12,-10,-8")
     parser.add_argument("--t0", default="0.1,0.3,1,3,10")
     parser.add_argument("--density", default="0.5,1,2")

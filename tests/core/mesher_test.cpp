@@ -260,7 +260,7 @@ TEST_P(mesher, progress_is_reported_through_the_stages) {
   EXPECT_TRUE(std::is_sorted(stages.begin(), stages.end()));
 }
 
-/// A molecule of ../shared/molecules meshed by `params` (the other parameters default); an unreadable file's error.
+/// A molecule of tests/data/molecules meshed by `params` (the other parameters default); an unreadable file's error.
 result<mesh_output> mesh_file(const char* name, const mesh_params& params) {
   const result<molecule> mol = read_pqr_file(testing::molecule_path(name));
   if (!mol) return mol.error();
@@ -434,19 +434,15 @@ TEST(mesher_quality_pass, a_pass_left_unchecked_that_fails_the_certificate_runs_
 // On 1k4r_capsid at 2 v/Å² the quality pass's last collapses kept an edge of 0.062 Å, 0.081 × the median (twice,
 // under the capsid's symmetry): an edge of 0.058 Å beside it, collapsed first in the same pass, made its merged
 // vertex a common neighbour of both its ends (the link condition), and the next pass, which looked only at edges at
-// a kept end, never tried it again. It now also looks beside a kept end, where a flip frees the link (found
-// 2026-11-29; the atoms within 14 Å of the edge reproduce it).
+// a kept end, never tried it again. It now also looks beside a kept end, where a flip frees the link (the atoms
+// within 14 Å of the edge reproduce it).
 TEST(mesher_quality_pass, a_short_edge_whose_link_a_collapse_beside_it_blocked_is_collapsed_at_the_next_pass) {
-  const result<molecule> capsid = read_pqr_file(testing::molecule_path("1k4r_capsid.pqr.gz"));
-  ASSERT_TRUE(capsid.ok()) << capsid.error().message();
-  molecule crop;
-  const vec3 centre{172.06, -70.4, 155.85};
-  for (const atom& a : capsid->atoms) {
-    if (distance(a.center, centre) < 14) crop.atoms.push_back(a);
-  }
+  // The atoms of 1k4r_capsid within 14 Å of the edge (tests/data/molecules/README.md).
+  const result<molecule> crop = read_pqr_file(testing::molecule_path("1k4r_capsid_crop.pqr"));
+  ASSERT_TRUE(crop.ok()) << crop.error().message();
   progress_token progress;
   const result<mesh_output> out =
-      mesh_molecule(crop, sharp_params(mesh_method::trace, 2, -1, 1, refine_mode::full), {}, progress);
+      mesh_molecule(*crop, sharp_params(mesh_method::trace, 2, -1, 1, refine_mode::full), {}, progress);
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_TRUE(out->certified);
   EXPECT_GE(out->report.quality.shortest_edge, 0.1 * out->report.quality.median_edge)

@@ -9,8 +9,7 @@
 # Exit 77 (ctest: skipped) when nginx or openssl is not installed.
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
-molecules=${TRACEMESH_MOLECULES:-$repo/../shared/molecules}
-[[ -f $molecules/fas2.pqr ]] || molecules=/work/shared/molecules
+molecules=$repo/tests/data/molecules  # fas2.pqr, kept in the repository
 
 fail() { printf 'nginx_check: FAIL: %s\n' "$*" >&2; exit 1; }
 command -v nginx >/dev/null && command -v openssl >/dev/null || { echo "nginx_check: nginx or openssl missing"; exit 77; }

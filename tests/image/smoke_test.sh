@@ -15,8 +15,7 @@ uid=10001 gid=10001
 volume=/var/lib/tracemesh
 grace=1                 # --shutdown-grace given to tracemeshd here
 stop_margin=5           # seconds past the grace allowed for cancelling, flushing responses and exiting
-molecules=${TRACEMESH_MOLECULES:-$repo/../shared/molecules}
-[[ -f $molecules/fas2.pqr ]] || molecules=/work/shared/molecules
+molecules=$repo/tests/data/molecules  # fas2.pqr, kept in the repository
 # shellcheck source=../../scripts/container-engine.sh
 . "$repo/scripts/container-engine.sh"
 

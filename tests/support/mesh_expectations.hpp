@@ -35,7 +35,7 @@ inline void expect_certified_output(const mesh_output& out) {
   EXPECT_EQ(out.mesh.atom_index.size(), out.mesh.positions.size());
 }
 
-/// One molecule of ../shared/molecules at one density.
+/// One molecule of tests/data/molecules at one density.
 struct ladder_case {
   std::string file;
   double density;
