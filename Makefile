@@ -11,7 +11,7 @@ CMAKE_FLAGS      ?=
 TRACEMESH_MOLECULES_DIR ?= $(if $(wildcard $(CURDIR)/../shared/molecules),$(abspath $(CURDIR)/../shared/molecules),$(CURDIR)/tests/data/molecules)
 export TRACEMESH_MOLECULES_DIR
 
-.PHONY: deps deps-run build-run install package deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp fuzz fuzz-campaign image test-image clean
+.PHONY: deps deps-run build-run install package test-package deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp fuzz fuzz-campaign image test-image clean
 
 # What building and running tracemesh and tracemeshd needs (`make run`), and what the suite adds (`make test`).
 deps-run:
@@ -64,6 +64,10 @@ install: build-run
 # The Debian package (CPack) in $(BUILD_DIR): tracemesh_<version>_<arch>.deb.
 package: build-run
 	cd $(BUILD_DIR) && cpack -G DEB
+
+# The package installed into a clean Debian 12 root (debootstrap) and used there (tests/package/install_test.sh).
+test-package: package
+	bash tests/package/install_test.sh $(BUILD_DIR)
 
 # The molecule ladder, lattice vs trace (bench/run_ladder.sh: RUNS, MAX_ATOMS, MOLECULES, THREADS...).
 bench: build
