@@ -46,12 +46,18 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
 
-# The npm packages of the suite's checkers (glTF validator, OpenAPI lint, JSON-schema checks) and later the web
-# viewer's build: exactly package-lock.json, re-installed only when the lock file changed since the last install.
+# The npm packages: with --build-only just what bundles the web viewer (package.json "dependencies": esbuild, three),
+# otherwise also the suite's checkers ("devDependencies": glTF validator, OpenAPI lint, JSON-schema checks, the
+# browser driver). Exactly package-lock.json, re-installed only when the lock file or the set asked for changed.
 $needs_node || exit 0
 repo=$(cd "$(dirname "$0")/.." && pwd)
-stamp="$repo/node_modules/.package-lock.json"
-if [[ ! -f $stamp || "$repo/package-lock.json" -nt $stamp ]]; then
-  echo "install-deps: npm ci"
-  (cd "$repo" && npm ci --no-audit --no-fund --loglevel=error)
+npm_set=full; npm_flags=()
+[[ ${1:-} == --build-only ]] && { npm_set=build; npm_flags=(--omit=dev); }
+stamp="$repo/node_modules/.tracemesh-npm-set"
+installed_set=$(cat "$stamp" 2>/dev/null || true)
+# A full install serves a build-only request; anything else installs again.
+if [[ ! -f $stamp || "$repo/package-lock.json" -nt $stamp || ( $installed_set != full && $installed_set != "$npm_set" ) ]]; then
+  echo "install-deps: npm ci ${npm_flags[*]}"
+  (cd "$repo" && npm ci --no-audit --no-fund --loglevel=error "${npm_flags[@]}")
+  echo "$npm_set" > "$stamp"
 fi
