@@ -172,7 +172,7 @@ def check_links(failures, source):
             if re.match(r"[a-z][a-z0-9+.-]*:", target) or target.startswith("//"):
                 continue  # an absolute URL
             file_part, _, anchor = target.partition("#")
-            linked = (page.parent / file_part).resolve() if file_part else page
+            linked = (page.parent / file_part).resolve() if file_part else page.resolve()
             where = f"{page.relative_to(source)}: link ({target})"
             if not linked.exists() or source.resolve() not in [linked, *linked.parents]:
                 failures.append(f"{where} names no file of the repository")
