@@ -9,6 +9,7 @@ Checks, and prints one line per thing that is missing or wrong:
     the program when it is the first word of an inline code span (`--density 2`), or anywhere in an inline span or
     a code-block line that runs the program (`tracemeshd --listen ...`, `build/bin/tracemesh fas2.pqr ...`);
     options of other commands (docker, curl, cmake) are theirs;
+  - proto/openapi.json repeats no key within an object (JSON readers keep the last one silently);
   - every path with every method of proto/openapi.json is in docs/api.md as `METHOD /path`, and every parameter
     name (query, path and header parameters, multipart fields) as `name`; conversely every name in the first
     column of an api.md table whose first header cell is "parameter" or "field" exists in the OpenAPI document;
@@ -133,9 +134,23 @@ def parameter_table_names(text):
     return names
 
 
+def load_json_naming_repeated_keys(path, failures):
+    """The JSON document; a key repeated within one object (the last one silently wins) is a failure."""
+    def pairs_to_dict(pairs):
+        seen = {}
+        for key, value in pairs:
+            if key in seen:
+                where = dict(pairs).get("operationId") or sorted(k for k, _ in pairs if k != key)[:6]
+                failures.append(f"proto/{path.name}: key \"{key}\" appears twice in one object ({where}); "
+                                f"a JSON reader keeps only the last")
+            seen[key] = value
+        return seen
+    return json.loads(path.read_text(encoding="utf-8"), object_pairs_hook=pairs_to_dict)
+
+
 def check_api(failures, source):
     text = (source / "docs/api.md").read_text(encoding="utf-8")
-    operations, names = openapi_names(json.loads((source / "proto/openapi.json").read_text(encoding="utf-8")))
+    operations, names = openapi_names(load_json_naming_repeated_keys(source / "proto/openapi.json", failures))
     for operation in operations:
         if f"`{operation}`" not in text and not re.search(rf"`{re.escape(operation)}[?`]", text):
             failures.append(f"docs/api.md: route `{operation}` of proto/openapi.json is not documented")
