@@ -1,0 +1,223 @@
+#!/usr/bin/env bash
+# Fails when a program links anything GPL-only: GPL or AGPL without a linking exception (LGPL, "GPL with the GCC
+# Runtime Library exception" and dual licences with a non-GPL choice are fine; THIRD_PARTY.md explains why).
+# Usage: scripts/check-licences.sh [-v] BINARY...
+#   Shared libraries: each one `ldd BINARY` resolves, mapped to its Debian package (dpkg -S) and that package's
+#   /usr/share/doc/<package>/copyright.
+#   Static parts, when BINARY was built in a CMake build tree (BUILD/bin/NAME): the link line of NAME
+#   (CMakeFiles/NAME.dir/link.txt) gives the project's static libraries and any system archive; the compilers'
+#   dependency files (*.o.d) of those objects give every system header compiled into the binary (header-only
+#   libraries: Boost, nlohmann-json, CLI11, gemmi, ...). A header is judged by its own SPDX-License-Identifier
+#   line when it has one (Linux's "GPL-2.0 WITH Linux-syscall-note"), else by its package's copyright file.
+#   A package's licence is the "Files: *" stanza of a machine-readable copyright file (the other stanzas cover
+#   build scripts, tests and examples, not the library), or, for a free-form file, GPL-only when it names the GPL
+#   and neither the LGPL nor an exception.
+# -v prints every dependency with its licence. Exit: 0 clean, 1 a GPL-only dependency (one line each on stderr),
+# 2 usage or an unreadable binary, 77 no dpkg (not a Debian system: nothing to map libraries to).
+set -euo pipefail
+
+verbose=false
+if [[ ${1:-} == -v ]]; then verbose=true; shift; fi
+if (($# == 0)); then echo "usage: check-licences.sh [-v] BINARY..." >&2; exit 2; fi
+if ! command -v dpkg >/dev/null || ! command -v dpkg-query >/dev/null; then
+  echo "check-licences: dpkg is not installed; skipped" >&2
+  exit 77
+fi
+
+# GPL-only for a licence expression ("GPL-2+", "Expat and BSL-1", "GPL-2+ or LGPL-3+", "GPL-3+ with GCC-Runtime-
+# Library exception", "GPL-2.0 WITH Linux-syscall-note"): true when every alternative has a GPL/AGPL part without
+# an exception.
+declare -A expression_verdict
+gpl_only_expression() {
+  local expression=${1,,} alternative part gpl_part verdict=yes
+  if [[ -n ${expression_verdict[$expression]:-} ]]; then [[ ${expression_verdict[$expression]} == yes ]]; return; fi
+  local normalised=${expression//-or-later/+}  # SPDX "GPL-3.0-or-later"; Debian's "GPL-2+-or-X11" is a choice
+  normalised=${normalised//-or-/ or }
+  normalised=${normalised//[()]/ }
+  local -a alternatives parts
+  mapfile -t alternatives <<<"${normalised// or /$'\n'}"
+  for alternative in "${alternatives[@]}"; do
+    [[ -z ${alternative// /} ]] && continue
+    # "GPL-3.0-or-later OR LicenseRef-Commercial" (CGAL): a licence to buy is no choice a free package has.
+    [[ $alternative =~ (commercial|proprietary) ]] && continue
+    gpl_part=false
+    mapfile -t parts <<<"${alternative// and /$'\n'}"
+    for part in "${parts[@]}"; do
+      [[ $part =~ (^|[^l])gpl && ! $part =~ (exception|[[:space:]]with[[:space:]]) ]] && gpl_part=true
+    done
+    $gpl_part || verdict=no
+  done
+  expression_verdict[$expression]=$verdict
+  [[ $verdict == yes ]]
+}
+
+# The main licence of a package, from its copyright file: "Files: *" stanza of the machine-readable format, else
+# the first stanza's; "free-form" for the older format (judged by free_form_gpl_only).
+declare -A package_licence
+licence_of_package() {
+  local package=$1 file="/usr/share/doc/$1/copyright" licence
+  if [[ -n ${package_licence[$package]:-} ]]; then echo "${package_licence[$package]}"; return; fi
+  if [[ ! -r $file ]]; then
+    licence="no copyright file"
+  elif head -n 1 "$file" | grep -q '^Format:'; then
+    licence=$(awk '/^Files:[[:space:]]*\*[[:space:]]*$/ {star = 1} star && /^License:/ {sub(/^License:[[:space:]]*/, ""); print; exit}' "$file")
+    [[ -z $licence ]] && licence=$(awk '/^Files:/ {files = 1} files && /^License:/ {sub(/^License:[[:space:]]*/, ""); print; exit}' "$file")
+    [[ -z $licence ]] && licence="unstated"
+  elif grep -qiE 'Lesser General Public|Library General Public|\bLGPL|exception' "$file"; then
+    licence="free-form copyright naming the LGPL or an exception"
+  else
+    licence="free-form copyright"
+  fi
+  package_licence[$package]=$licence
+  echo "$licence"
+}
+
+free_form_gpl_only() {
+  local file="/usr/share/doc/$1/copyright"
+  grep -qiE 'General Public Licen[cs]e|\bGPL\b' "$file" &&
+    ! grep -qiE 'Lesser General Public|Library General Public|\bLGPL|exception' "$file"
+}
+
+# 0 when the package's licence is GPL-only; prints the licence.
+package_is_gpl_only() {
+  local package=$1 licence
+  licence=$(licence_of_package "$package")
+  echo "$licence"
+  case $licence in
+    free-form*) free_form_gpl_only "$package" ;;
+    "no copyright file" | unstated) return 1 ;;
+    *) gpl_only_expression "$licence" ;;
+  esac
+}
+
+# The package owning PATH (dpkg -S); also tries the path with symlinks resolved and the /usr-merged twin.
+package_of() {
+  local path=$1 candidate owner
+  for candidate in "$path" "$(realpath -m "$path")" "/usr$path" "${path#/usr}"; do
+    [[ -z $candidate || $candidate != /* ]] && continue
+    owner=$(dpkg -S "$candidate" 2>/dev/null | grep -v '^diversion' | head -n 1 | cut -d: -f1) || true
+    if [[ -n $owner ]]; then echo "${owner%%,*}"; return 0; fi
+  done
+  return 1
+}
+
+failures=0
+report() {  # report BINARY WHAT PACKAGE LICENCE GPL_ONLY
+  if [[ $5 == yes ]]; then
+    echo "check-licences: $1: $2 ($3): $4, GPL without a linking exception" >&2
+    failures=$((failures + 1))
+  elif $verbose; then
+    printf '  %-36s %-22s %s\n' "$2" "$3" "$4"
+  fi
+}
+
+check_shared_libraries() {
+  local binary=$1 library package licence gpl
+  while read -r library; do
+    [[ -z $library ]] && continue
+    if ! package=$(package_of "$library"); then
+      echo "check-licences: $binary: $library belongs to no Debian package" >&2
+      failures=$((failures + 1))
+      continue
+    fi
+    gpl=no
+    licence=$(package_is_gpl_only "$package") && gpl=yes
+    report "$binary" "$(basename "$library")" "$package" "$licence" $gpl
+  done < <(ldd "$binary" | awk '$2 == "=>" && $3 ~ /^\// {print $3} $1 ~ /^\// {print $1}' | sort -u)
+}
+
+# Packages whose copyright file names a GPL that does not reach programs using their headers, said elsewhere by
+# the upstream: linux-libc-dev holds only the kernel's userspace API headers (`make headers_install`), which the
+# kernel's COPYING puts under the Linux-syscall-note ("does not cover user programs that use kernel services by
+# normal system calls"); most of them also carry that SPDX line, the generated ones (asm/unistd_64.h) carry none.
+declare -A header_exception=([linux-libc-dev]="GPL-2.0 WITH Linux-syscall-note")
+
+# "HEADER<TAB>SPDX expression" for each header (first 40 lines) that has an SPDX-License-Identifier line.
+spdx_of_headers() {
+  xargs -r -d '\n' awk 'FNR == 1 {seen = 0}
+    !seen && FNR <= 40 && match($0, /SPDX-License-Identifier:[ \t]*/) {
+      id = substr($0, RSTART + RLENGTH); sub(/[ \t]*\*\/.*$/, "", id); sub(/[ \t]+$/, "", id)
+      print FILENAME "\t" id; seen = 1; nextfile }'
+}
+
+# The target's directory in the build tree: BUILD/.../CMakeFiles/NAME.dir holding link.txt.
+target_dir_of() {
+  local binary=$1 build
+  build=$(dirname "$(dirname "$(realpath "$binary")")")
+  [[ -f $build/CMakeCache.txt ]] || return 1
+  find "$build" -path "*/CMakeFiles/$(basename "$binary").dir/link.txt" -print -quit | xargs -r dirname
+}
+
+check_static_parts() {
+  local binary=$1 target_dir link_dir token archive library_dir headers header package licence spdx gpl
+  target_dir=$(target_dir_of "$binary") || return 0
+  [[ -n $target_dir ]] || return 0
+  link_dir=$(dirname "$(dirname "$target_dir")")
+  local object_dirs=("$target_dir")
+  for token in $(cat "$target_dir/link.txt"); do
+    [[ $token == *.a ]] || continue
+    archive=$(cd "$link_dir" && realpath -m "$token")
+    if [[ $archive == /usr/* ]]; then  # a system archive: judged by its package
+      package=$(package_of "$archive") || { echo "check-licences: $binary: $archive belongs to no package" >&2; failures=$((failures + 1)); continue; }
+      gpl=no; licence=$(package_is_gpl_only "$package") && gpl=yes
+      report "$binary" "$(basename "$archive")" "$package" "$licence" $gpl
+    else  # the project's own library libNAME.a: its objects' dependency files
+      library_dir=$(dirname "$archive")/CMakeFiles/$(basename "$archive" .a | sed 's/^lib//').dir
+      [[ -d $library_dir ]] && object_dirs+=("$library_dir")
+    fi
+  done
+  headers=$(find "${object_dirs[@]}" -name '*.o.d' -exec cat {} + | tr ' \\' '\n\n' |
+              sed -n 's/:$//; /^\/usr\//p' | xargs -r realpath -m -s | sort -u)
+  if [[ -z $headers ]]; then
+    echo "check-licences: $binary: no dependency files under $target_dir (build the binary first)" >&2
+    failures=$((failures + 1))
+    return
+  fi
+  # Header -> package through dpkg's own file lists (what dpkg -S reads), in one pass for thousands of headers.
+  local -A header_package header_spdx judged
+  while IFS=$'\t' read -r package header; do
+    header_package[$header]=$package
+  done < <(awk 'FNR == NR {wanted[$0] = 1; next} ($0 in wanted) {n = FILENAME; sub(/.*\//, "", n); sub(/\.list$/, "", n); sub(/:.*/, "", n); print n "\t" $0}' \
+             <(echo "$headers") /var/lib/dpkg/info/*.list)
+  while IFS=$'\t' read -r header spdx; do
+    header_spdx[$header]=$spdx
+  done < <(spdx_of_headers <<<"$headers")
+  while read -r header; do
+    package=${header_package[$header]:-}
+    if [[ -z $package ]] && ! package=$(package_of "$header"); then
+      echo "check-licences: $binary: header $header belongs to no package" >&2
+      failures=$((failures + 1))
+      continue
+    fi
+    spdx=${header_spdx[$header]:-${header_exception[$package]:-}}
+    if [[ -n $spdx ]]; then
+      if gpl_only_expression "$spdx"; then
+        # One line per package (CGAL has hundreds of such headers): the first one names the case.
+        [[ -n ${judged["$package gpl"]:-} ]] && continue
+        judged["$package gpl"]=1
+        report "$binary" "headers of $package such as $header" "$package" "$spdx" yes
+      elif [[ -z ${judged["$package spdx"]:-} ]]; then
+        judged["$package spdx"]=1
+        report "$binary" "headers of $package" "$package" "$spdx (per header)" no
+      fi
+      continue
+    fi
+    [[ -n ${judged[$package]:-} ]] && continue
+    judged[$package]=1
+    gpl=no; licence=$(package_is_gpl_only "$package") && gpl=yes
+    report "$binary" "headers of $package" "$package" "$licence" $gpl
+  done <<<"$headers"
+}
+
+for binary in "$@"; do
+  if [[ ! -r $binary ]] || ! ldd "$binary" >/dev/null 2>&1; then
+    echo "check-licences: $binary: not a dynamically linked executable or library" >&2
+    exit 2
+  fi
+  $verbose && echo "$binary:"
+  check_shared_libraries "$binary"
+  check_static_parts "$binary"
+done
+if ((failures > 0)); then exit 1; fi
+$verbose && echo "check-licences: no GPL-only dependency in $*"
+exit 0
