@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "proto/api_types.hpp"
+#include "tracemesh_build_info.hpp"
 
 namespace tracemesh::cli {
 namespace {
@@ -117,7 +118,7 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
                  proto::format_names_text() + " or msms (default: from the output's extension; .glb is glb)");
   app.add_option("--report", report_text, "Write the JSON report to FILE, or to stdout with -");
   app.add_flag("-v,--verbose", options.verbose, "Print timings and a summary on stderr");
-  app.set_version_flag("--version", std::string("tracemesh (engine ") + engine_version + ")");
+  app.set_version_flag("--version", build_info::version_line("tracemesh"));
 }
 
 /// The options CLI11 left as text: parameters through the service's parser, then the output format.

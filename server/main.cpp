@@ -13,6 +13,7 @@
 #include "server/observability/logging.hpp"
 #include "server/redis/redis_url.hpp"
 #include "server/service.hpp"
+#include "tracemesh_build_info.hpp"
 
 namespace {
 
@@ -160,6 +161,7 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   app.add_option("--cors-origin", cors_origins, "Allowed CORS origin; repeat for several; \"*\" = any (default)");
   app.add_option("--log-level", line.log_level, "trace, debug, info, warn, error, critical or off")
       ->capture_default_str();
+  app.set_version_flag("--version", tracemesh::build_info::version_line("tracemeshd"));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
