@@ -400,7 +400,64 @@ std::int64_t best_lane_index(const lane_sums<W>& sums) {
   return index;
 }
 
+/// Sums the kernels of the gathered atoms but the last (count mod W), which move to the front of the list: every atom
+/// keeps lane (its position in the whole evaluation) mod W, as if the list never filled, so the sums do not depend on
+/// how the atoms came in ranges (a cell row or a field_neighbourhood give the same bits).
+template <int W, bool with_gradient, bool with_dominant>
+[[gnu::always_inline]] inline void sum_full_groups(const gaussian_field::atom_arrays& atoms, inside_atoms<W>& inside,
+                                                   const vec3& p, double d, lane_sums<W>& sums) {
+  const int listed = inside.count, full = listed / W * W;
+  inside.count = full;
+  sum_kernels<W, with_gradient, with_dominant>(atoms, inside, p, d, sums);
+  for (int n = full; n < listed; ++n) {
+    inside.index[static_cast<std::size_t>(n - full)] = inside.index[static_cast<std::size_t>(n)];
+  }
+  inside.count = listed - full;
+}
+
+/// Screens atoms [begin, end) into `inside`, summing full groups first whenever a piece might not fit.
+template <int W, bool with_gradient, bool with_dominant>
+[[gnu::always_inline]] inline void add_atoms(const gaussian_field::atom_arrays& atoms, std::uint32_t begin,
+                                             std::uint32_t end, const vec3& p, double d, inside_atoms<W>& inside,
+                                             lane_sums<W>& sums) {
+  while (begin < end) {
+    // Pieces of at most half the list: after summing the full groups fewer than W atoms are left, so a piece fits.
+    const std::uint32_t piece_end = std::min<std::uint32_t>(end, begin + inside_atoms<W>::capacity / 2);
+    if (inside.count + static_cast<int>(piece_end - begin) > inside_atoms<W>::capacity) {
+      sum_full_groups<W, with_gradient, with_dominant>(atoms, inside, p, d, sums);
+    }
+    screen(atoms, begin, piece_end, p, inside);
+    begin = piece_end;
+  }
+}
+
+/// The evaluation's result from its lane sums (the dominant atom's index −1 when no atom was within its cutoff).
+template <int W, bool with_gradient, bool with_dominant>
+[[gnu::always_inline]] inline gaussian_field::point_probe probe_of(const lane_sums<W>& sums,
+                                                                   std::int64_t& dominant) {
+  gaussian_field::point_probe out{simd::lane_sum(sums.value), {}, 0};
+  if constexpr (with_gradient) {
+    out.gradient = {simd::lane_sum(sums.gx), simd::lane_sum(sums.gy), simd::lane_sum(sums.gz)};
+  }
+  if constexpr (with_dominant) dominant = best_lane_index(sums);
+  return out;
+}
+
 }  // namespace
+
+template <int W, bool with_gradient, bool with_dominant>
+[[gnu::always_inline]] inline gaussian_field::point_probe gaussian_field::evaluate_list(const atom_arrays& list,
+                                                                                        std::uint32_t count,
+                                                                                        const vec3& p) const {
+  lane_sums<W> sums;
+  inside_atoms<W> inside;
+  add_atoms<W, with_gradient, with_dominant>(list, 0, count, p, d_, inside, sums);
+  sum_kernels<W, with_gradient, with_dominant>(list, inside, p, d_, sums);
+  std::int64_t dominant = -1;
+  point_probe out = probe_of<W, with_gradient, with_dominant>(sums, dominant);
+  if constexpr (with_dominant) out.dominant_atom = dominant >= 0 ? static_cast<std::uint32_t>(dominant) : nearest_atom(p);
+  return out;
+}
 
 template <int W, bool with_gradient, bool with_dominant>
 [[gnu::always_inline]] inline gaussian_field::point_probe gaussian_field::evaluate(const vec3& p) const {
@@ -414,16 +471,7 @@ template <int W, bool with_gradient, bool with_dominant>
   std::size_t range_count = 0;
   const auto screen_ranges = [&]() __attribute__((always_inline)) {
     for (std::size_t n = 0; n < range_count; ++n) {
-      // Whole ranges keep the screening simple; a range longer than the list's room goes in pieces.
-      for (std::uint32_t begin = ranges[n].begin; begin < ranges[n].end;) {
-        const std::uint32_t end = std::min<std::uint32_t>(ranges[n].end, begin + inside_atoms<W>::capacity / 2);
-        if (inside.count + static_cast<int>(end - begin) > inside_atoms<W>::capacity) {
-          sum_kernels<W, with_gradient, with_dominant>(a, inside, p, d_, sums);
-          inside.count = 0;
-        }
-        screen(a, begin, end, p, inside);
-        begin = end;
-      }
+      add_atoms<W, with_gradient, with_dominant>(a, ranges[n].begin, ranges[n].end, p, d_, inside, sums);
     }
     range_count = 0;
   };
@@ -433,13 +481,19 @@ template <int W, bool with_gradient, bool with_dominant>
   });
   screen_ranges();
   sum_kernels<W, with_gradient, with_dominant>(a, inside, p, d_, sums);
-  point_probe out{simd::lane_sum(sums.value), {}, 0};
-  if constexpr (with_gradient) out.gradient = {simd::lane_sum(sums.gx), simd::lane_sum(sums.gy), simd::lane_sum(sums.gz)};
-  if constexpr (with_dominant) {
-    const std::int64_t best = best_lane_index(sums);
-    out.dominant_atom = best >= 0 ? static_cast<std::uint32_t>(best) : nearest_atom(p);
-  }
+  std::int64_t dominant = -1;
+  point_probe out = probe_of<W, with_gradient, with_dominant>(sums, dominant);
+  if constexpr (with_dominant) out.dominant_atom = dominant >= 0 ? static_cast<std::uint32_t>(dominant) : nearest_atom(p);
   return out;
+}
+
+double gaussian_field::value_and_gradient_over(const atom_arrays& list, std::uint32_t count, const vec3& p,
+                                               vec3& gradient) const {
+  const point_probe out = simd::dispatch<point_lanes>([&](auto lanes) __attribute__((always_inline)) {
+    return evaluate_list<decltype(lanes)::value, true, false>(list, count, p);
+  });
+  gradient = out.gradient;
+  return out.value;
 }
 
 double gaussian_field::value(const vec3& p) const {
@@ -470,7 +524,9 @@ gaussian_field::point_probe gaussian_field::probe(const vec3& p) const {
 
 int simd::widest_lanes() {
 #if defined(__x86_64__)
-  if (__builtin_cpu_supports("avx512f")) return 8;
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq")) {
+    return 8;
+  }
   if (__builtin_cpu_supports("avx2")) return 4;
 #endif
   return 2;
@@ -522,6 +578,50 @@ bool gaussian_field::project_to_surface(vec3& p, double max_move) const {
   return false;
 }
 
+namespace {
+
+/// gap = max(lo − c, 0, c − hi) in every lane: how far c lies outside [lo, hi].
+template <class F>
+[[gnu::always_inline]] inline void gap_to_interval(const F& c, double lo, double hi, F& gap) {
+  const F below = lo - c, above = c - hi, zero{};
+  const F outside = below > above ? below : above;
+  gap = outside > zero ? outside : zero;
+}
+
+/// Stores at out[count..] the atoms of [begin, end) whose cutoff sphere may reach `box` (box distance² < cutoff² with
+/// the selection slack), W at a time, branch-free; `out` has room for W entries beyond the last atom. Returns the new
+/// count.
+template <int W>
+[[gnu::always_inline]] inline std::size_t select_near_box(const gaussian_field::atom_arrays& atoms,
+                                                          std::uint32_t begin, std::uint32_t end, const box3& box,
+                                                          std::uint32_t* out, std::size_t count) {
+  using F = typename simd::pack<W>::f64;
+  using M = typename simd::pack<W>::i64;
+  for (std::uint32_t k = begin; k < end; k += W) {
+    F x, y, z, cutoff2, dx, dy, dz;
+    simd::load(x, atoms.x + k);
+    simd::load(y, atoms.y + k);
+    simd::load(z, atoms.z + k);
+    simd::load(cutoff2, atoms.cutoff2 + k);
+    gap_to_interval(x, box.lo.x, box.hi.x, dx);
+    gap_to_interval(y, box.lo.y, box.hi.y, dy);
+    gap_to_interval(z, box.lo.z, box.hi.z, dz);
+    M near = dx * dx + dy * dy + dz * dz < cutoff2 * (1 + selection_slack);
+    simd::clear_lanes_from(near, k, end);
+    for (int group = 0; group < W; group += 4) {
+      const unsigned mask = W <= 4 ? lane_bits(near) : lane_bits_of_group(near, group);
+      index4 selected;
+      __builtin_memcpy(&selected, compress_table[mask].data(), sizeof selected);
+      selected += k + static_cast<std::uint32_t>(group);
+      __builtin_memcpy(out + count, &selected, sizeof selected);
+      count += static_cast<std::size_t>(__builtin_popcount(mask));
+    }
+  }
+  return count;
+}
+
+}  // namespace
+
 void gaussian_field::atoms_near_box(const box3& box, std::vector<std::uint32_t>& out) const {
   out.clear();
   if (atom_count() == 0) return;
@@ -537,16 +637,20 @@ void gaussian_field::atoms_near_box(const box3& box, std::vector<std::uint32_t>&
     }
     if (lo[axis] > hi[axis]) return;
   }
-  const auto add_if_near = [&](std::uint32_t k) {
-    // Squared distance from the centre to the box; keep atoms whose cutoff sphere may reach it.
-    const double dx = std::max({box.lo.x - x_[k], 0.0, x_[k] - box.hi.x});
-    const double dy = std::max({box.lo.y - y_[k], 0.0, y_[k] - box.hi.y});
-    const double dz = std::max({box.lo.z - z_[k], 0.0, z_[k] - box.hi.z});
-    if (dx * dx + dy * dy + dz * dz < cutoff2_[k] * (1 + selection_slack)) out.push_back(k);
+  std::size_t count = 0;
+  const atom_arrays all = atoms();
+  const auto add_near = [&](std::uint32_t begin, std::uint32_t end) {
+    if (out.size() < count + (end - begin) + simd::max_lanes) {
+      out.resize(std::max(2 * out.size(), count + (end - begin) + simd::max_lanes));
+    }
+    count = simd::dispatch<point_lanes>([&](auto lanes) __attribute__((always_inline)) {
+      return select_near_box<decltype(lanes)::value>(all, begin, end, box, out.data(), count);
+    });
   };
   const double rows = static_cast<double>(hi[0] - lo[0] + 1) * static_cast<double>(hi[1] - lo[1] + 1);
   if (rows > static_cast<double>(atom_count())) {  // a box wide in cells (tiny radii): scanning is cheaper
-    for (std::uint32_t k = 0; k < atom_count(); ++k) add_if_near(k);
+    add_near(0, static_cast<std::uint32_t>(atom_count()));
+    out.resize(count);
     return;
   }
   // Rows whose cells the box grown by the reach cannot touch are skipped, and each row's z span is trimmed to it.
@@ -563,9 +667,54 @@ void gaussian_field::atoms_near_box(const box3& box, std::vector<std::uint32_t>&
       const double half_height = std::sqrt(left);
       const atom_range range =
           row_atoms(cx, cy, cell_of(box.lo.z - half_height, 2), cell_of(box.hi.z + half_height, 2));
-      for (std::uint32_t k = range.begin; k < range.end; ++k) add_if_near(k);
+      if (range.begin < range.end) add_near(range.begin, range.end);
     }
   }
+  out.resize(count);
+}
+
+field_neighbourhood::field_neighbourhood(const gaussian_field& field, const vec3& reach)
+    : field_(field), reach_(reach) {}
+
+bool field_neighbourhood::covers(const vec3& p) const {
+  return gathered_ && p.x >= box_.lo.x && p.x <= box_.hi.x && p.y >= box_.lo.y && p.y <= box_.hi.y &&
+         p.z >= box_.lo.z && p.z <= box_.hi.z;
+}
+
+void field_neighbourhood::gather(const vec3& centre) {
+  box_ = {centre - reach_, centre + reach_};
+  field_.atoms_near_box(box_, indices_);
+  const std::size_t count = indices_.size(), padded = count + simd::max_lanes - 1;
+  for (auto* column : {&x_, &y_, &z_, &inv_r2_, &cutoff2_}) {
+    if (column->size() < padded) column->resize(padded);
+    std::fill(column->begin() + static_cast<std::ptrdiff_t>(count), column->begin() + static_cast<std::ptrdiff_t>(padded),
+              0.0);  // padding: cutoff2 = 0, never contributes
+  }
+  if (original_index_.size() < padded) original_index_.resize(padded);
+  const gaussian_field::atom_arrays all = field_.atoms();
+  for (std::size_t n = 0; n < count; ++n) {
+    const std::uint32_t k = indices_[n];
+    x_[n] = all.x[k];
+    y_[n] = all.y[k];
+    z_[n] = all.z[k];
+    inv_r2_[n] = all.inv_r2[k];
+    cutoff2_[n] = all.cutoff2[k];
+    original_index_[n] = all.original_index[k];
+  }
+  gathered_ = true;
+  ++gathers_;
+}
+
+double field_neighbourhood::value_and_gradient(const vec3& p, vec3& gradient) {
+  // Only points in the box may use its atoms: a point outside (or NaN) gathers a new box, or, not finite, is the
+  // field's to evaluate.
+  if (!covers(p)) {
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))) return field_.value_and_gradient(p, gradient);
+    gather(p);
+  }
+  const gaussian_field::atom_arrays list{x_.data(),       y_.data(),       z_.data(),
+                                         inv_r2_.data(),  cutoff2_.data(), original_index_.data()};
+  return field_.value_and_gradient_over(list, static_cast<std::uint32_t>(indices_.size()), p, gradient);
 }
 
 }  // namespace tracemesh

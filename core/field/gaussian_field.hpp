@@ -118,18 +118,20 @@ template <class M>
   mask &= lane < end - first;
 }
 
-/// 8 with AVX-512F, 4 with AVX2, otherwise 2.
+/// 8 with AVX-512 (F, VL and DQ), 4 with AVX2, otherwise 2.
 int widest_lanes();
 
 }  // namespace simd
 
 // The vector instruction sets of dispatch(). GCC may fuse a·b + c into one rounding where FMA exists (AVX-512);
 // it is switched off so that every width gives the same roundings (Clang fuses only within one expression).
+// AVX-512VL lets the 4-lane kernels use all 32 vector registers (AVX-512F alone gives 256-bit code only 16, and the
+// point evaluation spilled its sums and constants to the stack); DQ gives its masks one-instruction conversions.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define TRACEMESH_TARGET_AVX512 __attribute__((target("avx512f"), optimize("fp-contract=off")))
+#define TRACEMESH_TARGET_AVX512 __attribute__((target("avx512f,avx512vl,avx512dq"), optimize("fp-contract=off")))
 #define TRACEMESH_TARGET_AVX2 __attribute__((target("avx2")))
 #elif defined(__x86_64__)
-#define TRACEMESH_TARGET_AVX512 __attribute__((target("avx512f")))
+#define TRACEMESH_TARGET_AVX512 __attribute__((target("avx512f,avx512vl,avx512dq")))
 #define TRACEMESH_TARGET_AVX2 __attribute__((target("avx2")))
 #endif
 
@@ -283,6 +285,13 @@ class gaussian_field {
   /// One pass over the atoms near p, W at a time: φ, and ∇φ and the dominant atom when asked for.
   template <int W, bool with_gradient, bool with_dominant>
   point_probe evaluate(const vec3& p) const;
+  /// The same over the first `count` atoms of `list` (padded as atom_arrays), which hold every atom within its
+  /// cutoff of p, in internal order: the same bits as evaluate().
+  template <int W, bool with_gradient, bool with_dominant>
+  point_probe evaluate_list(const atom_arrays& list, std::uint32_t count, const vec3& p) const;
+  /// value_and_gradient() over such a list.
+  double value_and_gradient_over(const atom_arrays& list, std::uint32_t count, const vec3& p, vec3& gradient) const;
+  friend class field_neighbourhood;
 
   double d_, t0_;
   double cutoff_error_bound_ = 0;
@@ -304,6 +313,40 @@ class gaussian_field {
   std::vector<std::uint32_t> cell_start_;
   std::vector<sparse_row> rows_;
   std::vector<std::int32_t> cell_z_;
+};
+
+/// The atoms of a field that may reach any point of a box, gathered once so that evaluations at points that stay in
+/// it (the steps of a traced contour) skip the field's cell index and screen fewer atoms. Results are the field's,
+/// bit for bit: the box holds every atom within its cutoff of any point in it, in the field's order, and the sums do
+/// not depend on how the atoms are grouped. A point outside the box gathers a new box around itself.
+/// Not thread-safe (one per thread); holds a reference to the field, which must outlive it.
+class field_neighbourhood {
+ public:
+  /// `reach`: the box's half size along each axis, Å (0 along an axis the points never leave, such as the normal of
+  /// the plane a contour is traced in).
+  field_neighbourhood(const gaussian_field& field, const vec3& reach);
+
+  const gaussian_field& field() const { return field_; }
+  /// As field().value_and_gradient(p, gradient).
+  double value_and_gradient(const vec3& p, vec3& gradient);
+  /// True when p lies in the current box.
+  bool covers(const vec3& p) const;
+  /// Boxes gathered so far.
+  std::size_t gathers() const { return gathers_; }
+  /// Atoms in the current box.
+  std::size_t atom_count() const { return indices_.size(); }
+
+ private:
+  void gather(const vec3& centre);
+
+  const gaussian_field& field_;
+  vec3 reach_;
+  box3 box_{};
+  bool gathered_ = false;
+  std::size_t gathers_ = 0;
+  std::vector<std::uint32_t> indices_;
+  std::vector<double> x_, y_, z_, inv_r2_, cutoff2_;  ///< padded as gaussian_field::atom_arrays
+  std::vector<std::uint32_t> original_index_;
 };
 
 }  // namespace tracemesh

@@ -281,5 +281,54 @@ TEST(gaussian_field, atoms_far_apart_need_no_dense_structure) {
   EXPECT_EQ(field.atom_at(near[0]).original_index, 0u);
 }
 
+// A walk in a plane through a neighbourhood: every value and gradient is the field's, bit for bit, and a box serves
+// many points (the walk leaves the plane's flat box only along the plane).
+TEST(gaussian_field, neighbourhood_evaluations_are_the_field_s_bits) {
+  const molecule cluster = random_cluster(400, 31);
+  const gaussian_field field(cluster, -1, 1);
+  field_neighbourhood near(field, {1.0, 1.0, 0.0});
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> step(-0.25, 0.25);
+  vec3 p{-6, -6, 0.3};
+  const int points = 600;
+  for (int n = 0; n < points; ++n) {
+    p.x += 0.02 + step(rng) * 0.2;
+    p.y += 0.02 + step(rng) * 0.2;
+    vec3 expected_gradient, gradient;
+    const double expected = field.value_and_gradient(p, expected_gradient);
+    EXPECT_EQ(near.value_and_gradient(p, gradient), expected);
+    EXPECT_EQ(gradient, expected_gradient);
+  }
+  EXPECT_LT(near.gathers(), static_cast<std::size_t>(points / 10));
+  EXPECT_GT(near.atom_count(), 0u);
+  // Off the plane the box is left at every point, and the values stay the field's.
+  for (int n = 0; n < 50; ++n) {
+    const vec3 q{step(rng) * 20, step(rng) * 20, step(rng) * 20};
+    vec3 expected_gradient, gradient;
+    EXPECT_EQ(near.value_and_gradient(q, gradient), field.value_and_gradient(q, expected_gradient));
+    EXPECT_EQ(gradient, expected_gradient);
+  }
+}
+
+// So many atoms within their cutoff of one point that the evaluation's list fills several times: the cell rows and a
+// neighbourhood's single list fill at different atoms, and still give the same bits (every atom keeps its lane).
+TEST(gaussian_field, a_full_atom_list_does_not_change_the_sum) {
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> coord(-2, 2);
+  molecule crowd;
+  for (int n = 0; n < 900; ++n) crowd.atoms.push_back({{coord(rng), coord(rng), coord(rng)}, 1.5, 0});
+  const gaussian_field field(crowd, -1, 1);
+  field_neighbourhood near(field, {0.5, 0.5, 0.5});
+  for (const vec3& p : {vec3{0, 0, 0}, vec3{0.3, -0.2, 0.1}, vec3{-0.4, 0.4, -0.45}}) {
+    vec3 expected_gradient, gradient;
+    const double expected = field.value_and_gradient(p, expected_gradient);
+    EXPECT_EQ(near.value_and_gradient(p, gradient), expected);
+    EXPECT_EQ(gradient, expected_gradient);
+    EXPECT_NEAR(expected, brute_force_phi(crowd, p, -1), 1e-12 * expected);
+  }
+  EXPECT_EQ(near.gathers(), 1u);
+  EXPECT_EQ(near.atom_count(), crowd.atoms.size());
+}
+
 }  // namespace
 }  // namespace tracemesh
