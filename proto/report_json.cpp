@@ -15,6 +15,10 @@ nlohmann::json parameters_to_json(const mesh_params& params) {
   return {{"density", number(params.density)}, {"d", number(params.d)}, {"t0", number(params.t0)}};
 }
 
+nlohmann::json input_to_json(const input_summary& input) {
+  return {{"format", std::string(input_format_name(input.format))}, {"radii", input.radii}};
+}
+
 nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& stats) {
   const double per_vertex =
       stats.raw_vertices == 0 ? 0.0
@@ -110,12 +114,13 @@ nlohmann::json timings_to_json(const std::vector<stage_timing>& timings, double 
   return json;
 }
 
-nlohmann::json report_to_json(const mesh_output& output, const mesh_params& params) {
+nlohmann::json report_to_json(const mesh_output& output, const mesh_params& params,
+                              const std::optional<input_summary>& input) {
   const mesh_report& report = output.report;
   nlohmann::json components = nlohmann::json::array();
   for (const component_report& component : report.components) components.push_back(component_to_json(component));
   const mesh_method used = method_used(params.method, output);
-  return {
+  nlohmann::json doc = {
       {"engine_version", engine_version},
       {"parameters", parameters_to_json(params)},
       {"method", method_name(params.method)},
@@ -141,6 +146,8 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
       {"achieved_density", number(report.achieved_density)},
       {"timings", timings_to_json(output.timings, output.failed_attempt_seconds)},
   };
+  if (input) doc["input"] = input_to_json(*input);
+  return doc;
 }
 
 }  // namespace tracemesh::proto

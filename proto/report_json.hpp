@@ -4,14 +4,25 @@
 /// Schema: the MeshReport component of proto/openapi.json. Field names are snake_case; lengths in Å, areas Å²,
 /// volumes Å³, angles degrees, timings seconds. Non-finite numbers are written as null.
 
+#include <optional>
+#include <string>
+
 #include <nlohmann/json.hpp>
 
+#include "core/io/input_format.hpp"
 #include "core/mesher.hpp"
 #include "proto/mesh_encoders.hpp"
 
 namespace tracemesh::proto {
 
-/// Report of one meshing run: engine_version, parameters {density, d, t0}, method ("trace" | "lattice"),
+/// What was read: the input's format and where its radii came from (read_molecule_result, radii_source).
+struct input_summary {
+  input_format format = input_format::pqr;
+  std::string radii = "file";  ///< "file" (PQR, xyzr) or the radii table's name ("bondi", "mantina")
+};
+
+/// Report of one meshing run: engine_version, parameters {density, d, t0}, input {format, radii} (when `input` is
+/// given: the caller read the molecule), method ("trace" | "lattice"),
 /// method_used (method_used(): lattice when a trace job fell back), fallback (output.fallback_reason, null
 /// when empty), refine ("none" | "full"), cavity_mode ("keep" | "drop", params.cavities), dropped_components
 /// (enclosed components removed by cavities=drop), trace (trace_to_json when the trace path made the mesh, else
@@ -22,10 +33,13 @@ namespace tracemesh::proto {
 /// Everything but `timings` is a function of the input and parameters only (params.threads is not reported).
 /// method, refine and the trace parameters are echoed from `params` (what was asked), the trace counters come from
 /// output.trace (what was done).
-nlohmann::json report_to_json(const mesh_output& output, const mesh_params& params);
+nlohmann::json report_to_json(const mesh_output& output, const mesh_params& params,
+                              const std::optional<input_summary>& input = std::nullopt);
 
 /// The parts of report_to_json, for callers that assemble their own documents.
 nlohmann::json parameters_to_json(const mesh_params& params);
+/// {"format": "pqr" | "pdb" | "mmcif" | "xyzr", "radii": "file" | "bondi" | "mantina"}.
+nlohmann::json input_to_json(const input_summary& input);
 /// The trace path's section: {parameters: {legendre_degree, step_fraction, step (Å, stats.step), line_spacing (Å,
 /// stats.line_spacing), cos_bound, extreme_tolerance}, line_offset ([y, z] in units of h̃), grid_retries, lines,
 /// polynomial_roots, bracketed_roots, late_roots, arcs, polygons, extreme_points, retraced_arcs, fallback_loops,

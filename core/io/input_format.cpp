@@ -1,5 +1,6 @@
 #include "core/io/input_format.hpp"
 
+#include <algorithm>
 #include <string>
 #include <utility>
 
@@ -55,6 +56,44 @@ std::string_view strip_cr(std::string_view line) {
   return line;
 }
 
+/// The number of whitespace-separated fields of `line`, counting at most `cap + 1`.
+std::size_t field_count(std::string_view line, std::size_t cap) {
+  std::size_t found = 0;
+  std::size_t i = 0;
+  while (i < line.size() && found <= cap) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    if (i == line.size()) break;
+    ++found;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+  }
+  return found;
+}
+
+/// True when the first non-blank byte of `line` can start a decimal number.
+bool starts_as_number(std::string_view line) {
+  const std::size_t first = line.find_first_not_of(" \t");
+  if (first == std::string_view::npos) return false;
+  const char c = line[first];
+  return is_digit(c) || c == '-' || c == '+' || c == '.';
+}
+
+char to_lower(char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; }
+
+bool ends_with_ignoring_case(std::string_view text, std::string_view suffix) {
+  if (text.size() < suffix.size()) return false;
+  const std::string_view tail = text.substr(text.size() - suffix.size());
+  for (std::size_t i = 0; i < suffix.size(); ++i) {
+    if (to_lower(tail[i]) != suffix[i]) return false;
+  }
+  return true;
+}
+
+/// "3 of 4 atom records", for messages.
+std::string records_of(std::size_t count, const format_evidence& evidence) {
+  return std::to_string(count) + " of " + std::to_string(evidence.pqr_records + evidence.other_records) +
+         " atom records";
+}
+
 }  // namespace
 
 std::string_view input_format_name(input_format format) noexcept {
@@ -67,8 +106,28 @@ std::string_view input_format_name(input_format format) noexcept {
   return "pqr";
 }
 
-input_format detect_input_format(std::string_view text, std::size_t max_line_bytes) {
+result<input_format> parse_input_format(std::string_view name) {
+  for (const input_format format : {input_format::pqr, input_format::pdb, input_format::mmcif, input_format::xyzr}) {
+    if (name == input_format_name(format)) return format;
+  }
+  return status{errc::invalid_argument,
+                "format_in must be pqr, pdb, mmcif or xyzr, not '" + detail::quote_bytes(name) + "'"};
+}
+
+std::optional<input_format> input_format_of_file_name(std::string_view file_name) {
+  if (ends_with_ignoring_case(file_name, ".gz")) file_name.remove_suffix(3);
+  const std::pair<std::string_view, input_format> extensions[] = {
+      {".pqr", input_format::pqr},     {".pdb", input_format::pdb},     {".ent", input_format::pdb},
+      {".cif", input_format::mmcif},   {".mmcif", input_format::mmcif}, {".xyzr", input_format::xyzr}};
+  for (const auto& [extension, format] : extensions) {
+    if (ends_with_ignoring_case(file_name, extension)) return format;
+  }
+  return std::nullopt;
+}
+
+format_evidence examine_input_format(std::string_view text, std::size_t max_line_bytes) {
   if (starts_with(text, "\xEF\xBB\xBF")) text.remove_prefix(3);
+  format_evidence evidence;
   bool first_meaningful = true;  // no non-blank, non-comment line seen yet
   bool first_non_blank = true;
   std::size_t begin = 0;
@@ -78,15 +137,70 @@ input_format detect_input_format(std::string_view text, std::size_t max_line_byt
     const std::string_view line = strip_cr(text.substr(begin, std::min(end - begin, max_line_bytes)));
     begin = end + 1;
     if (is_blank(line)) continue;
-    if (first_non_blank && is_numbers(line, 4)) return input_format::xyzr;
-    first_non_blank = false;
+    if (first_non_blank) {
+      evidence.xyzr_like_first = starts_as_number(line) && field_count(line, 4) == 4;
+      evidence.xyzr_first_line = is_numbers(line, 4);
+      if (evidence.xyzr_first_line) return evidence;
+      first_non_blank = false;
+    }
     if (line.front() == '#') continue;
-    if (first_meaningful && starts_with(line, "data_")) return input_format::mmcif;
+    if (first_meaningful && starts_with(line, "data_")) {
+      evidence.mmcif_header = true;
+      return evidence;
+    }
     first_meaningful = false;
-    if (starts_with(line, "HEADER") || starts_with(line, "CRYST1")) return input_format::pdb;
-    if (is_atom_record(line)) return ends_with_five_numbers(line) ? input_format::pqr : input_format::pdb;
+    const bool before_atoms = evidence.pqr_records + evidence.other_records == 0;
+    if (before_atoms && (starts_with(line, "HEADER") || starts_with(line, "CRYST1"))) {
+      evidence.pdb_header = true;
+      return evidence;
+    }
+    if (is_atom_record(line)) ++(ends_with_five_numbers(line) ? evidence.pqr_records : evidence.other_records);
   }
-  return input_format::pqr;
+  return evidence;
+}
+
+input_format detected_format(const format_evidence& evidence) noexcept {
+  if (evidence.mmcif_header) return input_format::mmcif;
+  if (evidence.xyzr_first_line) return input_format::xyzr;
+  if (evidence.pdb_header) return input_format::pdb;
+  const std::size_t records = evidence.pqr_records + evidence.other_records;
+  if (records == 0) return evidence.xyzr_like_first ? input_format::xyzr : input_format::pqr;
+  return evidence.pqr_records >= evidence.other_records ? input_format::pqr : input_format::pdb;
+}
+
+input_format detect_input_format(std::string_view text, std::size_t max_line_bytes) {
+  return detected_format(examine_input_format(text, max_line_bytes));
+}
+
+status check_declared_format(const declared_format& declared, const format_evidence& evidence) {
+  const std::string declaration = declared.declared_by + " declares " + std::string(input_format_name(declared.format));
+  const auto contradiction = [&](const std::string& content) {
+    return status{errc::invalid_input, declaration + ", but " + content};
+  };
+  const std::size_t records = evidence.pqr_records + evidence.other_records;
+  if (evidence.mmcif_header != (declared.format == input_format::mmcif)) {
+    return contradiction(evidence.mmcif_header ? "the text is mmCIF (it starts with a data_ block)"
+                                               : "the text is not mmCIF (it does not start with a data_ block)");
+  }
+  switch (declared.format) {
+    case input_format::mmcif: break;
+    case input_format::xyzr:
+      if (records > 0) return contradiction("the text has ATOM/HETATM records (PQR or PDB), not x y z r lines");
+      break;
+    case input_format::pqr:
+      if (evidence.pdb_header) return contradiction("the text is PDB (a HEADER or CRYST1 record before the atoms)");
+      if (evidence.other_records > evidence.pqr_records) {
+        return contradiction(records_of(evidence.other_records, evidence) +
+                             " do not end with x y z charge radius (PDB records end with an element symbol)");
+      }
+      [[fallthrough]];
+    case input_format::pdb:
+      if (records == 0 && evidence.xyzr_like_first) {
+        return contradiction("the text is xyzr (x y z r lines, no ATOM/HETATM record)");
+      }
+      break;
+  }
+  return status::success();
 }
 
 namespace {
@@ -103,6 +217,11 @@ result<bool> parse_keep_or_drop(std::string_view option, std::string_view value)
 result<structure_options> parse_structure_options(
     const std::function<std::optional<std::string>(std::string_view name)>& lookup) {
   structure_options options;
+  if (const std::optional<std::string> format = lookup("format_in")) {
+    result<input_format> parsed = parse_input_format(*format);
+    if (!parsed.ok()) return parsed.error();
+    options.format = declared_format{*parsed, "format_in=" + *format};
+  }
   if (const std::optional<std::string> radii = lookup("radii")) {
     result<radii_set> set = parse_radii_set(*radii);
     if (!set.ok()) return set.error();
@@ -119,6 +238,16 @@ result<structure_options> parse_structure_options(
     }
   }
   return options;
+}
+
+std::string_view radii_source(input_format format, const structure_options& options) noexcept {
+  switch (format) {
+    case input_format::pqr:
+    case input_format::xyzr: return "file";
+    case input_format::pdb:
+    case input_format::mmcif: break;
+  }
+  return radii_set_name(options.radii);
 }
 
 }  // namespace tracemesh

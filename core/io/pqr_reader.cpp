@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <system_error>
+#include <vector>
 
 #include "core/io/pqr_gzip.hpp"
 #include "core/io/pqr_text.hpp"
@@ -32,6 +33,11 @@ constexpr const char* pqr_layouts = "10 fields (ATOM serial name resName resSeq 
                                     "before resSeq)";
 /// Bytes of PQR text per atom line, at least; only sizes the first allocation of the atom array.
 constexpr std::size_t min_bytes_per_atom_line = 64;
+/// Line numbers of unreadable atom records an error lists; it counts the others.
+constexpr std::size_t max_listed_bad_lines = 5;
+/// A reader's error is one line of at most this many bytes; the first bad record's message is cut to make room
+/// for the list of the others.
+constexpr std::size_t max_error_message_bytes = 400;
 
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
@@ -57,7 +63,10 @@ bool is_residue_number(std::string_view field, bool fused_chain_id) {
 }
 
 
-/// Streams over PQR text line by line, appending atoms to a molecule; stops at the first error.
+/// Streams over PQR text line by line, appending atoms to a molecule. An atom record that cannot be read is
+/// remembered and the parse goes on, so that the error names every such line (the first few and their count):
+/// a client learns at once whether one line or the whole file is wrong. Errors of the text itself (binary bytes,
+/// an overlong line) and the atom limit stop at once.
 class pqr_parser {
  public:
   explicit pqr_parser(const mesh_limits& limits) : limits_(limits) {}
@@ -80,11 +89,36 @@ class pqr_parser {
   status parse_line(std::string_view line) {
     const std::size_t name_length = atom_record_name_length(line);
     if (name_length == 0) return status::success();  // REMARK, TER, END, MODEL, blank...
-    if (molecule_.atoms.size() == limits_.max_atoms) {
+    if (records_ == limits_.max_atoms) {
       return {errc::limit_exceeded, "line " + std::to_string(line_number_) + ": more than " +
                                         std::to_string(limits_.max_atoms) + " atoms (limits.max_atoms)"};
     }
-    return parse_atom_record(line.substr(0, name_length), line.substr(name_length));
+    ++records_;
+    status read = parse_atom_record(line.substr(0, name_length), line.substr(name_length));
+    if (!read) remember_bad_record(std::move(read));
+    return status::success();
+  }
+
+  void remember_bad_record(status error) {
+    if (bad_lines_.empty()) first_bad_record_ = std::move(error);
+    if (bad_lines_.size() < max_listed_bad_lines) bad_lines_.push_back(line_number_);
+    ++bad_records_;
+  }
+
+  /// The first unreadable record's message and, when there are more, how many and where:
+  /// "line 1: radius '*****' ...; 3 of 120 atom records cannot be read as PQR (lines 1, 7, 9)".
+  status bad_records_error() const {
+    if (bad_records_ == 1) return first_bad_record_;
+    std::string lines;
+    for (const std::size_t line : bad_lines_) lines += (lines.empty() ? "" : ", ") + std::to_string(line);
+    if (bad_records_ > bad_lines_.size()) lines += ", ...";
+    const std::string summary = "; " + std::to_string(bad_records_) + " of " + std::to_string(records_) +
+                                " atom records cannot be read as PQR (lines " + lines + ")";
+    std::string first = first_bad_record_.message();
+    if (first.size() + summary.size() > max_error_message_bytes) {
+      first = first.substr(0, max_error_message_bytes - summary.size() - 3) + "...";
+    }
+    return {first_bad_record_.code(), first + summary};
   }
 
   status parse_atom_record(std::string_view record_name, std::string_view fields) {
@@ -168,6 +202,7 @@ class pqr_parser {
   }
 
   result<molecule> finish() {
+    if (bad_records_ > 0) return bad_records_error();
     if (molecule_.atoms.empty()) {
       return status{errc::nothing_to_mesh, "no atoms with radius > 0: the input has no ATOM or HETATM record"};
     }
@@ -180,6 +215,10 @@ class pqr_parser {
 
   const mesh_limits& limits_;
   std::size_t line_number_ = 0;
+  std::size_t records_ = 0;  // atom records seen, read or not
+  std::size_t bad_records_ = 0;
+  std::vector<std::size_t> bad_lines_;  // the first max_listed_bad_lines of them
+  status first_bad_record_ = status::success();
   molecule molecule_;
 };
 

@@ -52,7 +52,10 @@ std::size_t max_pqr_text_bytes(const mesh_limits& limits) noexcept;
 /// with non-printable bytes escaped as \xNN:
 /// - errc::invalid_input: a field count other than 10 or 11, no residue number before x, an unparsable or non-finite number, |coordinate| >
 ///   limits.max_abs_coordinate, a negative or > limits.max_radius radius, NUL/control/non-UTF-8 bytes, a
-///   UTF-16 byte order mark, a line longer than limits.max_line_bytes (line terminator excluded).
+///   UTF-16 byte order mark, a line longer than limits.max_line_bytes (line terminator excluded). The parse goes
+///   on past an unreadable atom record (fields, numbers, ranges): the message is the first one's, followed, when
+///   there are more, by "; N of M atom records cannot be read as PQR (lines a, b, c, d, e, ...)" (the first five
+///   line numbers). Text errors (bytes, line length) stop at once.
 /// - errc::limit_exceeded: an atom record beyond limits.max_atoms; parsing stops at that line.
 /// - errc::nothing_to_mesh ("no atoms with radius > 0 ..."): no atom record, or every radius is 0.
 /// Linear time in text.size(); a line is never scanned past limits.max_line_bytes + 1 bytes.

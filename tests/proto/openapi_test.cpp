@@ -181,6 +181,15 @@ TEST(OpenApi, EnumerationsMatchTheCode) {
   EXPECT_EQ(strings_of(schema(doc, "RefineMode").at("enum")), refines);
   EXPECT_EQ(schema(doc, "RefineMode").at("default"), refine_name(mesh_params{}.refine));
 
+  std::set<std::string> input_formats;
+  for (const input_format format : {input_format::pqr, input_format::pdb, input_format::mmcif, input_format::xyzr}) {
+    input_formats.insert(std::string(input_format_name(format)));
+  }
+  EXPECT_EQ(strings_of(schema(doc, "InputFormat").at("enum")), input_formats);
+  const std::set<std::string> radii_sources = {"file", std::string(radii_set_name(radii_set::bondi)),
+                                               std::string(radii_set_name(radii_set::mantina))};
+  EXPECT_EQ(strings_of(schema(doc, "InputSummary").at("properties").at("radii").at("enum")), radii_sources);
+
   std::set<std::string> stages;
   for (int s = 0; s <= static_cast<int>(mesh_stage::done); ++s) stages.insert(stage_name(static_cast<mesh_stage>(s)));
   EXPECT_EQ(strings_of(schema(doc, "Stage").at("enum")), stages);
@@ -198,7 +207,12 @@ TEST(OpenApi, ReportSchemaMatchesReportToJson) {
   EXPECT_EQ(strings_of(schema(doc, "MeshReport").at("required")), keys_of(report));
   std::set<std::string> properties = keys_of(schema(doc, "MeshReport").at("properties"));
   EXPECT_EQ(properties.erase("encodings"), 1U) << "added by the CLI and the service after report_to_json";
+  EXPECT_EQ(properties.erase("input"), 1U) << "present when the caller says what it read";
   EXPECT_EQ(properties, keys_of(report));
+  const nlohmann::json with_input = report_to_json(output, lattice, input_summary{input_format::pdb, "mantina"});
+  EXPECT_EQ(with_input.at("input"), nlohmann::json({{"format", "pdb"}, {"radii", "mantina"}}));
+  EXPECT_EQ(strings_of(schema(doc, "InputSummary").at("required")), keys_of(with_input.at("input")));
+  EXPECT_EQ(keys_of(schema(doc, "InputSummary").at("properties")), keys_of(with_input.at("input")));
   EXPECT_EQ(keys_of(report_to_json(output, trace)), keys_of(report)) << "trace is null or an object, never absent";
   const nlohmann::json trace_section = report_to_json(output, trace).at("trace");
   EXPECT_EQ(strings_of(schema(doc, "TraceReport").at("required")), keys_of(trace_section));

@@ -19,7 +19,11 @@ result<read_molecule_result> parse_text(std::string_view text, const structure_o
   // Dropped here, for every reader: the PDB reader took it for part of the first record, whose atom was lost
   // without a word, and the mmCIF reader refused "data_" behind it.
   if (text.starts_with(utf8_bom)) text.remove_prefix(utf8_bom.size());
-  const input_format format = detect_input_format(text, limits.max_line_bytes);
+  const format_evidence evidence = examine_input_format(text, limits.max_line_bytes);
+  if (options.format) {
+    if (status readable = check_declared_format(*options.format, evidence); !readable) return readable;
+  }
+  const input_format format = options.format ? options.format->format : detected_format(evidence);
   result<molecule> mol = [&]() -> result<molecule> {
     switch (format) {
       case input_format::pqr: return parse_pqr(text, limits);
@@ -30,7 +34,7 @@ result<read_molecule_result> parse_text(std::string_view text, const structure_o
     return parse_pqr(text, limits);
   }();
   if (!mol) return mol.error();
-  return read_molecule_result{std::move(*mol), format};
+  return read_molecule_result{std::move(*mol), format, radii_source(format, options)};
 }
 
 }  // namespace

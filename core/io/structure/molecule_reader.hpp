@@ -1,8 +1,8 @@
 #pragma once
 /// @file molecule_reader.hpp
-/// One entry point for every input format: gzip is undone, the format is detected from the content
-/// (input_format.hpp) and the matching reader runs: PQR (pqr_reader.hpp), xyzr (xyzr_reader.hpp), PDB or mmCIF
-/// (pdb_mmcif_reader.hpp).
+/// One entry point for every input format: gzip is undone, the format declared in structure_options::format is
+/// checked against the content, or the format is detected from it (input_format.hpp), and the matching reader
+/// runs: PQR (pqr_reader.hpp), xyzr (xyzr_reader.hpp), PDB or mmCIF (pdb_mmcif_reader.hpp).
 
 #include <filesystem>
 #include <string_view>
@@ -16,16 +16,19 @@ namespace tracemesh {
 
 struct read_molecule_result {
   molecule mol;
-  input_format format = input_format::pqr;
+  input_format format = input_format::pqr;  ///< the format read
+  std::string_view radii = "file";          ///< where the radii came from (radii_source)
 };
 
-/// Parses `bytes` (plain or gzip, decompressed to at most max_text_bytes). Errors: those of maybe_gunzip and
-/// of the reader chosen.
+/// Parses `bytes` (plain or gzip, decompressed to at most max_text_bytes). Errors: those of maybe_gunzip, of
+/// check_declared_format when options.format is set, and of the reader chosen.
 result<read_molecule_result> read_molecule(std::string_view bytes, const structure_options& options,
                                            const mesh_limits& limits, std::size_t max_text_bytes);
 
 /// Reads a file of any supported format, plain or gzip, at most max_pqr_text_bytes(limits) bytes (plain or
-/// decompressed). Errors: errc::io_error naming the path, errc::limit_exceeded, then as read_molecule.
+/// decompressed). The file name is not looked at: a caller that lets the extension declare the format sets
+/// options.format (input_format_of_file_name). Errors: errc::io_error naming the path, errc::limit_exceeded,
+/// then as read_molecule.
 result<read_molecule_result> read_molecule_file(const std::filesystem::path& path, const structure_options& options,
                                                 const mesh_limits& limits = {});
 

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "core/io/atom_checks.hpp"
@@ -373,33 +374,89 @@ status cif_syntax_error(const std::exception& error) {
   return gemmi_error("mmCIF syntax", error);
 }
 
-constexpr const char* required_atom_site_tags[] = {
-    "_atom_site.id",      "_atom_site.type_symbol", "_atom_site.label_alt_id", "_atom_site.label_asym_id",
-    "_atom_site.Cartn_x", "_atom_site.Cartn_y",     "_atom_site.Cartn_z",      "_atom_site.occupancy",
-    "_atom_site.B_iso_or_equiv", "_atom_site.auth_seq_id"};
+/// The _atom_site columns that the atoms' coordinates and elements need; a loop without some is refused naming
+/// every one missing. Atom and residue names are needed too (alternate locations, waters, ligands): the
+/// label_ or the auth_ column of each.
+constexpr const char* required_atom_site_tags[] = {"_atom_site.type_symbol", "_atom_site.Cartn_x",
+                                                   "_atom_site.Cartn_y", "_atom_site.Cartn_z"};
+constexpr std::pair<const char*, const char*> required_atom_site_alternatives[] = {
+    {"_atom_site.label_atom_id", "_atom_site.auth_atom_id"}, {"_atom_site.label_comp_id", "_atom_site.auth_comp_id"}};
+
+/// Columns gemmi's make_structure insists on but the mesh does not need (gemmi silently reads no atom without
+/// them): a loop without one gets it, each row's value copied from `copied_from` when the loop has that column,
+/// else `value` ('.': not applicable, so no alternate location; occupancy 1: the atom is there).
+struct filled_atom_site_column {
+  const char* tag;
+  const char* copied_from;
+  const char* value;
+};
+constexpr filled_atom_site_column filled_atom_site_columns[] = {
+    {"_atom_site.id", nullptr, "."},
+    {"_atom_site.label_alt_id", nullptr, "."},
+    {"_atom_site.label_asym_id", "_atom_site.auth_asym_id", "."},
+    {"_atom_site.occupancy", nullptr, "1"},
+    {"_atom_site.B_iso_or_equiv", nullptr, "?"},
+    {"_atom_site.auth_seq_id", "_atom_site.label_seq_id", "."}};
 
 /// Whether `block` has any _atom_site column.
 bool has_atom_site(const gemmi::cif::Block& block) {
   for (const char* tag : required_atom_site_tags) {
     if (block.has_tag(tag)) return true;
   }
+  for (const filled_atom_site_column& column : filled_atom_site_columns) {
+    if (block.has_tag(column.tag)) return true;
+  }
   return false;
 }
 
-/// The _atom_site loop gemmi can read (it silently reads no atom when a column it needs is missing).
+/// The _atom_site loop gemmi can read, once filled_atom_site_columns are added: every missing required column
+/// named in one error.
 status check_atom_site(gemmi::cif::Block& block, const mesh_limits& limits) {
   if (!has_atom_site(block)) return status::success();  // no atoms: reported as nothing to mesh
-  const gemmi::cif::Column ids = block.find_values("_atom_site.id");
+  std::vector<std::string> missing;
   for (const char* tag : required_atom_site_tags) {
-    if (!block.find_values(tag).item()) {
-      return {errc::invalid_input, std::string("mmCIF _atom_site has no ") + tag + " column"};
+    if (!block.find_values(tag).item()) missing.emplace_back(tag);
+  }
+  for (const auto& [label, auth] : required_atom_site_alternatives) {
+    if (!block.find_values(label).item() && !block.find_values(auth).item()) {
+      missing.push_back(std::string(label) + " (or " + auth + ")");
     }
   }
-  if (static_cast<std::size_t>(ids.length()) > limits.max_atoms) {
-    return {errc::limit_exceeded, "mmCIF _atom_site has " + std::to_string(ids.length()) + " atoms, more than " +
+  if (!missing.empty()) {
+    std::string names;
+    for (const std::string& name : missing) names += (names.empty() ? "" : ", ") + name;
+    return {errc::invalid_input, "mmCIF _atom_site has no " + names + (missing.size() == 1 ? " column" : " columns")};
+  }
+  const gemmi::cif::Column xs = block.find_values("_atom_site.Cartn_x");
+  if (static_cast<std::size_t>(xs.length()) > limits.max_atoms) {
+    return {errc::limit_exceeded, "mmCIF _atom_site has " + std::to_string(xs.length()) + " atoms, more than " +
                                       std::to_string(limits.max_atoms) + " (limits.max_atoms)"};
   }
   return status::success();
+}
+
+/// Adds the filled_atom_site_columns that `block`'s _atom_site (a loop, or single pairs) lacks.
+void fill_atom_site_columns(gemmi::cif::Block& block) {
+  gemmi::cif::Loop* loop = block.find_values("_atom_site.Cartn_x").get_loop();
+  for (const filled_atom_site_column& column : filled_atom_site_columns) {
+    if (block.find_values(column.tag).item()) continue;
+    if (!loop) {
+      const std::string* copied = column.copied_from ? block.find_value(column.copied_from) : nullptr;
+      block.set_pair(column.tag, copied ? *copied : column.value);
+      continue;
+    }
+    const int source = column.copied_from ? loop->find_tag(column.copied_from) : -1;
+    const std::size_t width = loop->width();
+    std::vector<std::string> values;
+    values.reserve(loop->values.size() + loop->length());
+    for (std::size_t row = 0; row < loop->length(); ++row) {
+      values.insert(values.end(), loop->values.begin() + static_cast<std::ptrdiff_t>(row * width),
+                    loop->values.begin() + static_cast<std::ptrdiff_t>((row + 1) * width));
+      values.push_back(source >= 0 ? loop->val(row, static_cast<std::size_t>(source)) : column.value);
+    }
+    loop->values = std::move(values);
+    loop->tags.emplace_back(column.tag);
+  }
 }
 
 /// The mmCIF categories that gemmi's make_structure reads (gemmi 0.5.7, mmcif.hpp), lower case.
@@ -487,6 +544,7 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
       }
     }
     if (status checked = check_atom_site(document.blocks.front(), limits); !checked) return checked;
+    if (has_atom_site(first)) fill_atom_site_columns(document.blocks.front());
     if (status checked = check_gemmi_integers(document.blocks.front()); !checked) return checked;
     gemmi::Structure structure = gemmi::make_structure_from_block(first);
     document = gemmi::cif::Document();  // free the text's copy before the atoms are made

@@ -20,9 +20,12 @@
 ///   the first END record has at least 54 columns, decimal numbers in columns 31-38, 39-46 and 47-54 (x, y, z)
 ///   and, when not blank, in 55-60 (occupancy); errors name the line ("line 12: y coordinate 'abc' (columns
 ///   39-46) is not a decimal number").
-/// - mmCIF: syntax errors name the line and column; the _atom_site loop must have id, type_symbol,
-///   label_alt_id, label_asym_id, Cartn_x/y/z, occupancy, B_iso_or_equiv and auth_seq_id (gemmi needs them);
-///   a coordinate that is not a number is an error naming the atom ("atom 12 (CA GLY A 5): ...").
+/// - mmCIF: syntax errors name the line and column; the _atom_site loop must have type_symbol and Cartn_x/y/z,
+///   and label_atom_id or auth_atom_id, label_comp_id or auth_comp_id (one error names every one missing). The
+///   columns gemmi needs besides, but the mesh does not, are optional: id, label_alt_id (absent: no alternate
+///   locations), label_asym_id (absent: auth_asym_id), occupancy (absent: 1), B_iso_or_equiv and auth_seq_id
+///   (absent: label_seq_id). A coordinate that is not a number is an error naming the atom ("atom 12 (CA GLY A
+///   5): ...").
 /// - Both: the limits of mesh_limits (atoms counted over all atom records before any is dropped, coordinate
 ///   range, line length for PDB), and errc::nothing_to_mesh when no atom is left after the options.
 

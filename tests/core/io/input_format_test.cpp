@@ -38,18 +38,56 @@ TEST(InputFormat, DecidesTheAmbiguousCasesByTheDocumentedRule) {
   // A damaged PQR record (a column missing or extra) stays PQR, so its reader names the line.
   EXPECT_EQ(detect("ATOM 1 N GLY 1 1.0 2.0 0.5 1.5\n"), input_format::pqr);
   EXPECT_EQ(detect("ATOM 1 N GLY A 1 1.0 2.0 3.0 4.0 0.5 1.5\n"), input_format::pqr);
-  // The first atom record decides, not the file name and not a later record.
-  EXPECT_EQ(detect("ATOM 1 N GLY 1 1.0 2.0 3.0 0.0 1.5\n"
-                   "ATOM      2  N   MET A   1      -8.901   4.127  -0.555  1.00 37.73           N\n"),
-            input_format::pqr);
+  // The majority of the atom records decides (a tie is PQR), not the first record and not the file name.
+  const std::string pqr_record = "ATOM 1 N GLY 1 1.0 2.0 3.0 0.0 1.5\n";
+  const std::string pdb_record = "ATOM      2  N   MET A   1      -8.901   4.127  -0.555  1.00 37.73           N\n";
+  EXPECT_EQ(detect(pqr_record + pdb_record), input_format::pqr);
+  EXPECT_EQ(detect(pdb_record + pqr_record), input_format::pqr);
+  EXPECT_EQ(detect(pdb_record + pdb_record + pqr_record), input_format::pdb);
   // Four numbers only count on the first non-blank line; a remark before them makes it PQR (nothing to mesh).
   EXPECT_EQ(detect("REMARK x\n1.0 2.0 3.0 1.5\n"), input_format::pqr);
   EXPECT_EQ(detect("1.0 2.0 3.0\n"), input_format::pqr);
   EXPECT_EQ(detect("1.0 2.0 3.0 1.5 7\n"), input_format::pqr);
+  // A damaged first xyzr line (four fields, starting as a number) stays xyzr, so its reader names the line.
+  EXPECT_EQ(detect("1.0 2.0 3.0 *****\n4 5 6 1.7\n"), input_format::xyzr);
+  EXPECT_EQ(detect("REMARK by hand only\n"), input_format::pqr);
   // "data_" must be the first meaningful line; later it is just text.
   EXPECT_EQ(detect("REMARK\ndata_x\n"), input_format::pqr);
   EXPECT_EQ(detect(""), input_format::pqr);
   EXPECT_EQ(detect("\xEF\xBB\xBF" "data_x\n"), input_format::mmcif);
+}
+
+TEST(InputFormat, ADamagedFirstAtomRecordDoesNotMakeAPqrFilePdb) {
+  const std::string rest = "ATOM 2 CA GLY 1 2.0 2.0 3.0 0.1 1.7\nATOM 3 C GLY 1 3.0 2.0 3.0 0.2 1.7\n";
+  for (const std::string first : {"ATOM 1 N GLY 1 1.0 2.0 3.0 -0.3 *****", "ATOM 1 N GLY 1 1.0 2.0 3.0 -0.3 nan",
+                                  "ATOM 1 N GLY 1 1.0 2.0 3.0 -0.3 inf", "ATOM 1 N GLY 1 1.0 2.0 3.0 -0.3 radius"}) {
+    EXPECT_EQ(detect(first + "\n" + rest), input_format::pqr) << first;
+    const format_evidence evidence = examine_input_format(first + "\n" + rest, 4096);
+    EXPECT_EQ(evidence.pqr_records, 2u) << first;
+    EXPECT_EQ(evidence.other_records, 1u) << first;
+  }
+  // The radius column missing (column-aligned pdb2pqr output): still five numbers at the end, so PQR.
+  EXPECT_EQ(detect("ATOM      1  N   GLY A   1       1.000   2.000   3.000 -0.3000\n" + rest), input_format::pqr);
+}
+
+TEST(InputFormat, ReadsDeclaredFormatsByNameAndFileExtension) {
+  EXPECT_EQ(parse_input_format("pqr").value(), input_format::pqr);
+  EXPECT_EQ(parse_input_format("pdb").value(), input_format::pdb);
+  EXPECT_EQ(parse_input_format("mmcif").value(), input_format::mmcif);
+  EXPECT_EQ(parse_input_format("xyzr").value(), input_format::xyzr);
+  EXPECT_EQ(parse_input_format("cif").error().message(), "format_in must be pqr, pdb, mmcif or xyzr, not 'cif'");
+  EXPECT_EQ(parse_input_format("PQR").error().code(), errc::invalid_argument);
+
+  EXPECT_EQ(input_format_of_file_name("fas2.pqr"), input_format::pqr);
+  EXPECT_EQ(input_format_of_file_name("1k4r.PQR.GZ"), input_format::pqr);
+  EXPECT_EQ(input_format_of_file_name("1crn.pdb"), input_format::pdb);
+  EXPECT_EQ(input_format_of_file_name("pdb1crn.ent.gz"), input_format::pdb);
+  EXPECT_EQ(input_format_of_file_name("1crn.cif.gz"), input_format::mmcif);
+  EXPECT_EQ(input_format_of_file_name("1crn.mmcif"), input_format::mmcif);
+  EXPECT_EQ(input_format_of_file_name("atoms.xyzr"), input_format::xyzr);
+  EXPECT_EQ(input_format_of_file_name("atoms.txt"), std::nullopt);
+  EXPECT_EQ(input_format_of_file_name("molecule.gz"), std::nullopt);
+  EXPECT_EQ(input_format_of_file_name("pqr"), std::nullopt);
 }
 
 TEST(InputFormat, ParsesStructureOptionsWithDefaults) {
@@ -64,6 +102,7 @@ TEST(InputFormat, ParsesStructureOptionsWithDefaults) {
   EXPECT_TRUE(defaults->keep_hydrogens);
   EXPECT_FALSE(defaults->keep_waters);
   EXPECT_TRUE(defaults->keep_ligands);
+  EXPECT_FALSE(defaults->format.has_value());
 
   given = {{"radii", "mantina"}, {"hydrogens", "drop"}, {"waters", "keep"}, {"ligands", "drop"}};
   result<structure_options> all = parse_structure_options(lookup);
@@ -72,6 +111,19 @@ TEST(InputFormat, ParsesStructureOptionsWithDefaults) {
   EXPECT_FALSE(all->keep_hydrogens);
   EXPECT_TRUE(all->keep_waters);
   EXPECT_FALSE(all->keep_ligands);
+
+  given = {{"format_in", "pdb"}};
+  result<structure_options> declared = parse_structure_options(lookup);
+  ASSERT_TRUE(declared.ok());
+  ASSERT_TRUE(declared->format.has_value());
+  EXPECT_EQ(declared->format->format, input_format::pdb);
+  EXPECT_EQ(declared->format->declared_by, "format_in=pdb");
+  EXPECT_EQ(radii_source(input_format::pdb, *declared), "bondi");
+  EXPECT_EQ(radii_source(input_format::pqr, *declared), "file");
+  EXPECT_EQ(radii_source(input_format::xyzr, *declared), "file");
+  given = {{"format_in", "gro"}};
+  EXPECT_EQ(parse_structure_options(lookup).error().message(),
+            "format_in must be pqr, pdb, mmcif or xyzr, not 'gro'");
 
   given = {{"radii", "Bondi"}};
   EXPECT_EQ(parse_structure_options(lookup).error().message(), "radii must be bondi or mantina, not 'Bondi'");

@@ -232,6 +232,32 @@ TEST(MmcifReader, ReadsAtomsAltlocsAndWaters) {
   EXPECT_EQ(parse_mmcif(cif, waters)->atoms.size(), 3u);
 }
 
+TEST(MmcifReader, NeedsOnlyTheColumnsOfCoordinatesElementsAndNames) {
+  // No id, label_alt_id, label_asym_id, occupancy, B_iso_or_equiv nor auth_seq_id: gemmi needs them, the mesh
+  // does not (as minimal writers such as some docking tools leave them out).
+  const std::string minimal = "data_m\nloop_\n_atom_site.type_symbol\n_atom_site.label_atom_id\n"
+                              "_atom_site.label_comp_id\n_atom_site.label_seq_id\n_atom_site.Cartn_x\n"
+                              "_atom_site.Cartn_y\n_atom_site.Cartn_z\n"
+                              "N N GLY 1 1.0 2.0 3.0\nC CA GLY 1 2.5 2.0 3.0\nO O HOH . 9.0 9.0 9.0\n";
+  const result<molecule> mol = parse_mmcif(minimal);
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  ASSERT_EQ(mol->atoms.size(), 2u) << "the water is dropped by default";
+  EXPECT_EQ(mol->atoms[0].radius, 1.55);
+  EXPECT_EQ(mol->atoms[1].center.x, 2.5);
+  EXPECT_EQ(mol->atoms[1].radius, 1.70);
+  structure_options waters;
+  waters.keep_waters = true;
+  EXPECT_EQ(parse_mmcif(minimal, waters)->atoms.size(), 3u);
+  // One atom as single pairs instead of a loop.
+  const result<molecule> one = parse_mmcif("data_one\n_atom_site.type_symbol S\n_atom_site.auth_atom_id SG\n"
+                                           "_atom_site.auth_comp_id CYS\n_atom_site.Cartn_x 1\n_atom_site.Cartn_y 2\n"
+                                           "_atom_site.Cartn_z 3\n");
+  ASSERT_TRUE(one.ok()) << one.error().message();
+  ASSERT_EQ(one->atoms.size(), 1u);
+  EXPECT_EQ(one->atoms[0].radius, 1.80);
+  EXPECT_EQ(one->atoms[0].center.z, 3.0);
+}
+
 TEST(MmcifReader, ReadsTheFirstBlockOfSeveral) {
   // The README's rule, "_atom_site of the first data block": gemmi refused a second block with coordinates.
   const std::string second = "data_u\nloop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n"
@@ -250,11 +276,14 @@ TEST(MmcifReader, RejectsBadInputNamingTheLineOrAtom) {
   } cases[] = {
       {cif_header + "ATOM 1 N N . GLY A 1 1 abc 2.0 3.0 1.0 10 1 A\n",
        "atom 1 (N GLY A 1): x coordinate is not a finite number"},
+      // Every missing column the atoms need is named at once (a sweep find was "no _atom_site row").
       {"data_t\nloop_\n_atom_site.id\n_atom_site.Cartn_x\n1 2.0\n",
-       "mmCIF _atom_site has no _atom_site.type_symbol column"},
-      // A loop without its id column was "no _atom_site row" (a sweep find): the missing column is named.
-      {"data_t\nloop_\n_atom_site.type_symbol\n_atom_site.Cartn_x\nC 2.0\n",
-       "mmCIF _atom_site has no _atom_site.id column"},
+       "mmCIF _atom_site has no _atom_site.type_symbol, _atom_site.Cartn_y, _atom_site.Cartn_z, "
+       "_atom_site.label_atom_id (or _atom_site.auth_atom_id), _atom_site.label_comp_id (or _atom_site.auth_comp_id) "
+       "columns"},
+      {"data_t\nloop_\n_atom_site.type_symbol\n_atom_site.Cartn_x\n_atom_site.Cartn_y\n_atom_site.auth_atom_id\n"
+       "_atom_site.auth_comp_id\nC 2.0 1.0 CA GLY\n",
+       "mmCIF _atom_site has no _atom_site.Cartn_z column"},
       // Coordinates only in a later block: said so (gemmi's text was "2+ blocks are ok if only the first one has
       // coordinates;\x0a_atom_site in block #2: input").
       {"data_first\n_entry.id x\n" + cif_header + "ATOM 1 N N . GLY A 1 1 1.0 2.0 3.0 1.0 10 1 A\n",

@@ -1,0 +1,143 @@
+// The command's input format: a file's extension declares it (.pqr, .pdb, .cif, .xyzr, each also .gz), a
+// contradicted extension and a damaged PQR file fail with one line, and the report says what was read.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "support/structure_writers.hpp"
+#include "support/test_paths.hpp"
+
+namespace tracemesh::cli_input_format_test {
+
+namespace fs = std::filesystem;
+
+struct run_result {
+  int exit_code = -1;
+  std::string err;
+};
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string shell_quote(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+std::string gzip(const std::string& text) {
+  std::string out(compressBound(static_cast<uLong>(text.size())) + 32, '\0');
+  z_stream stream{};
+  deflateInit2(&stream, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY);
+  stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
+  stream.avail_in = static_cast<uInt>(text.size());
+  stream.next_out = reinterpret_cast<Bytef*>(out.data());
+  stream.avail_out = static_cast<uInt>(out.size());
+  deflate(&stream, Z_FINISH);
+  out.resize(stream.total_out);
+  deflateEnd(&stream);
+  return out;
+}
+
+/// A PDB record without element symbols: it ends with occupancy and B-factor, five numbers, like a PQR record.
+const char* const pdb_record_without_element = "ATOM      1  CA  GLY A   1      -8.901   4.127  -0.555  1.00  7.73\n";
+
+class CliInputFormat : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    dir_ = fs::temp_directory_path() / ("tracemesh_cli_input_" + std::to_string(::getpid()) + "_" + info->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  fs::path write(const std::string& name, const std::string& content) const {
+    std::ofstream(dir_ / name, std::ios::binary) << content;
+    return dir_ / name;
+  }
+
+  /// Runs tracemesh on `input` with a report, stdout discarded and stderr captured.
+  run_result run(const fs::path& input) const {
+    std::string command = shell_quote(tracemesh::testing::binary_path("tracemesh").string());
+    for (const std::string& arg : {input.string(), std::string("-o"), (dir_ / "out.off").string(),
+                                  std::string("--report"), (dir_ / "report.json").string()}) {
+      command += ' ';
+      command += shell_quote(arg);
+    }
+    command += " < /dev/null > /dev/null 2> ";
+    command += shell_quote((dir_ / "stderr").string());
+    const int raw = std::system(command.c_str());
+    run_result result;
+    result.exit_code = WIFEXITED(raw) ? WEXITSTATUS(raw) : 128 + WTERMSIG(raw);
+    result.err = read_file(dir_ / "stderr");
+    return result;
+  }
+
+  /// The report's "input" section after a successful run.
+  nlohmann::json input_read(const fs::path& input) const {
+    const run_result result = run(input);
+    EXPECT_EQ(result.exit_code, 0) << input << ": " << result.err;
+    const nlohmann::json report = nlohmann::json::parse(read_file(dir_ / "report.json"), nullptr, false);
+    if (report.is_discarded() || !report.contains("input")) return nullptr;
+    return report.at("input");
+  }
+
+  static void expect_one_line_failure(const run_result& result, const std::string& mentions) {
+    EXPECT_EQ(result.exit_code, 1) << result.err;
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+    EXPECT_TRUE(result.err.starts_with("tracemesh: ")) << result.err;
+    EXPECT_NE(result.err.find(mentions), std::string::npos) << result.err;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(CliInputFormat, APqrWithAnUnreadableFirstRadiusFailsNamingTheLine) {
+  const std::string gly = read_file(tracemesh::testing::molecule_path("gly.pqr"));
+  const std::size_t end = gly.find('\n');
+  const std::string damaged = gly.substr(0, gly.rfind(' ', end) + 1) + "*****" + gly.substr(end);
+  expect_one_line_failure(run(write("gly.pqr", damaged)), "line 1: radius '*****'");
+  expect_one_line_failure(run(write("gly.txt", damaged)), "line 1: radius '*****'");  // detected: PQR all the same
+}
+
+TEST_F(CliInputFormat, TheExtensionDeclaresTheFormat) {
+  EXPECT_EQ(input_read(write("a.txt", pdb_record_without_element)),
+            nlohmann::json({{"format", "pqr"}, {"radii", "file"}}))
+      << "detected: the ambiguous record reads as PQR";
+  EXPECT_EQ(input_read(write("a.pdb", pdb_record_without_element)),
+            nlohmann::json({{"format", "pdb"}, {"radii", "bondi"}}));
+  EXPECT_EQ(input_read(write("a.PDB.gz", gzip(pdb_record_without_element))),
+            nlohmann::json({{"format", "pdb"}, {"radii", "bondi"}}));
+  const auto atoms = tracemesh::testing::atoms_of_pqr(read_file(tracemesh::testing::molecule_path("gly.pqr")));
+  EXPECT_EQ(input_read(write("gly.cif.gz", gzip(tracemesh::testing::to_mmcif(atoms)))),
+            nlohmann::json({{"format", "mmcif"}, {"radii", "bondi"}}));
+  EXPECT_EQ(input_read(write("gly.xyzr", tracemesh::testing::to_xyzr(atoms, tracemesh::radii_set::bondi))),
+            nlohmann::json({{"format", "xyzr"}, {"radii", "file"}}));
+}
+
+TEST_F(CliInputFormat, AnExtensionTheContentContradictsFailsWithOneLine) {
+  const std::string gly = read_file(tracemesh::testing::molecule_path("gly.pqr"));
+  expect_one_line_failure(run(write("gly.cif", gly)),
+                          "the file name 'gly.cif' declares mmcif, but the text is not mmCIF");
+  expect_one_line_failure(run(write("gly.xyzr.gz", gzip(gly))), "declares xyzr, but the text has ATOM/HETATM records");
+  const auto atoms = tracemesh::testing::atoms_of_pqr(gly);
+  expect_one_line_failure(run(write("gly.pqr", tracemesh::testing::to_mmcif(atoms))),
+                          "the file name 'gly.pqr' declares pqr, but the text is mmCIF");
+}
+
+}  // namespace tracemesh::cli_input_format_test
