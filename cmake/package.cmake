@@ -6,10 +6,10 @@ set(CPACK_PACKAGE_VENDOR "the tracemesh authors")
 set(CPACK_PACKAGE_CONTACT "the tracemesh authors")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "molecular Gaussian surface mesher (TMSmesh) and its HTTP service")
 set(CPACK_PACKAGE_DESCRIPTION
-    "tracemesh meshes the Gaussian surface of a molecule (PQR, PDB or mmCIF) with the trace technique of TMSmesh \
-(Chen and Lu, J. Chem. Theory Comput. 2011) into a closed, certified triangle mesh (OFF, PLY, OBJ, STL, glTF, \
-Draco, MSMS). The package holds the command-line mesher tracemesh and the meshing service tracemeshd with its \
-systemd unit.")
+    "tracemesh meshes the Gaussian surface of a molecule (PQR, PDB, mmCIF or xyzr) with the trace technique of \
+TMSmesh into a closed, certified triangle mesh (OFF, PLY, GLB, Draco or MSMS): the command-line mesher tracemesh \
+and the HTTP meshing service tracemeshd with its systemd unit.")
+set(CPACK_STRIP_FILES ON)  # the programs without their symbol tables: a third of the package
 set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 # Installed under /usr with DESTDIR, so the absolute /etc/default/tracemeshd of cmake/install_service.cmake lands
 # in the package and not on the building machine.

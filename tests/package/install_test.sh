@@ -140,8 +140,16 @@ step "tracemesh fas2.pqr: a closed, certified OFF mesh"
 # ---- tracemeshd with the unit's command line, as an unprivileged user, on a free loopback port ----
 exec_start=$(sed -n 's/^ExecStart=//p' "$root$unit")
 [[ -n $exec_start ]] || fail "$unit has no ExecStart"
-read -r -a command <<<"${exec_start//\$\{TRACEMESHD_LISTEN\}/127.0.0.1:0}"
-command=("${command[@]/\$TRACEMESHD_OPTIONS/}")
+# systemd's expansion with the defaults file's values: the listen address replaced, TRACEMESHD_OPTIONS empty.
+read -r -a words <<<"$exec_start"
+command=()
+for word in "${words[@]}"; do
+  case $word in
+    '${TRACEMESHD_LISTEN}') command+=(127.0.0.1:0) ;;
+    '$TRACEMESHD_OPTIONS') ;;
+    *) command+=("$word") ;;
+  esac
+done
 user=nobody group=nogroup
 # What systemd does for StateDirectory= and CacheDirectory=.
 install -d -o "$user" -g "$group" "$root/var/lib/tracemeshd" "$root/var/cache/tracemeshd"
