@@ -179,11 +179,16 @@ struct pending_arc {
   strip_arc stored;
 };
 
-/// Puts a point near the contour onto it to 1e-11 Å, keeping its flags; false (p unchanged) when that fails.
-bool polish(const gaussian_field& field, const trace_plane& plane, surface_sample& p, double h,
-            std::size_t& evaluations) {
+/// Puts a point near the contour onto it to 1e-11 Å, keeping its flags; false (p unchanged) when that fails. Through
+/// the walk's neighbourhood when the walk is on the exact field (its atoms are gathered already), on `field` directly
+/// otherwise (an arc polishes too few points to repay a gather of its own).
+bool polish(const gaussian_field& field, field_neighbourhood& walk, const trace_plane& plane, surface_sample& p,
+            double h, std::size_t& evaluations) {
   surface_sample polished;
-  if (!correct_in_plane(field, plane, p.position, h, polished, evaluations)) return false;
+  const bool corrected = &walk.field() == &field
+                             ? correct_in_plane(walk, plane, p.position, h, polished, evaluations)
+                             : correct_in_plane(field, plane, p.position, h, polished, evaluations);
+  if (!corrected) return false;
   polished.extreme = p.extreme;
   p = polished;
   return true;
@@ -240,8 +245,8 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> crossing_edges(std::vector<
 
 /// Keeps the walk point between vertices `index` and `index + 1` of `arc` that lies farthest from their chord
 /// (polished onto the contour); false when the walk has no point between them.
-bool split_edge(const gaussian_field& field, const trace_plane& plane, double h, pending_arc& arc, std::uint32_t index,
-                strip_trace& out) {
+bool split_edge(const gaussian_field& field, field_neighbourhood& walk, const trace_plane& plane, double h,
+                pending_arc& arc, std::uint32_t index, strip_trace& out) {
   const int v = plane.v_axis();
   const double s0 = index == 0 ? 0.0 : arc.kept[index - 1].length;
   const double s1 = index == arc.kept.size() ? arc.length.back() : arc.kept[index].length;
@@ -256,7 +261,7 @@ bool split_edge(const gaussian_field& field, const trace_plane& plane, double h,
   }
   if (best == 0) return false;
   kept_point k{arc.walk[best], static_cast<std::uint32_t>(best), arc.length[best]};
-  if (!polish(field, plane, k.sample, h, out.evaluations)) ++out.unpolished;
+  if (!polish(field, walk, plane, k.sample, h, out.evaluations)) ++out.unpolished;
   arc.kept.insert(arc.kept.begin() + index, k);
   ++out.untangled_points;
   return true;
@@ -267,15 +272,15 @@ bool split_edge(const gaussian_field& field, const trace_plane& plane, double h,
 /// between sharp atoms), the straight edges of its two sides cross, and no cell beside the strip can close its loop.
 /// Each crossing edge keeps its walk point farthest from its chord, until none crosses (Douglas–Peucker, driven by
 /// crossings).
-void untangle_arcs(const gaussian_field& field, const trace_plane& plane, double h, std::vector<pending_arc>& arcs,
-                   strip_trace& out) {
+void untangle_arcs(const gaussian_field& field, field_neighbourhood& walk, const trace_plane& plane, double h,
+                   std::vector<pending_arc>& arcs, strip_trace& out) {
   for (int round = 0; round < max_untangle_rounds; ++round) {
     const auto crossing = crossing_edges(polyline_edges(arcs, plane.v_axis()));
     if (crossing.empty()) return;
     bool split = false;
     // From the last edge of each arc back, so that an insertion does not renumber the edges still to split.
     for (auto it = crossing.rbegin(); it != crossing.rend(); ++it) {
-      split |= split_edge(field, plane, h, arcs[it->first], it->second, out);
+      split |= split_edge(field, walk, plane, h, arcs[it->first], it->second, out);
     }
     if (!split) return;
   }
@@ -317,6 +322,9 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
   step.v_high = step.v_low + h;
   step.extreme_tolerance = settings.extreme_tolerance;
   step.walk_field = settings.walk_field;
+  // One neighbourhood of the walk's field for the whole pass: the arcs of a strip lie close together.
+  field_neighbourhood walk(settings.walk_field != nullptr ? *settings.walk_field : field,
+                           trace_neighbourhood_reach(plane, settings.max_step));
 
   std::vector<pending_arc> pending;
   for (int side = 0; side < 2; ++side) {
@@ -333,7 +341,7 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
       step.max_step = settings.max_step;
       step.first_step = std::min(settings.max_step, first_step_fraction * gap_to_neighbour(roots[side], i));
       step.cos_bound = settings.cos_bound;
-      arc = trace_contour(field, plane, start, sign, step, out.evaluations);
+      arc = trace_contour(field, walk, plane, start, sign, step, out.evaluations);
       if (arc.end != trace_end::failed) {
         end_side = arc.end == trace_end::low_line ? 0 : 1;
         match = end_root(roots[end_side], arc.points.back().position.x, end_sign(end_side, sign),
@@ -364,9 +372,9 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
                         strip_lines{v, step.v_low, step.v_high}, line_v);
       for (kept_point& k : p.kept) {
         // An interpolated point that cannot be polished gives way to its walk point (within the corrector's tolerance).
-        if (!polish(field, surface_plane, k.sample, h, out.evaluations)) {
+        if (!polish(field, walk, surface_plane, k.sample, h, out.evaluations)) {
           k.sample = arc.points[k.walk_point];
-          if (!polish(field, surface_plane, k.sample, h, out.evaluations)) ++out.unpolished;
+          if (!polish(field, walk, surface_plane, k.sample, h, out.evaluations)) ++out.unpolished;
         }
       }
       const arc_end from{side, root.x}, to{end_side, end_x};
@@ -379,7 +387,7 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
       pending.push_back(std::move(p));
     }
   }
-  untangle_arcs(field, surface_plane, h, pending, out);
+  untangle_arcs(field, walk, surface_plane, h, pending, out);
   for (pending_arc& p : pending) {
     p.stored.first_interior = static_cast<std::uint32_t>(out.interior.size());
     p.stored.interior_count = static_cast<std::uint32_t>(p.kept.size());

@@ -88,18 +88,26 @@ double next_step(double h, double turn, const trace_step_settings& settings) {
 
 }  // namespace
 
-bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations, double tolerance, double blind_step) {
+namespace {
+
+double level_of(const gaussian_field& field) { return field.t0(); }
+double level_of(const field_neighbourhood& near) { return near.field().t0(); }
+
+/// correct_in_plane on a gaussian_field or through a field_neighbourhood (the same values).
+template <class Field>
+bool correct_in_plane_on(Field& field, const trace_plane& plane, vec3 p, double max_move, surface_sample& out,
+                         std::size_t& evaluations, double tolerance, double blind_step) {
   const int v = plane.v_axis();
+  const double t0 = level_of(field);
   const vec3 origin = p;
   for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
     vec3 gradient;
-    const double residual = field.value_and_gradient(p, gradient) - (field.t0() + plane.level_shift);
+    const double residual = field.value_and_gradient(p, gradient) - (t0 + plane.level_shift);
     ++evaluations;
     const planar g = in_plane(gradient, v);
     const double g2 = g.x * g.x + g.v * g.v;
     if (!(g2 > 0)) return false;
-    if (converged(residual, std::sqrt(g2), field.t0(), tolerance)) {
+    if (converged(residual, std::sqrt(g2), t0, tolerance)) {
       out.position = p;
       out.gradient = gradient;
       out.extreme = false;
@@ -124,14 +132,17 @@ bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec
   return false;
 }
 
-bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
-                    std::size_t& evaluations, double level_shift) {
+/// polish_on_line on a gaussian_field or through a field_neighbourhood (the same values).
+template <class Field>
+bool polish_on_line_on(Field& field, vec3 guess, double max_move, surface_sample& out, std::size_t& evaluations,
+                       double level_shift) {
+  const double t0 = level_of(field);
   const double x0 = guess.x;
   for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
     vec3 gradient;
-    const double residual = field.value_and_gradient(guess, gradient) - (field.t0() + level_shift);
+    const double residual = field.value_and_gradient(guess, gradient) - (t0 + level_shift);
     ++evaluations;
-    if (converged(residual, std::abs(gradient.x), field.t0())) {
+    if (converged(residual, std::abs(gradient.x), t0)) {
       out.position = guess;
       out.gradient = gradient;
       out.extreme = false;
@@ -146,8 +157,45 @@ bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, su
   return false;
 }
 
+}  // namespace
+
+vec3 trace_neighbourhood_reach(const trace_plane& plane, double max_step) {
+  vec3 reach{1, 1, 1};
+  reach *= neighbourhood_reach_steps * max_step;
+  reach[plane.normal_axis] = 0;
+  return reach;
+}
+
+bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
+                      surface_sample& out, std::size_t& evaluations, double tolerance, double blind_step) {
+  return correct_in_plane_on(field, plane, p, max_move, out, evaluations, tolerance, blind_step);
+}
+
+bool correct_in_plane(field_neighbourhood& field, const trace_plane& plane, vec3 p, double max_move,
+                      surface_sample& out, std::size_t& evaluations, double tolerance, double blind_step) {
+  return correct_in_plane_on(field, plane, p, max_move, out, evaluations, tolerance, blind_step);
+}
+
+bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
+                    std::size_t& evaluations, double level_shift) {
+  return polish_on_line_on(field, guess, max_move, out, evaluations, level_shift);
+}
+
+bool polish_on_line(field_neighbourhood& field, vec3 guess, double max_move, surface_sample& out,
+                    std::size_t& evaluations, double level_shift) {
+  return polish_on_line_on(field, guess, max_move, out, evaluations, level_shift);
+}
+
 traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,
                          const trace_step_settings& settings, std::size_t& evaluations) {
+  field_neighbourhood walk(settings.walk_field != nullptr ? *settings.walk_field : field,
+                           trace_neighbourhood_reach(plane, settings.max_step));
+  return trace_contour(field, walk, plane, start, sign, settings, evaluations);
+}
+
+traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk, const trace_plane& plane,
+                         const surface_sample& start, int sign, const trace_step_settings& settings,
+                         std::size_t& evaluations) {
   const int v = plane.v_axis();
   const double eps = settings.extreme_tolerance;
   const bool starts_low =
@@ -156,7 +204,9 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
   arc.points.push_back(start);
   surface_sample p0 = start;
   double h = std::min(settings.first_step, settings.max_step);
-  const gaussian_field& walk = settings.walk_field != nullptr ? *settings.walk_field : field;
+  // Walking on another field than the exact one, points that land near a line are corrected again on the exact
+  // field; walking on the exact field, every evaluation goes through the walk's neighbourhood.
+  const bool separate_walk = &walk.field() != &field;
   for (std::size_t steps = 0; steps < settings.max_steps; ++steps) {
     const planar t = unit_tangent(p0.gradient, v, sign);
     const planar g0 = in_plane(p0.gradient, v);
@@ -173,7 +223,7 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
       const bool corrected =
           correct_in_plane(walk, plane, predicted, h, p1, evaluations, settings.corrector_tolerance,
                            settings.blind_step) &&
-          (&walk == &field || !near_a_line(p1.position[v], settings) ||
+          (!separate_walk || !near_a_line(p1.position[v], settings) ||
            correct_in_plane(field, plane, p1.position, h, p1, evaluations, settings.corrector_tolerance,
                             settings.blind_step));
       if (!corrected) {
@@ -208,7 +258,10 @@ traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, 
           crossing.gradient = known->gradient;
           crossing.extreme = false;
         }
-        const bool polished = known != nullptr || polish_on_line(field, guess, h, crossing, evaluations, plane.level_shift);
+        const bool polished =
+            known != nullptr ||
+            (separate_walk ? polish_on_line(field, guess, h, crossing, evaluations, plane.level_shift)
+                           : polish_on_line(walk, guess, h, crossing, evaluations, plane.level_shift));
         const bool at_start = polished && std::abs(crossing.position.x - start.position.x) < 1e-7 &&
                               (line_v == settings.v_low) == starts_low;
         // The walk leaves the strip there, so s·φ_x points out through that line; a crossing polished onto the

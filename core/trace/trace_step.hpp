@@ -87,9 +87,25 @@ struct trace_step_settings {
 traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,
                          const trace_step_settings& settings, std::size_t& evaluations);
 
+/// As above, walking through `walk`: a neighbourhood of settings.walk_field (of `field` when that is null) whose
+/// boxes are flat along the plane's normal (trace_neighbourhood_reach), which the traces of one plane may share. The
+/// same arc, bit for bit, with fewer cell look-ups. The exact field's few evaluations of a walk on another field
+/// (crossings, points near a line) are made on `field` directly: they would not repay a gather of their own.
+traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk, const trace_plane& plane,
+                         const surface_sample& start, int sign, const trace_step_settings& settings,
+                         std::size_t& evaluations);
+
+/// Half size of the neighbourhood boxes of the traces, in steps h₁: a box serves a few steps before the walk
+/// leaves it, and it grows the atoms screened per evaluation by less than the cell rows it replaces do.
+inline constexpr double neighbourhood_reach_steps = 3;
+/// The reach (field_neighbourhood) of a trace in `plane` with steps of at most `max_step` Å: 0 along the normal.
+vec3 trace_neighbourhood_reach(const trace_plane& plane, double max_step);
+
 /// Newton in x on the line (v fixed) from `guess` (on the plane): the root of φ = t0 + level_shift within
 /// `max_move` Å of the guess, with its gradient. False when it does not converge to 1e-12·t0 (or 1e-11 Å).
 bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
+                    std::size_t& evaluations, double level_shift = 0);
+bool polish_on_line(field_neighbourhood& field, vec3 guess, double max_move, surface_sample& out,
                     std::size_t& evaluations, double level_shift = 0);
 
 /// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0 + plane.level_shift}, to `tolerance` Å
@@ -97,6 +113,9 @@ bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, su
 /// evaluating the field again (the result's gradient is then that of the point before the update). False when it
 /// does not converge within `max_move` Å.
 bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
+                      surface_sample& out, std::size_t& evaluations, double tolerance = 1e-11,
+                      double blind_step = 0);
+bool correct_in_plane(field_neighbourhood& field, const trace_plane& plane, vec3 p, double max_move,
                       surface_sample& out, std::size_t& evaluations, double tolerance = 1e-11,
                       double blind_step = 0);
 
