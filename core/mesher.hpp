@@ -68,7 +68,9 @@ struct mesh_output {
   std::size_t zero_radius_atoms = 0;   ///< atoms skipped because their radius is 0
   double max_surface_distance = 0;     ///< max over vertices of |φ(v) − t0| / |∇φ(v)|, Å
   double field_cutoff_error = 0;       ///< bound on |φ_cutoff − φ| relative to t0 (see gaussian_field.hpp)
-  bool certified = false;              ///< report.topologically_certified() and max_surface_distance ≤ 1e-3 Å
+  /// report.topologically_certified(), max_surface_distance ≤ 1e-3 Å and, for a mesh of the trace path, no folded
+  /// triangle (report.folded_triangles; mesher.cpp says why the lattice path's may have some).
+  bool certified = false;
   mesh_method method = mesh_method::trace;    ///< as requested
   /// Why the trace path gave way to the lattice path (its internal_error: a cell it could not close, or a mesh that
   /// failed the certificate); empty when it did not. `trace` then holds nothing (method_used()).
@@ -118,7 +120,10 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 /// trace path's lines 0.93 Å/√density apart with arc points 1.15 h̃ apart, the arcs of a strip untangled and the
 /// report's untangled_points, 2026-11-29; 16: a short-edge collapse may turn over a triangle that faced against the
 /// vertex normals when that puts it right, 2026-11-29; 17: the quality pass's next collapse pass also looks beside a
-/// kept end, 2026-11-29).
-inline constexpr const char* engine_version = "tracemesh-engine-17";
+/// kept end, 2026-11-29; 18: no collapse, flip, triangulation, quality-pass edit or small-component remake makes a
+/// triangle that faces against the field normals at all three corners, the lattice path collapses the edges of such
+/// folds and splits a tetrahedron's quadrilateral along the diagonal that does not fold, the certificate refuses
+/// folds on the trace path and the report's folded_triangles and near_duplicate_vertex_pairs, 2026-12-01).
+inline constexpr const char* engine_version = "tracemesh-engine-18";
 
 }  // namespace tracemesh

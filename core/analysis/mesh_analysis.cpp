@@ -7,6 +7,7 @@
 
 #include "core/analysis/analysis_fan_pairs.hpp"
 #include "core/analysis/analysis_geometry.hpp"
+#include "core/analysis/analysis_local_folds.hpp"
 #include "core/analysis/analysis_self_intersection.hpp"
 #include "core/analysis/analysis_topology.hpp"
 
@@ -194,6 +195,8 @@ mesh_report analyze_mesh(const surface_mesh& mesh, const analysis_options& optio
   report.quality = detail::measure_triangle_quality(mesh, defects);
   const detail::vertex_fans fans = detail::build_vertex_fans(mesh, defects);
   add_topology_and_components(mesh, defects, fans, options.label_vertices, report);
+  report.folded_triangles = detail::count_folded_triangles(mesh, defects);
+  report.near_duplicate_vertex_pairs = detail::count_near_duplicate_vertex_pairs(mesh, fans);
   if (options.check_self_intersections) report.self_intersections = count_intersecting_pairs(mesh, defects, fans);
   report.achieved_density = report.area > 0 ? static_cast<double>(report.vertices) / report.area : 0.0;
   return report;

@@ -77,6 +77,13 @@ struct mesh_report {
   /// triangles of dot(unnormalised face normal, n₀ + n₁ + n₂) is not positive. When mesh.normals is non-empty but
   /// not one per vertex, every component counts. 0 when mesh.normals is empty.
   std::size_t inward_oriented_components = 0;
+  /// Triangles of usable geometry that face against the supplied vertex normals at all three corners (see
+  /// detail::is_folded): the surface turned over within a triangle, where a boundary-element solver stalls. 0 when
+  /// mesh.normals is not one per vertex.
+  std::size_t folded_triangles = 0;
+  /// Pairs of vertices sharing no edge that lie closer than near_duplicate_fraction × the shorter of their median
+  /// incident edge lengths: two sheets of the mesh almost touching. Reported, not part of the certificate.
+  std::size_t near_duplicate_vertex_pairs = 0;
   double achieved_density = 0;          ///< vertices per Å² of area (0 when the area is 0)
   quality_report quality;
   /// With analysis_options::label_vertices (else empty): per vertex, the index in `components` of the component
@@ -84,7 +91,8 @@ struct mesh_report {
   std::vector<std::uint32_t> vertex_component;
 
   /// Closed, edge- and vertex-manifold, consistently oriented, no degenerate or invalid triangles, no unused
-  /// vertex, no self-intersections, and (when normals are supplied) faces oriented like the normals.
+  /// vertex, no self-intersections, and (when normals are supplied) faces oriented like the normals. Folds are
+  /// counted, not tested here: the mesher refuses them where its path guarantees none (mesher.cpp).
   bool topologically_certified() const {
     return triangles > 0 && boundary_edges == 0 && non_manifold_edges == 0 && non_manifold_vertices == 0 &&
            inconsistently_oriented_edges == 0 && degenerate_triangles == 0 && invalid_triangles == 0 &&
@@ -105,6 +113,11 @@ inline constexpr double degenerate_area_ratio = 1e-12;
 /// Corners beyond this |coordinate| (Å) make a triangle degenerate: the intersection test keeps single-precision
 /// bounding boxes and cubes coordinate differences, which must stay finite. Meshes within limits.hpp stay far below.
 inline constexpr double max_analysed_coordinate = 1e30;
+/// Two vertices sharing no edge are near duplicates when closer than this times the shorter of their median incident
+/// edges. Far below any edge the engine keeps (the quality pass collapses edges under 0.15 of its target length, the
+/// raw trace mesh those under half its line spacing, about 0.5 of its median edge), so on a sound mesh two vertices
+/// this close are never neighbours by accident: they sit on two sheets that touch, or on a fold.
+inline constexpr double near_duplicate_fraction = 0.1;
 
 /// Analyses `mesh` (see the vocabulary above). When mesh.normals is non-empty, each component's face orientation
 /// is compared with those normals. Components are sorted by decreasing area, ties by their first triangle.

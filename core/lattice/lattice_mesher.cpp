@@ -8,9 +8,11 @@
 #include <string>
 #include <tuple>
 
+#include "core/analysis/analysis_local_folds.hpp"
 #include "core/lattice/edge_root.hpp"
 #include "core/lattice/lattice_sampler.hpp"
 #include "core/lattice/marching_tetrahedra.hpp"
+#include "core/mesh_edits/short_edge_collapse.hpp"
 #include "core/release_memory.hpp"
 
 namespace tracemesh {
@@ -148,7 +150,17 @@ std::size_t rank_of(const std::vector<std::uint64_t>& keys, std::uint64_t key) {
   return *first == key ? static_cast<std::size_t>(first - keys.data()) : keys.size();
 }
 
-/// Triangles from the block polygons; quadrilaterals split along their shorter diagonal. Each corner's vertex is
+using triangle_indices = std::array<std::uint32_t, 3>;
+
+/// Whether either triangle faces against the vertex normals at all three corners (a fold, which the certificate
+/// refuses). The two splits of a tetrahedron's quadrilateral lie in that tetrahedron and cut its faces alike, so
+/// either keeps the mesh closed and free of intersections; only their folds tell them apart.
+bool folds(const surface_mesh& mesh, const std::array<triangle_indices, 2>& split) {
+  return detail::is_folded(mesh, split[0]) || detail::is_folded(mesh, split[1]);
+}
+
+/// Triangles from the block polygons; quadrilaterals split along their shorter diagonal (or the other, when only
+/// that one does not fold). Each corner's vertex is
 /// found in the block that owns its edge (the cube at the edge's lower end); false if that block holds no root there
 /// (culling dropped a block with a cut edge: cannot happen, its bounds are conservative).
 bool assemble_triangles(const lattice& lat, const std::vector<lattice_index>& blocks,
@@ -180,13 +192,14 @@ bool assemble_triangles(const lattice& lat, const std::vector<lattice_index>& bl
     for (const auto& q : outputs[n].quads) {
       std::array<std::uint32_t, 4> v{};
       for (int c = 0; c < 4; ++c) v[c] = vertex(q[c]);
-      if (squared_norm(positions[v[0]] - positions[v[2]]) <= squared_norm(positions[v[1]] - positions[v[3]])) {
-        mesh.triangles[out++] = {v[0], v[1], v[2]};
-        mesh.triangles[out++] = {v[0], v[2], v[3]};
-      } else {
-        mesh.triangles[out++] = {v[0], v[1], v[3]};
-        mesh.triangles[out++] = {v[1], v[2], v[3]};
-      }
+      const std::array<triangle_indices, 2> along_02{{{v[0], v[1], v[2]}, {v[0], v[2], v[3]}}};
+      const std::array<triangle_indices, 2> along_13{{{v[0], v[1], v[3]}, {v[1], v[2], v[3]}}};
+      const bool shorter_02 =
+          squared_norm(positions[v[0]] - positions[v[2]]) <= squared_norm(positions[v[1]] - positions[v[3]]);
+      // The shorter diagonal, unless its split folds against the vertex normals and the other one does not.
+      const bool folds_02 = folds(mesh, along_02), folds_13 = folds(mesh, along_13);
+      const bool use_02 = folds_02 == folds_13 ? shorter_02 : !folds_02;
+      for (const triangle_indices& t : use_02 ? along_02 : along_13) mesh.triangles[out++] = t;
     }
   });
   return all_found;
@@ -222,6 +235,10 @@ result<surface_mesh> mesh_lattice_blocks(const gaussian_field& field, const latt
     return status{errc::limit_exceeded, "mesh has " + std::to_string(mesh.triangles.size()) + " triangles (limit " +
                                             std::to_string(limits.max_triangles) + ")"};
   }
+  // Where a crevice is narrower than the lattice, tetrahedra cut it with triangles standing across it, against
+  // the field normals at their corners: the certificate refuses such folds, so their edges are collapsed (every
+  // vertex is a root on a lattice edge and may go).
+  collapse_folded_triangles(mesh, 0);
   clock.finish(mesh_stage::triangulating);
   return mesh;
 }

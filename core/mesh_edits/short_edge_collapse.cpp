@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/analysis/analysis_geometry.hpp"
+#include "core/analysis/analysis_local_folds.hpp"
 #include "core/analysis/analysis_moved_triangles.hpp"
 #include "core/analysis/analysis_topology.hpp"
 
@@ -75,6 +76,23 @@ std::vector<candidate_edge> short_edges(const surface_mesh& mesh, std::uint32_t 
   return edges;
 }
 
+/// The edges of the triangles folded against the vertex normals (detail::is_folded) with an end numbered
+/// `first_movable_vertex` or above, shortest first. Precondition: one normal per vertex.
+std::vector<candidate_edge> edges_of_folds(const surface_mesh& mesh, std::uint32_t first_movable_vertex) {
+  std::vector<candidate_edge> edges;
+  for (const triangle& t : mesh.triangles) {
+    if (!detail::is_folded(mesh, t)) continue;
+    for (int i = 0; i < 3; ++i) {
+      const std::uint32_t u = t[static_cast<std::size_t>(i)], v = t[static_cast<std::size_t>((i + 1) % 3)];
+      if (u < first_movable_vertex && v < first_movable_vertex) continue;
+      edges.push_back({distance(mesh.positions[u], mesh.positions[v]), std::min(u, v), std::max(u, v)});
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  return edges;
+}
+
 /// `flags` (one per vertex) and the flags of every vertex sharing a triangle with a flagged one.
 std::vector<char> with_neighbours(const surface_mesh& mesh, const std::vector<char>& flags) {
   std::vector<char> out = flags;
@@ -130,11 +148,19 @@ vec3 corner_normals(const surface_mesh& mesh, const triangle& t) {
   return mesh.normals[t[0]] + mesh.normals[t[1]] + mesh.normals[t[2]];
 }
 
-/// Whether moving `removed` onto `kept` turns none of `around` (triangles at `removed`) over or flat; those that
-/// also hold `kept` (the edge's two, which go) are skipped. A triangle that faces against the surface's normals at
-/// its corners may turn over when it then faces along them: the move puts it right. (On 1k4r_capsid at 1 v/Å² a
-/// raw triangle in a patch the quality pass had left frozen faced −0.998 against them, and refusing to turn it kept
-/// an edge of 0.061 × the median.)
+/// Whether t faces against the vertex normals at all three corners (detail::is_folded; never without one normal per
+/// vertex): the fold the certificate refuses.
+bool folded(const surface_mesh& mesh, const triangle& t) {
+  return mesh.normals.size() == mesh.positions.size() && detail::is_folded(mesh, t);
+}
+
+/// Whether moving `removed` onto `kept` turns none of `around` (triangles at `removed`) over or flat, and folds none
+/// against the vertex normals; those that also hold `kept` (the edge's two, which go) are skipped. A triangle that
+/// faces against the surface's normals at its corners may turn over when it then faces along them: the move puts
+/// it right. (On 1k4r_capsid at 1 v/Å² a raw triangle in a patch the quality pass had left frozen faced −0.998
+/// against them, and refusing to turn it kept an edge of 0.061 × the median.) A triangle that leans far from the
+/// normals may turn by less than a right angle and still end up facing against all three: no collapse makes such a
+/// fold (without this test the raw trace mesh's collapses under h̃/2 made most of its folded triangles).
 bool moves_without_turning(const surface_mesh& mesh, const std::vector<std::uint32_t>& around, std::uint32_t removed,
                            std::uint32_t kept) {
   for (const std::uint32_t f : around) {
@@ -142,6 +168,7 @@ bool moves_without_turning(const surface_mesh& mesh, const std::vector<std::uint
     if (contains(before, kept)) continue;
     triangle moved = before;
     std::replace(moved.begin(), moved.end(), removed, kept);
+    if (folded(mesh, moved) && !folded(mesh, before)) return false;
     const vec3 old_face = area_normal(mesh, before), new_face = area_normal(mesh, moved);
     if (dot(old_face, new_face) > 0) continue;
     const bool put_right = dot(old_face, corner_normals(mesh, before)) < 0 &&
@@ -454,7 +481,8 @@ struct edge_flip {
 };
 
 /// Flips the edge (v, e) of the triangles (v, e, x) and (e, v, y) into (x, y) when the mesh stays manifold (no edge
-/// (x, y) yet, v and e keep three triangles or more) and neither new triangle turns against either old one.
+/// (x, y) yet, v and e keep three triangles or more), neither new triangle turns against either old one and neither
+/// is folded against the vertex normals.
 std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, std::uint32_t v, std::uint32_t e) {
   const std::vector<std::uint32_t> around_v = triangles_at(mesh, incidence, v);
   std::vector<std::uint32_t> on_edge;
@@ -487,6 +515,7 @@ std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, st
   const edge_flip made{{on_edge[0], on_edge[1]}, {mesh.triangles[on_edge[0]], mesh.triangles[on_edge[1]]}};
   const triangle first{y, e, x}, second{x, v, y};
   for (const triangle& now : {first, second}) {
+    if (folded(mesh, now)) return std::nullopt;
     for (const triangle& old : made.before) {
       if (!(dot(area_normal(mesh, now), area_normal(mesh, old)) > 0)) return std::nullopt;
     }
@@ -630,6 +659,24 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
     // free it.
     if (links == blocked_links::flipped) kept_ends = with_neighbours(mesh, kept_ends);
     edges = short_edges(mesh, first_movable_vertex, max_length, &kept_ends);
+  }
+  return total;
+}
+
+std::size_t collapse_folded_triangles(surface_mesh& mesh, std::uint32_t first_movable_vertex,
+                                      std::uint32_t min_component_vertices) {
+  if (mesh.normals.size() != mesh.positions.size()) return 0;
+  detail::component_labels labels = detail::label_components(
+      mesh, std::vector<detail::triangle_defect>(mesh.triangles.size(), detail::triangle_defect::none));
+  std::size_t total = 0;
+  for (int pass = 0; pass < max_collapse_passes; ++pass) {
+    std::vector<candidate_edge> edges = edges_of_folds(mesh, first_movable_vertex);
+    if (edges.empty()) break;
+    std::vector<char> kept_ends;
+    const std::size_t collapsed =
+        collapse_pass(mesh, std::move(edges), first_movable_vertex, min_component_vertices, labels, kept_ends);
+    if (collapsed == 0) break;
+    total += collapsed;
   }
   return total;
 }

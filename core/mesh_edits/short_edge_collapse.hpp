@@ -40,6 +40,8 @@ namespace tracemesh {
 /// - no triangle of the removed end turns over or degenerates when that end moves onto the kept one, unless it
 ///   faced against the vertex normals at its corners (mesh.normals, when there is one per vertex) and then faces
 ///   along them: the move puts it right;
+/// - no triangle of the removed end that faced along the vertex normals at some corner faces against all three after
+///   the move (a fold, which the certificate refuses; the same holds for the flips of blocked_links::flipped);
 /// - the certificate's own tests find none of the moved triangles degenerate or meeting another triangle (a
 ///   collapse that fails is undone with its round and the others made again, for a few rounds; in a pass of 10,000
 ///   edges or more, first alone with the later collapses that touched what it touched, its edges going to the next
@@ -54,5 +56,14 @@ enum class blocked_links { left, flipped };
 
 std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length,
                                  std::uint32_t min_component_vertices = 8, blocked_links links = blocked_links::left);
+
+/// Collapses edges of the triangles that face against the vertex normals at all three corners (folds, which the
+/// certificate refuses: analysis_local_folds.hpp), shortest first, under the same conditions as collapse_short_edges
+/// (a collapse makes no new fold; the folded triangles on the edge go), in up to a few passes. For the
+/// marching-tetrahedra mesh, where a crevice narrower than the lattice is cut by triangles standing across it: no
+/// rule of the tetrahedra can avoid them. Precondition: as collapse_short_edges, and one normal per vertex (else
+/// nothing is done). Returns the edges collapsed.
+std::size_t collapse_folded_triangles(surface_mesh& mesh, std::uint32_t first_movable_vertex,
+                                      std::uint32_t min_component_vertices = 8);
 
 }  // namespace tracemesh

@@ -75,7 +75,9 @@ remesh_operations::triangle_shape remesh_operations::shape_of(const oriented_tri
   const double edges = squared_norm(t.p[1] - t.p[0]) + squared_norm(t.p[2] - t.p[1]) + squared_norm(t.p[0] - t.p[2]);
   const double quality = edges > 0 ? 2 * std::sqrt(3.0) * norm(area) / edges : 0;  // as triangle_quality
   const vec3 unit = normalized(area);
-  return {quality, unit, std::min({dot(unit, t.n[0]), dot(unit, t.n[1]), dot(unit, t.n[2])})};
+  const double c0 = dot(area, t.n[0]), c1 = dot(area, t.n[1]), c2 = dot(area, t.n[2]);
+  return {quality, unit, std::min({dot(unit, t.n[0]), dot(unit, t.n[1]), dot(unit, t.n[2])}),
+          c0 < 0 && c1 < 0 && c2 < 0};
 }
 
 remesh_operations::replaced_triangle remesh_operations::replaced(const triangle_shape& t, double worst_quality) {
@@ -85,6 +87,9 @@ remesh_operations::replaced_triangle remesh_operations::replaced(const triangle_
 bool remesh_operations::acceptable(const triangle_shape& t, const replaced_triangle& old, bool small_change) const {
   const double q = t.quality;
   if (!(q >= thresholds_.hard_quality_floor) || q < std::min(thresholds_.quality_floor, old.quality)) return false;
+  // Never a fold, whatever the slack below allows: a triangle against all three corner normals fails the
+  // certificate, and the slack (small moves, slivers, a replaced triangle already leaning away) could let one in.
+  if (t.folded) return false;
   // Face the way the surface does at every corner (checked at the vertices, where the field normal is exact and
   // known, rather than at the off-surface centroid), or at least no worse than the triangle replaced where the
   // surface bends too much within one triangle for that; then never beyond 90°, which is how folds start. Slivers

@@ -70,6 +70,8 @@ class remesh_operations {
     double quality;    ///< triangle_quality: 1 equilateral, 0 degenerate
     vec3 unit_normal;  ///< zero for a degenerate triangle
     double agreement;  ///< worst cosine between unit_normal and the corner normals (0 for a degenerate triangle)
+    /// Whether the face points against every corner normal (detail::is_folded: the certificate refuses it).
+    bool folded;
   };
   /// What a new triangle may not be worse than: see acceptable().
   struct replaced_triangle {

@@ -193,6 +193,16 @@ bool agrees_with_field(const small_mesh& small) {
   return sum > 0;
 }
 
+/// Whether some face of `small` points against the field normals at all three of its corners (a fold, which the
+/// certificate refuses: detail::is_folded). A coarse remake of a tiny non-convex cavity can pass agrees_with_field
+/// with one.
+bool has_fold(const small_mesh& small) {
+  return std::any_of(small.triangles.begin(), small.triangles.end(), [&](const triangle& t) {
+    const vec3 n = area_vector(small.positions[t[0]], small.positions[t[1]], small.positions[t[2]]);
+    return dot(n, small.normals[t[0]]) < 0 && dot(n, small.normals[t[1]]) < 0 && dot(n, small.normals[t[2]]) < 0;
+  });
+}
+
 double worst_quality(const small_mesh& small) {
   double worst = 1;
   for (const triangle& t : small.triangles) {
@@ -367,16 +377,20 @@ std::optional<remake> remade(const surface_mesh& mesh, const gaussian_field& fie
     for (const vec3& d : base) u.push_back(rotated(d, axes[static_cast<std::size_t>(r)], golden_angle * (r + 1)));
     auto star = star_on_rays(field, centre, u, faces, ray_reach_in_diameters * diameter, phi_centre < 0);
     if (!star) continue;
-    if (const double q = worst_quality(*star); q > best_star_quality && agrees_with_field(*star)) {
+    const double q = worst_quality(*star);
+    if (q > best_star_quality && agrees_with_field(*star) && !has_fold(*star)) {
       best_star_quality = q;
       best_star = std::move(star);
     }
   }
-  // The better of the two is polished, and kept if its worst triangle then beats the component's.
-  small_mesh polished = best_star && best_star_quality > old_quality ? std::move(*best_star) : old;
+  // The better of the two is polished, and kept if its worst triangle then beats the component's. A remake without a
+  // fold also beats a component with one, whatever its worst triangle.
+  const bool old_folded = has_fold(old);
+  small_mesh polished =
+      best_star && (best_star_quality > old_quality || old_folded) ? std::move(*best_star) : old;
   polish(polished, field, diameter);
   const auto beats_old = [&](const small_mesh& made) {
-    return worst_quality(made) > old_quality && agrees_with_field(made);
+    return (worst_quality(made) > old_quality || old_folded) && agrees_with_field(made) && !has_fold(made);
   };
   if (!beats_old(polished)) return std::nullopt;
   remake made{polished, std::nullopt};

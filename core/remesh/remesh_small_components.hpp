@@ -21,7 +21,8 @@
 ///   cavity 0.16 Å across kept 0.082 × the median, 0.094 × lengthened; no 4 points of its surface are further
 ///   apart than 0.095 ×).
 /// The result replaces the component only when its worst triangle is better, it passes the certificate's
-/// orientation test (analysis_topology.hpp: component_normal_agreement), and the certificate's own tests find none
+/// orientation test (analysis_topology.hpp: component_normal_agreement) with no face folded against its corners'
+/// normals (analysis_local_folds.hpp), and the certificate's own tests find none
 /// of its triangles degenerate or meeting another triangle of the mesh (analysis_moved_triangles.hpp). When the
 /// lengthened one fails those tests the polished one is tried: lengthened faces, chords of a longer stretch of
 /// surface, may cross another sheet nearby where the polished ones do not (2buk_capsid at 2 v/Å²: a cavity 0.7 Å

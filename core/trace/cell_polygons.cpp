@@ -128,7 +128,9 @@ enum class loop_strategy {
   admissible,          ///< the admissible maximin triangulation (method.md §7.8)
   admissible_flat,     ///< the admissible triangulation whose faces agree best with −∇φ (it folds least)
   steiner_fan,         ///< a fan around one new point of the surface inside the cell, faces agreeing with −∇φ
-  admissible_relaxed,  ///< the admissible triangulation without the rule that faces agree with the normals
+  /// The admissible triangulation without the rule that faces agree with the normals, but for its floor: no face
+  /// against all three corners' normals (a fold; loop_triangulation.hpp rule 2). So are the next two.
+  admissible_relaxed,
   flat_relaxed,        ///< the flattest admissible triangulation without that rule
   steiner_fan_relaxed, ///< the fan without that rule
   /// Without the admissibility rule either (walls ignored): for a sheet that lies almost in a wall, whose
@@ -137,7 +139,7 @@ enum class loop_strategy {
   unrestricted,
   /// The loop cut into ears in its own best plane (triangulate_loop_in_its_plane), no rule on walls or normals: for
   /// a loop that doubles back on itself in a wall (a hairpin of the contour where it passes a pinch at a sharp
-  /// kernel), whose every other triangulation folds over itself.
+  /// kernel), whose every other triangulation folds over itself. It makes no fold either.
   in_its_plane,
   none,                ///< nothing worked: the mesh cannot close here
 };
@@ -243,8 +245,9 @@ std::array<vec3, 3> steiner_origins(const std::vector<numbered_vertex>& loop, co
   return {centroid, 0.5 * (centroid + axis), axis};
 }
 
-/// The fan around `centre`: its triangles must not be degenerate, must not intersect each other and, with
-/// check_orientation, must agree with the normals.
+/// The fan around `centre`: its triangles must not be degenerate, must not intersect each other, must not face
+/// against the normals at all three corners (a fold, which the certificate refuses) and, with check_orientation,
+/// must agree with the normals.
 bool fan_is_valid(const std::vector<numbered_vertex>& loop, const surface_sample& centre, bool check_orientation) {
   const vec3 normal = normalized(-centre.gradient);
   std::vector<vec3> positions{centre.position};
@@ -258,6 +261,7 @@ bool fan_is_valid(const std::vector<numbered_vertex>& loop, const surface_sample
       return false;  // degenerate
     }
     if (check_orientation && !(dot(face, normal + a.normal + b.normal) > 0)) return false;
+    if (dot(face, normal) < 0 && dot(face, a.normal) < 0 && dot(face, b.normal) < 0) return false;  // a fold
     positions.push_back(a.position);
     fan.push_back({static_cast<std::uint32_t>(n + 1), static_cast<std::uint32_t>((n + 1) % loop.size() + 1), 0});
   }

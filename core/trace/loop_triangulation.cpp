@@ -32,6 +32,13 @@ struct rule_limits {
         agreement_objective(s.maximise_normal_agreement) {}
 };
 
+/// Whether triangle a, b, c faces against the normals at all three corners: a fold, which the certificate refuses
+/// (analysis_local_folds.hpp), and no triangulation here makes.
+inline bool faces_against_corners(const loop_vertex& a, const loop_vertex& b, const loop_vertex& c) {
+  const vec3 face = cross(b.position - a.position, c.position - a.position);
+  return dot(face, a.normal) < 0 && dot(face, b.normal) < 0 && dot(face, c.normal) < 0;
+}
+
 /// q² of triangle a, b, c (in this order) when it satisfies rules 1 (common wall) 2 and 3 (area), else
 /// `infeasible`. Edge lengths are checked by the callers (they are per pair, not per triangle); ab2, bc2, ca2 are
 /// the squared edge lengths. Squared so that the bottleneck pass needs no square root (q ↦ q² is monotone).
@@ -43,6 +50,8 @@ inline double evaluate_triangle(const loop_vertex& a, const loop_vertex& b, cons
   const double face2 = squared_norm(face);
   const double longest2 = std::max(ab2, std::max(bc2, ca2));
   if (!(face2 >= limits.area_coef * longest2 * longest2) || !(face2 > 0)) return infeasible;
+  // Rule 2's floor, whatever its threshold (with rule 2 at its default no fold passes anyway: dot(face, Σn) < 0).
+  if (faces_against_corners(a, b, c)) return infeasible;
   if (limits.orientation != rule_limits::rule2::off) {
     // cos(face, Σn) > c, i.e. dot > c·|face|·|Σn|, without square roots.
     const vec3 normals = a.normal + b.normal + c.normal;
@@ -555,6 +564,7 @@ bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vecto
       const double longest2 = std::max({squared_norm(loop[b].position - pa), squared_norm(pc - loop[b].position),
                                         squared_norm(pc - pa)});
       if (!(norm(cross(loop[b].position - pa, pc - pa)) >= 2 * settings.min_area_ratio * longest2)) continue;
+      if (faces_against_corners(loop[a], loop[b], loop[c])) continue;
       const double q = triangle_quality(pa, loop[b].position, pc);
       if (q > best_quality) {  // ties: the first in loop order, so the result is deterministic
         best_quality = q;
@@ -571,7 +581,8 @@ bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vecto
     left.erase(left.begin() + static_cast<std::ptrdiff_t>(best));
   }
   const double q = triangle_quality(loop[left[0]].position, loop[left[1]].position, loop[left[2]].position);
-  if (!(cross2(projected[left[0]], projected[left[1]], projected[left[2]]) > 0) || !(q > 0)) {
+  if (!(cross2(projected[left[0]], projected[left[1]], projected[left[2]]) > 0) || !(q > 0) ||
+      faces_against_corners(loop[left[0]], loop[left[1]], loop[left[2]])) {
     record(stats, false, 0, 0, 0);
     return false;
   }

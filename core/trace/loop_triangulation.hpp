@@ -47,7 +47,7 @@ struct loop_triangulation_settings {
   /// surface normal): a positive margin so that rounding cannot accept a face that is flat against the normals,
   /// small enough to accept the strongly tilted faces of loops on tightly curved surface (h̃ ≈ atom radius).
   /// A negative value accepts faces leaning beyond 90° (cos > value); a value ≤ −1 turns rule 2 off (fallbacks only:
-  /// the orientation then rests on the loop order alone).
+  /// the orientation then rests on the loop order alone, but for its floor: no face against all three corners).
   double min_normal_cosine = 0.05;
   /// Rule 3: every edge at least this long (Å).
   double min_edge_length = 1e-6;
@@ -101,7 +101,8 @@ double triangle_quality(const vec3& a, const vec3& b, const vec3& c);
 ///     ((a.planes & b.planes & c.planes) != 0); no edge joins two vertices that share a wall unless they are
 ///     consecutive on the loop (the loop's own edges are always allowed);
 ///  2. orientation: dot(cross(b − a, c − a), n_a + n_b + n_c) > settings.min_normal_cosine · |cross| · |Σn|
-///     (skipped when min_normal_cosine ≤ −1);
+///     (skipped when min_normal_cosine ≤ −1), and never a face with dot(cross, n) < 0 at all three corners (a fold:
+///     kept when rule 2 is relaxed or off);
 ///  3. not degenerate: every edge ≥ settings.min_edge_length (loop edges included: a shorter loop edge makes the
 ///     loop fail) and area ≥ settings.min_area_ratio · longest edge².
 /// Among the triangulations satisfying the rules it returns one that maximises the worst triangle's q and, among
@@ -154,8 +155,9 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
 /// projections then do not overlap, so the triangles cannot cross each other, whatever the loop's folds in 3-D —
 /// which no rule of triangulate_loop ensures for a loop that doubles back on itself within a wall (a hairpin of the
 /// contour at a sharp kernel, where every triangulation the dynamic programme prefers folds over itself). Neither
-/// the wall rule nor the orientation rule applies; a triangle must not be degenerate (area ≥
-/// settings.min_area_ratio × longest edge², edges ≥ settings.min_edge_length).
+/// the wall rule nor the orientation rule applies but for the latter's floor (no face against the normals at all
+/// three corners); a triangle must not be degenerate (area ≥ settings.min_area_ratio × longest edge², edges ≥
+/// settings.min_edge_length).
 /// @param out  receives n − 2 triangles as indices into `loop`, each in the loop's cyclic order, hence oriented like
 ///             the loop.
 /// @return false, appending nothing, when n < 3, the projection is not simple, or some step has no acceptable ear.

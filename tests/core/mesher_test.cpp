@@ -375,6 +375,33 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
   EXPECT_EQ(one->mesh.triangles, two->mesh.triangles);
 }
 
+// The raw trace mesh of mache at 1 v/Å² (refine none, delivered as the polygons made it less their edges under h̃/2)
+// held 14 triangles facing against the field normals at all three corners: 13 made by short-edge collapses that
+// turned a leaning triangle by less than a right angle, one by a loop's fallback triangulation without the
+// orientation rule. A boundary-element solver stalled on such a mesh; the certificate now refuses folds, and neither
+// the collapse nor any triangulation makes one.
+TEST(mesher_folds, the_raw_trace_mesh_of_mache_has_no_folded_triangle_and_is_certified) {
+  const result<mesh_output> out = mesh_file("mache.pqr", sharp_params(mesh_method::trace, 1, -1, 1, refine_mode::none));
+  ASSERT_TRUE(out.ok()) << out.error().message();
+  EXPECT_TRUE(out->certified);
+  EXPECT_TRUE(out->fallback_reason.empty()) << out->fallback_reason;
+  EXPECT_EQ(out->trace.grid_retries, 0u);
+  EXPECT_EQ(out->report.folded_triangles, 0u);
+  EXPECT_GT(out->trace.collapsed_raw_edges, 0u);  // the collapses that used to fold ran
+}
+
+// The marching-tetrahedra mesh of mache at 1 v/Å² cut a crevice narrower than its lattice with 3 triangles standing
+// across it, folded against the normals at their corners, and the quality pass kept 2 of them: the lattice path
+// collapses the edges of such folds.
+TEST(mesher_folds, the_lattice_meshes_of_mache_have_no_folded_triangle) {
+  for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
+    const result<mesh_output> out = mesh_file("mache.pqr", sharp_params(mesh_method::lattice, 1, -1, 1, refine));
+    ASSERT_TRUE(out.ok()) << out.error().message();
+    EXPECT_TRUE(out->certified);
+    EXPECT_EQ(out->report.folded_triangles, 0u);
+  }
+}
+
 // A job the trace path meshes on its first grid has no failed attempt.
 TEST(mesher_retry, a_trace_that_closes_every_cell_is_not_retried) {
   const result<mesh_output> out = mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -1, 1, refine_mode::none));

@@ -52,6 +52,9 @@ TEST_P(molecule_ladder, mesh_is_certified_and_well_shaped) {
   ASSERT_TRUE(out.ok());
   const mesh_report& r = out->report;
   testing::expect_certified_output(*out);
+  if (method == mesh_method::trace) {
+    EXPECT_EQ(r.folded_triangles, 0u);  // issue 34: a boundary-element solver stalls on folds
+  }
   EXPECT_GT(r.volume, 0);
   EXPECT_NEAR(r.achieved_density, c.density, 0.2 * c.density);
   EXPECT_GE(r.quality.edge_ratio_mean, 0.70);

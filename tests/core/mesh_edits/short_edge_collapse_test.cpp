@@ -317,6 +317,20 @@ TEST(short_edge_collapse, a_collapse_that_turns_a_triangle_facing_against_the_no
   for (const triangle& t : m.triangles) EXPECT_TRUE(faces_along_the_normals(m, t)) << t[0] << " " << t[1] << " " << t[2];
 }
 
+// A collapse that turns a triangle by less than a right angle may still leave it facing against the normals at all
+// three corners (a fold, which the certificate refuses): here the normals of 0, 1 and the top point inwards, so the
+// two triangles (0, 12, top) and (12, 1, top) each face along one corner's normal, and collapsing 12 onto 0 would
+// make (0, 1, top), against all three. The raw trace mesh's collapses made most of its folds this way.
+TEST(short_edge_collapse, a_collapse_that_would_fold_a_triangle_against_the_normals_is_refused) {
+  surface_mesh m = bipyramid_with_split_edge(1e-2);
+  for (const std::uint32_t v : {0u, 1u, 10u}) m.normals[v] = -1.0 * m.normals[v];
+  ASSERT_EQ(analyze_mesh(m).folded_triangles, 0u);
+  const surface_mesh before = m;
+  EXPECT_EQ(collapse_short_edges(m, 1, 2e-2), 0u);
+  EXPECT_EQ(m.triangles, before.triangles);
+  EXPECT_EQ(analyze_mesh(m).folded_triangles, 0u);
+}
+
 /// A closed slab: a top at z = 0 over a copy of it at z = −1 (its triangles reversed), joined by sides. On the top,
 /// the short edge (a, b) = (0, 1), 0.05 Å long: b's triangle (b, s, r) is a sliver whose line s–r passes between a
 /// and b, so b may not go onto a (it would turn over), while a may go onto b.

@@ -1,0 +1,111 @@
+// Tests of core/analysis/analysis_local_folds.hpp through the report (mesh_report::folded_triangles,
+// near_duplicate_vertex_pairs): hand-made meshes whose folds and near-coincident vertices are known.
+#include "core/analysis/analysis_local_folds.hpp"
+
+#include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <utility>
+
+#include "core/analysis/mesh_analysis.hpp"
+#include "support/analysis_meshes.hpp"
+
+namespace tracemesh {
+namespace {
+
+using testing::append;
+using testing::icosphere;
+using testing::set_radial_normals;
+using testing::tetrahedron;
+
+/// A regular-ish tetrahedron around the origin with outward faces and radial normals.
+surface_mesh tetrahedron_with_normals() {
+  surface_mesh mesh = tetrahedron({1, 1, 1}, {1, -1, -1}, {-1, 1, -1}, {-1, -1, 1});
+  set_radial_normals(mesh, {});
+  return mesh;
+}
+
+TEST(LocalFolds, TetrahedronWithOneFaceFlippedHasOneFold) {
+  surface_mesh mesh = tetrahedron_with_normals();
+  EXPECT_EQ(analyze_mesh(mesh).folded_triangles, 0u);
+  std::swap(mesh.triangles[2][1], mesh.triangles[2][2]);
+  EXPECT_EQ(analyze_mesh(mesh).folded_triangles, 1u);
+}
+
+TEST(LocalFolds, AFoldInAnOrientedManifoldIsCounted) {
+  // Orientation, manifoldness and intersections all pass: only the normals at one triangle's corners say that the
+  // surface faces the other way there (the mesher's certificate then fails a trace mesh: mesher_test.cpp).
+  surface_mesh mesh = icosphere(2);
+  set_radial_normals(mesh, {});
+  for (const std::uint32_t v : mesh.triangles[7]) mesh.normals[v] = -1.0 * mesh.normals[v];
+  const mesh_report report = analyze_mesh(mesh);
+  EXPECT_EQ(report.inconsistently_oriented_edges, 0u);
+  EXPECT_EQ(report.self_intersections, 0u);
+  EXPECT_EQ(report.inward_oriented_components, 0u);
+  EXPECT_EQ(report.folded_triangles, 1u);
+}
+
+TEST(LocalFolds, ATriangleAgainstOnlySomeOfItsCornersIsNoFold) {
+  // One reversed vertex normal: each of its triangles still agrees with the two other corners.
+  surface_mesh mesh = icosphere(2);
+  set_radial_normals(mesh, {});
+  mesh.normals[0] = -1.0 * mesh.normals[0];
+  EXPECT_EQ(analyze_mesh(mesh).folded_triangles, 0u);
+  // Two reversed corners of one triangle: the triangles holding both fold against two corners only.
+  mesh.normals[mesh.triangles[0][1]] = -1.0 * mesh.normals[mesh.triangles[0][1]];
+  EXPECT_EQ(analyze_mesh(mesh).folded_triangles, 0u);
+}
+
+TEST(LocalFolds, NoNormalsNoFolds) {
+  surface_mesh mesh = tetrahedron_with_normals();
+  std::swap(mesh.triangles[2][1], mesh.triangles[2][2]);
+  mesh.normals.clear();
+  EXPECT_EQ(analyze_mesh(mesh).folded_triangles, 0u);
+  mesh = tetrahedron_with_normals();
+  std::swap(mesh.triangles[2][1], mesh.triangles[2][2]);
+  mesh.normals.pop_back();  // not one per vertex: left to inward_oriented_components
+  EXPECT_EQ(analyze_mesh(mesh).folded_triangles, 0u);
+}
+
+/// Two closed tetrahedra pointing at each other, their tips `gap` Å apart along x (edges about 1.4–1.7 Å).
+surface_mesh tetrahedra_tip_to_tip(double gap) {
+  surface_mesh mesh = tetrahedron({0, 0, 0}, {-1, 1, 0}, {-1, -0.5, 0.8}, {-1, -0.5, -0.8});
+  append(mesh, tetrahedron({gap, 0, 0}, {gap + 1, 1, 0}, {gap + 1, -0.5, 0.8}, {gap + 1, -0.5, -0.8}));
+  set_radial_normals(mesh, {-0.75, 0, 0});
+  for (std::size_t v = 4; v < 8; ++v) mesh.normals[v] = normalized(mesh.positions[v] - vec3{gap + 0.75, 0, 0});
+  return mesh;
+}
+
+TEST(LocalFolds, VerticesAHairApartWithoutAnEdgeAreNearDuplicates) {
+  const mesh_report close = analyze_mesh(tetrahedra_tip_to_tip(1e-3));
+  EXPECT_EQ(close.near_duplicate_vertex_pairs, 1u);
+  EXPECT_EQ(close.self_intersections, 0u);
+  EXPECT_EQ(close.folded_triangles, 0u);
+  EXPECT_TRUE(close.topologically_certified());
+  // 0.5 Å is over 0.1 × any median edge here: not a near duplicate.
+  EXPECT_EQ(analyze_mesh(tetrahedra_tip_to_tip(0.5)).near_duplicate_vertex_pairs, 0u);
+}
+
+TEST(LocalFolds, AShortEdgeIsNoNearDuplicate) {
+  // The ends of an edge of 1e-3 Å (a sliver tetrahedron) share that edge.
+  surface_mesh mesh = tetrahedron({0, 0, 0}, {1e-3, 0, 0}, {0.5, 1, 0}, {0.5, 0.3, 1});
+  EXPECT_EQ(analyze_mesh(mesh).near_duplicate_vertex_pairs, 0u);
+}
+
+TEST(LocalFolds, NearDuplicatesOfManyPairsAreEachCountedOnce) {
+  // Every vertex of a sphere doubled by a copy moved 1e-4 Å: one pair per vertex, however the grid cuts them.
+  surface_mesh mesh = icosphere(3, 2.0);
+  const std::size_t vertices = mesh.positions.size();
+  surface_mesh copy = icosphere(3, 2.0);
+  for (vec3& p : copy.positions) p += vec3{1e-4, 0, 0};
+  append(mesh, copy);
+  std::size_t one = 0, two = 0;
+  tbb::task_arena(1).execute([&] { one = analyze_mesh(mesh).near_duplicate_vertex_pairs; });
+  tbb::task_arena(2).execute([&] { two = analyze_mesh(mesh).near_duplicate_vertex_pairs; });
+  EXPECT_EQ(one, vertices);
+  EXPECT_EQ(two, one);
+  EXPECT_EQ(analyze_mesh(icosphere(3, 2.0)).near_duplicate_vertex_pairs, 0u);
+}
+
+}  // namespace
+}  // namespace tracemesh
