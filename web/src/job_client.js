@@ -1,4 +1,4 @@
-// The service's job API as the page uses it (README "The service", proto/openapi.json): submit, follow, cancel.
+// The service's job API as the page uses it (docs/api.md, proto/openapi.json): submit, follow, cancel.
 
 const finishedStates = new Set(['done', 'failed', 'cancelled']);
 const pollIntervalMs = 500;

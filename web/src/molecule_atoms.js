@@ -1,6 +1,6 @@
 // The atoms of the uploaded file, in the order tracemeshd reads them, for colouring by the vertex attribute
 // _ATOM_INDEX (the index of the atom contributing most to φ at each vertex). The format is recognised from the
-// content as the server does (README "Input formats"). PQR is read record by record exactly as the server counts
+// content as the server does (docs/formats.md). PQR is read record by record exactly as the server counts
 // atoms (every ATOM/HETATM record, zero radii included), so indices match; xyzr has neither charges nor residues.
 // PDB and mmCIF are not read here: the server drops waters, keeps one alternate location and the first model by
 // default, so matching its atom order would mean re-implementing gemmi's reading; the page colours those by
