@@ -330,9 +330,11 @@ TEST(mesher_sharp_kernel, a_loop_that_doubles_back_in_a_wall_is_triangulated_in_
 // A crevice between sharp atoms makes the contour in a wall a hairpin narrower than the sagitta of the arc's
 // straight edges, which then cross, and the cells beside the wall cannot close. On fas2 at d = −20, t0 = 0.1,
 // 0.5 v/Å² that happened on all three line grids and the lattice path made the mesh (found 2026-11-29). Crossing
-// edges now keep more walk points (strip_arcs.cpp: untangle_arcs; its own test in strip_arcs_test.cpp).
+// edges now keep more walk points (strip_arcs.cpp: untangle_arcs; its own test in strip_arcs_test.cpp). At 1 v/Å²
+// the same crevice is untangled on the first grid (at 0.5 v/Å² its loops can now only be triangulated with folds,
+// which no triangulation makes: the lattice path meshes it).
 TEST(mesher_sharp_kernel, arcs_whose_straight_edges_cross_are_untangled_and_their_cells_close) {
-  const result<mesh_output> out = traced_on_the_first_grid("fas2.pqr", -20, 0.1, 0.5);
+  const result<mesh_output> out = traced_on_the_first_grid("fas2.pqr", -20, 0.1, 1);
   ASSERT_TRUE(out.ok());
   EXPECT_GT(out->trace.untangled_points, 0u);
 }
@@ -349,9 +351,9 @@ std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_gri
 }
 
 // A sharp kernel (d = −20) makes creases within much less than a line spacing of a line: on fas2 at t0 = 1 and
-// density 1 the trace leaves cells open on the lines through the origin. It is traced again on lines moved by
-// half a spacing in y and z, where every cell closes: the mesh is the trace path's, its roots lie on the moved lines,
-// the failed attempt's time is counted, and it is the same whatever the thread count.
+// density 1 the trace leaves cells open on the lines through the origin. It is traced again on lines moved in y and
+// z, until one grid's cells all close without a fold: the mesh is the trace path's, its roots lie on the moved lines,
+// the failed attempts' time is counted, and it is the same whatever the thread count.
 TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_line_grid) {
   const result<mesh_output> one =
       mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 1, refine_mode::none, 1));
@@ -359,18 +361,19 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
   EXPECT_TRUE(one->certified);
   EXPECT_TRUE(one->fallback_reason.empty()) << one->fallback_reason;
   EXPECT_EQ(method_used(one->method, *one), mesh_method::trace);
-  EXPECT_EQ(one->trace.grid_retries, 1u);
-  EXPECT_EQ(one->trace.line_offset, (line_grid_offset{0.5, 0.5}));
+  // Before no triangulation made a fold, the second grid closed every cell; now the third does.
+  EXPECT_EQ(one->trace.grid_retries, 2u);
+  EXPECT_EQ(one->trace.line_offset, (line_grid_offset{0.25, 0.75}));
   EXPECT_GT(one->failed_attempt_seconds, 0.0);
   const double h = one->trace.line_spacing;
   EXPECT_EQ(vertices_on_lines(one->mesh, h, {0, 0}), 0u);
-  EXPECT_EQ(vertices_on_lines(one->mesh, h, {0.5, 0.5}), one->trace.polynomial_roots + one->trace.bracketed_roots +
-                                                             one->trace.late_roots);
+  EXPECT_EQ(vertices_on_lines(one->mesh, h, {0.25, 0.75}), one->trace.polynomial_roots +
+                                                               one->trace.bracketed_roots + one->trace.late_roots);
 
   const result<mesh_output> two =
       mesh_file("fas2.pqr", sharp_params(mesh_method::trace, 1, -20, 1, refine_mode::none, 2));
   ASSERT_TRUE(two.ok()) << two.error().message();
-  EXPECT_EQ(two->trace.grid_retries, 1u);
+  EXPECT_EQ(two->trace.grid_retries, 2u);
   EXPECT_EQ(one->mesh.positions, two->mesh.positions);
   EXPECT_EQ(one->mesh.triangles, two->mesh.triangles);
 }
@@ -446,12 +449,13 @@ std::size_t runs_of(const std::vector<stage_timing>& timings, mesh_stage stage) 
 }
 
 // The quality pass of a small mesh leaves its final whole-mesh check to the certificate, which makes the same tests
-// (mesher.cpp, unchecked_quality_pass_triangles). fas2 at d = −15, t0 = 10, 0.5 v/Å² on the lattice path: that pass
+// (mesher.cpp, unchecked_quality_pass_triangles). fas2 at d = −15, t0 = 5, 0.5 v/Å² on the lattice path: that pass
 // leaves triangles its check would have refused, the certificate fails, and the pass runs again, checked, from the
-// raw mesh: the job is certified and its timings show both passes.
+// raw mesh: the job is certified and its timings show both passes. (At t0 = 10, the input until the lattice path
+// collapsed the edges of its folds, the unchecked pass now passes.)
 TEST(mesher_quality_pass, a_pass_left_unchecked_that_fails_the_certificate_runs_again_checked) {
   const result<mesh_output> out =
-      mesh_file("fas2.pqr", sharp_params(mesh_method::lattice, 0.5, -15, 10, refine_mode::full));
+      mesh_file("fas2.pqr", sharp_params(mesh_method::lattice, 0.5, -15, 5, refine_mode::full));
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_TRUE(out->certified);
   EXPECT_EQ(runs_of(out->timings, mesh_stage::refining), 2u);

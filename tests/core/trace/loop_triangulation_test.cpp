@@ -297,15 +297,20 @@ TEST(LoopTriangulation, NegativeNormalCosineRelaxesOrTurnsOffRuleTwo) {
   EXPECT_FALSE(triangulate_loop(square, out, stats, settings));
   settings.min_normal_cosine = -0.5;
   EXPECT_TRUE(triangulate_loop(square, out, stats, settings));
-  // Normals opposite to the faces: cos = −1, accepted only with the rule off.
+  // Normals opposite to the faces: cos = −1, refused even with the rule off, whose floor refuses a face against
+  // all three corners (a fold).
   for (auto& v : square) v.normal = {0, 0, -1};
   out.clear();
   EXPECT_FALSE(triangulate_loop(square, out, stats, settings));
   settings.min_normal_cosine = -2;
   loop_triangulation_workspace workspace;
+  EXPECT_FALSE(triangulate_loop(square, out, stats, settings, workspace));
+  // Opposite at three corners but along at vertex 0: with the rule off, the triangulation whose faces both hold
+  // vertex 0 (the other one's (1, 2, 3) would be a fold).
+  square[0].normal = {0, 0, 1};
   EXPECT_TRUE(triangulate_loop(square, out, stats, settings, workspace));
   ASSERT_EQ(out.size(), 2u);
-  for (const auto& t : out) EXPECT_TRUE(t[0] < t[1] && t[1] < t[2]);
+  for (const auto& t : out) EXPECT_TRUE(t[0] == 0 && t[0] < t[1] && t[1] < t[2]);
   // Rule 3 stays on.
   square[1].position = square[0].position + vec3{1e-8, 0, 0};
   out.clear();
