@@ -17,6 +17,7 @@ if(TARGET tracemesh AND TARGET tracemeshd)
   add_test(NAME package.version
            COMMAND bash ${_tm_package_tests}/version_test.sh ${PROJECT_SOURCE_DIR} ${PROJECT_VERSION}
                    $<TARGET_FILE:tracemesh> $<TARGET_FILE:tracemeshd>)
+  set_tests_properties(package.version PROPERTIES SKIP_RETURN_CODE 77)
   add_test(NAME package.man_pages
            COMMAND bash ${_tm_package_tests}/man_pages_test.sh
                    $<TARGET_FILE:tracemesh> ${PROJECT_SOURCE_DIR}/packaging/man/tracemesh.1
