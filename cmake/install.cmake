@@ -5,6 +5,8 @@
 set(CMAKE_SKIP_INSTALL_ALL_DEPENDENCY ON)
 install(FILES ${PROJECT_SOURCE_DIR}/packaging/man/tracemesh.1 DESTINATION ${CMAKE_INSTALL_MANDIR}/man1)
 install(FILES ${PROJECT_SOURCE_DIR}/packaging/man/tracemeshd.8 DESTINATION ${CMAKE_INSTALL_MANDIR}/man8)
+# The machine-readable copyright file Debian expects in every package's documentation folder.
+install(FILES ${PROJECT_SOURCE_DIR}/packaging/debian/copyright DESTINATION ${CMAKE_INSTALL_DOCDIR})
 # The documents are globbed when installing, not when configuring: docs/ grows without a re-configure. docs/ keeps
 # its folder (its README.md is not the top-level one; its links to ../README.md and images/ stay valid).
 install(CODE "

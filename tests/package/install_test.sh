@@ -119,7 +119,7 @@ unit=/usr/lib/systemd/system/tracemeshd.service
 [[ -s $root/etc/default/tracemeshd ]] || fail "/etc/default/tracemeshd is not installed"
 in_root dpkg-query -W -f '${Conffiles}' tracemesh | grep -q '/etc/default/tracemeshd' \
   || fail "/etc/default/tracemeshd is not a conffile of the package"
-for doc in LICENSE THIRD_PARTY.md README.md; do
+for doc in copyright LICENSE THIRD_PARTY.md README.md; do
   [[ -s $root/usr/share/doc/tracemesh/$doc ]] || fail "/usr/share/doc/tracemesh/$doc is not installed"
 done
 version=$(in_root /usr/bin/tracemesh --version) || fail "tracemesh --version failed: $version"

@@ -21,7 +21,7 @@ if command -v man >/dev/null; then
     man -M "$prefix/share/man" -w "$page" >/dev/null 2>&1 || fail "man -M $prefix/share/man -w $page finds no page"
   done
 fi
-docs=(README.md LICENSE THIRD_PARTY.md)
+docs=(README.md LICENSE THIRD_PARTY.md copyright)
 shopt -s nullglob
 for doc in "$source_dir"/CHANGELOG.md "$source_dir"/docs/*.md "$source_dir"/docs/images/*; do
   docs+=("${doc#"$source_dir"/}")
