@@ -12,8 +12,8 @@
 #   A package's licence is the "Files: *" stanza of a machine-readable copyright file (the other stanzas cover
 #   build scripts, tests and examples, not the library), or, for a free-form file, GPL-only when it names the GPL
 #   and neither the LGPL nor an exception.
-# -v prints every dependency with its licence. Exit: 0 clean, 1 a GPL-only dependency (one line each on stderr),
-# 2 usage or an unreadable binary, 77 no dpkg (not a Debian system: nothing to map libraries to).
+# -v prints every dependency with its licence. Exit: 0 clean, 1 a GPL-only dependency or one whose licence cannot be
+# read (one line each on stderr), 2 usage or an unreadable binary, 77 no dpkg (nothing to map libraries to).
 set -euo pipefail
 
 verbose=false
@@ -78,14 +78,15 @@ free_form_gpl_only() {
     ! grep -qiE 'Lesser General Public|Library General Public|\bLGPL|exception' "$file"
 }
 
-# 0 when the package's licence is GPL-only; prints the licence.
+# Prints the package's licence; returns 0 when it is GPL-only, 1 when not, 2 when it cannot be read (no copyright
+# file, say, as in images that drop /usr/share/doc): an unknown licence fails the check like a GPL-only one.
 package_is_gpl_only() {
   local package=$1 licence
   licence=$(licence_of_package "$package")
   echo "$licence"
   case $licence in
     free-form*) free_form_gpl_only "$package" ;;
-    "no copyright file" | unstated) return 1 ;;
+    "no copyright file" | unstated) return 2 ;;
     *) gpl_only_expression "$licence" ;;
   esac
 }
@@ -102,17 +103,23 @@ package_of() {
 }
 
 failures=0
-report() {  # report BINARY WHAT PACKAGE LICENCE GPL_ONLY
-  if [[ $5 == yes ]]; then
-    echo "check-licences: $1: $2 ($3): $4, GPL without a linking exception" >&2
-    failures=$((failures + 1))
-  elif $verbose; then
-    printf '  %-36s %-22s %s\n' "$2" "$3" "$4"
-  fi
+report() {  # report BINARY WHAT PACKAGE LICENCE yes|no|unknown (GPL-only?)
+  case $5 in
+    yes) echo "check-licences: $1: $2 ($3): $4, GPL without a linking exception" >&2; failures=$((failures + 1)) ;;
+    unknown) echo "check-licences: $1: $2 ($3): licence unknown ($4)" >&2; failures=$((failures + 1)) ;;
+    *) if $verbose; then printf '  %-36s %-22s %s\n' "$2" "$3" "$4"; fi ;;
+  esac
+}
+
+# report BINARY WHAT PACKAGE with the package's licence.
+judge_package() {
+  local licence status=0 verdicts=(yes no unknown)
+  licence=$(package_is_gpl_only "$3") || status=$?
+  report "$1" "$2" "$3" "$licence" "${verdicts[status]}"
 }
 
 check_shared_libraries() {
-  local binary=$1 library package licence gpl
+  local binary=$1 library package
   while read -r library; do
     [[ -z $library ]] && continue
     if ! package=$(package_of "$library"); then
@@ -120,9 +127,7 @@ check_shared_libraries() {
       failures=$((failures + 1))
       continue
     fi
-    gpl=no
-    licence=$(package_is_gpl_only "$package") && gpl=yes
-    report "$binary" "$(basename "$library")" "$package" "$licence" $gpl
+    judge_package "$binary" "$(basename "$library")" "$package"
   done < <(ldd "$binary" | awk '$2 == "=>" && $3 ~ /^\// {print $3} $1 ~ /^\// {print $1}' | sort -u)
 }
 
@@ -149,7 +154,7 @@ target_dir_of() {
 }
 
 check_static_parts() {
-  local binary=$1 target_dir link_dir token archive library_dir headers header package licence spdx gpl
+  local binary=$1 target_dir link_dir token archive library_dir headers header package spdx
   target_dir=$(target_dir_of "$binary") || return 0
   [[ -n $target_dir ]] || return 0
   link_dir=$(dirname "$(dirname "$target_dir")")
@@ -159,8 +164,7 @@ check_static_parts() {
     archive=$(cd "$link_dir" && realpath -m "$token")
     if [[ $archive == /usr/* ]]; then  # a system archive: judged by its package
       package=$(package_of "$archive") || { echo "check-licences: $binary: $archive belongs to no package" >&2; failures=$((failures + 1)); continue; }
-      gpl=no; licence=$(package_is_gpl_only "$package") && gpl=yes
-      report "$binary" "$(basename "$archive")" "$package" "$licence" $gpl
+      judge_package "$binary" "$(basename "$archive")" "$package"
     else  # the project's own library libNAME.a: its objects' dependency files
       library_dir=$(dirname "$archive")/CMakeFiles/$(basename "$archive" .a | sed 's/^lib//').dir
       [[ -d $library_dir ]] && object_dirs+=("$library_dir")
@@ -204,8 +208,7 @@ check_static_parts() {
     fi
     [[ -n ${judged[$package]:-} ]] && continue
     judged[$package]=1
-    gpl=no; licence=$(package_is_gpl_only "$package") && gpl=yes
-    report "$binary" "headers of $package" "$package" "$licence" $gpl
+    judge_package "$binary" "headers of $package" "$package"
   done <<<"$headers"
 }
 
