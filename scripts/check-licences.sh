@@ -150,7 +150,9 @@ target_dir_of() {
   local binary=$1 build
   build=$(dirname "$(dirname "$(realpath "$binary")")")
   [[ -f $build/CMakeCache.txt ]] || return 1
-  find "$build" -path "*/CMakeFiles/$(basename "$binary").dir/link.txt" -print -quit | xargs -r dirname
+  local link_txt
+  link_txt=$(find "$build" -path "*/CMakeFiles/$(basename "$binary").dir/link.txt" -print -quit)
+  [[ -n $link_txt ]] && dirname "$link_txt"
 }
 
 check_static_parts() {
