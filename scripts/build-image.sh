@@ -11,6 +11,8 @@ image=${1:-localhost/tracemesh:latest}
 ensure_base_image
 started=$(date +%s)
 build_args=(--build-arg "BUILD_JOBS=${BUILD_JOBS:-2}")
+commit=$(git -C "$repo" rev-parse --short HEAD 2>/dev/null || true)
+[[ -n $commit ]] && build_args+=(--build-arg "TRACEMESH_COMMIT=$commit")
 [[ -n ${APT_MIRROR:-} ]] && build_args+=(--build-arg "APT_MIRROR=$APT_MIRROR")
 ca=$(site_ca_bundle)
 if [[ -f $ca ]]; then build_args+=(--secret "id=site_ca,src=$ca"); fi

@@ -14,6 +14,7 @@ build_packages=(
   libboost-dev nlohmann-json3-dev libdraco-dev libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
   libssl-dev libcli11-dev zlib1g-dev libbrotli-dev gemmi-dev tao-pegtl-dev
   libhiredis-dev  # the Redis client of `tracemeshd --store redis://…` (server/redis/)
+  dpkg-dev        # dpkg-shlibdeps: `make package` computes the .deb's Depends from the programs
 )
 # The suite, the benchmarks, the fuzzers and the tools the tests call (draco_decoder, curl, wrk, nginx).
 test_packages=(
@@ -21,6 +22,7 @@ test_packages=(
   clang-14 libclang-rt-14-dev wrk nginx-light procps
   redis-server  # the suite starts its own redis-server on a free loopback port (tests/support/redis_process.hpp)
   chromium  # the web viewer's browser test (tests/node/web_viewer_test.mjs): headless, WebGL on SwiftShader
+  debootstrap systemd man-db  # the package tests: a clean Debian root, systemd-analyze verify, the man pages
 )
 needs_node=true  # node, npm and `npm ci`: the viewer's bundle (every build) and the suite's checkers
 packages=("${build_packages[@]}" "${test_packages[@]}")
