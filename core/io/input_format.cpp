@@ -88,12 +88,6 @@ bool ends_with_ignoring_case(std::string_view text, std::string_view suffix) {
   return true;
 }
 
-/// "3 of 4 atom records", for messages.
-std::string records_of(std::size_t count, const format_evidence& evidence) {
-  return std::to_string(count) + " of " + std::to_string(evidence.pqr_records + evidence.other_records) +
-         " atom records";
-}
-
 }  // namespace
 
 std::string_view input_format_name(input_format format) noexcept {
@@ -188,12 +182,6 @@ status check_declared_format(const declared_format& declared, const format_evide
       if (records > 0) return contradiction("the text has ATOM/HETATM records (PQR or PDB), not x y z r lines");
       break;
     case input_format::pqr:
-      if (evidence.pdb_header) return contradiction("the text is PDB (a HEADER or CRYST1 record before the atoms)");
-      if (evidence.other_records > evidence.pqr_records) {
-        return contradiction(records_of(evidence.other_records, evidence) +
-                             " do not end with x y z charge radius (PDB records end with an element symbol)");
-      }
-      [[fallthrough]];
     case input_format::pdb:
       if (records == 0 && evidence.xyzr_like_first) {
         return contradiction("the text is xyzr (x y z r lines, no ATOM/HETATM record)");

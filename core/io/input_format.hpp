@@ -80,10 +80,10 @@ struct declared_format {
 
 /// Whether the content can be read as declared. The content contradicts a declaration when it is unmistakably
 /// another format: an mmCIF data block for any other format, or no data block for mmCIF; ATOM/HETATM records for
-/// xyzr, or xyzr lines without any atom record for PQR or PDB; for PQR, a HEADER/CRYST1 record or a majority of
-/// atom records that do not end with five numbers. Declaring PDB for records that end with five numbers is not a
-/// contradiction (that is how the ambiguous case above is resolved). Error: errc::invalid_input saying what the
-/// declaration and the content each say.
+/// xyzr, or xyzr lines without any atom record for PQR or PDB. Between PQR and PDB the declaration decides: PDB
+/// records declared PQR are refused by the PQR reader, which names them (a PDB record ends with an element
+/// symbol, not a radius), and PQR-like records declared PDB are how the ambiguous case above is resolved. Error:
+/// errc::invalid_input saying what the declaration and the content each say.
 status check_declared_format(const declared_format& declared, const format_evidence& evidence);
 
 /// How an input is read: its declared format (none: detected), and what the PDB and mmCIF readers keep and how

@@ -321,6 +321,42 @@ reply with_range(reply r, const request_head& head, const std::string& etag) {
   return refused;
 }
 
+/// OPTIONS * (RFC 9110 §9.3.7): what the server as a whole supports.
+reply server_options_reply() {
+  reply r;
+  r.status = 204;
+  r.route = "*";
+  r.headers.emplace_back("Allow", "GET, HEAD, POST, DELETE, OPTIONS");
+  return r;
+}
+
+/// If-Match (RFC 9110 §13.1.1) refuses the request: the field is present and neither "*" nor a list holding
+/// `etag` (strong comparison: a weak tag never matches).
+bool if_match_fails(const request_head& head, const std::string& etag) {
+  const auto fields = head.equal_range(http::field::if_match);
+  if (fields.first == fields.second) return false;
+  for (const auto& field : boost::make_iterator_range(fields)) {
+    std::string_view list = to_std(field.value());
+    while (!list.empty()) {
+      const std::size_t comma = list.find(',');
+      std::string_view tag = list.substr(0, comma);
+      list = comma == std::string_view::npos ? std::string_view() : list.substr(comma + 1);
+      while (!tag.empty() && (tag.front() == ' ' || tag.front() == '\t')) tag.remove_prefix(1);
+      while (!tag.empty() && (tag.back() == ' ' || tag.back() == '\t')) tag.remove_suffix(1);
+      if (tag == "*" || tag == etag) return false;
+    }
+  }
+  return true;
+}
+
+reply precondition_failed_reply(const std::string& etag, std::string route) {
+  reply r = error_reply(412, "precondition_failed", "If-Match names no current representation (the ETag is " +
+                                                        etag + ")",
+                        std::move(route));
+  r.headers.emplace_back("ETag", etag);
+  return r;
+}
+
 bool etag_matches(const request_head& head, const std::string& etag) {
   const std::string_view wanted = to_std(head[http::field::if_none_match]);
   if (wanted.empty()) return false;
@@ -339,6 +375,7 @@ constexpr const char* web_page_security_policy =
 reply web_asset_reply(const request_head& head, std::string_view path, const char* route) {
   const web_asset* asset = find_web_asset(path);
   if (!asset) return error_reply(404, "not_found", "the web viewer has no such file", route);
+  if (if_match_fails(head, asset->etag)) return precondition_failed_reply(asset->etag, route);
   reply r;
   r.route = route;
   if (etag_matches(head, asset->etag)) {
@@ -349,7 +386,6 @@ reply web_asset_reply(const request_head& head, std::string_view path, const cha
   }
   r.headers.emplace_back("ETag", asset->etag);
   r.headers.emplace_back("Cache-Control", std::string(asset->cache_control));
-  r.headers.emplace_back("X-Content-Type-Options", "nosniff");
   if (path == "/") r.headers.emplace_back("Content-Security-Policy", web_page_security_policy);
   return r;
 }
@@ -535,8 +571,34 @@ const std::string* find_param(const parameter_map& params, std::string_view name
 
 
 
-/// The multipart fields that carry the molecule file: "structure" (any format) and "pqr" (its older name).
+/// The multipart fields that carry the molecule file: "structure" (any format) and "pqr" (a PQR file).
 bool is_file_field(std::string_view name) { return name == "structure" || name == "pqr"; }
+
+/// The field 'pqr' declares PQR (the field 'structure' declares nothing): set in `options`, or refused when
+/// format_in declares another format.
+status declare_file_field_format(std::string_view field, structure_options& options) {
+  if (field != "pqr") return status::success();
+  if (options.format && options.format->format != input_format::pqr) {
+    return status(errc::invalid_argument, "the file field 'pqr' declares pqr, but " + options.format->declared_by +
+                                              "; send the file in the field 'structure'");
+  }
+  if (!options.format) options.format = declared_format{input_format::pqr, "the file field 'pqr'"};
+  return status::success();
+}
+
+/// A parameter given both in the query and in the form must have the same value there: which one a server
+/// would take is a guess a client should not have to make.
+status same_in_query_and_form(const parameter_map& query, const parameter_map& form) {
+  for (const auto& [name, value] : form) {
+    const std::string* other = find_param(query, name);
+    if (other && *other != value) {
+      return status(errc::invalid_argument, "parameter '" + shown_name(name) + "' given in the query ('" +
+                                                shown(*other) + "') and in the form ('" + shown(value) +
+                                                "') with different values");
+    }
+  }
+  return status::success();
+}
 
 
 /// Every parameter an upload route knows: the mesh request's and the input options.
@@ -585,6 +647,7 @@ boost::asio::thread_pool& api_handlers::parsing_pool(std::size_t body_bytes, boo
 }
 
 std::variant<reply, body_plan> api_handlers::plan(const request_head& head, const std::string& client_address) {
+  if (head.method() == http::verb::options && head.target() == "*") return server_options_reply();
   const auto target = split_target(to_std(head.target()));
   if (!target) {
     return error_reply(400, "bad_request", "the request target must be an absolute path or an http(s) URL",
@@ -748,8 +811,8 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
     return done(error_reply(400, "invalid_argument", known.message(), route));
   }
 
-  // Form fields win over query parameters (openapi.json); the file travels in "structure" or "pqr" (the same:
-  // the format is read from the content).
+  // A parameter may come in the query or the form, or in both with the same value (openapi.json); the file
+  // travels in "structure" (its format declared by format_in= or detected) or "pqr" (declared PQR).
   parameter_map form;
   multipart_part* file = nullptr;
   for (multipart_part& part : parts) {
@@ -771,6 +834,9 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
     return done(error_reply(400, "invalid_argument", known.message(), route));
   }
   if (!file) return done(error_reply(400, "invalid_input", "missing the file field 'structure' (or 'pqr')", route));
+  if (const status agreed = same_in_query_and_form(*query, form); !agreed.ok()) {
+    return done(status_error_reply(agreed, route));
+  }
 
   const proto::field_lookup lookup = [&](std::string_view name) -> std::optional<std::string> {
     if (const std::string* value = find_param(form, name)) return *value;
@@ -781,6 +847,9 @@ void api_handlers::handle_upload(const request_head& head, body_plan plan, std::
   if (!request.ok()) return done(status_error_reply(request.error(), route));
   result<structure_options> options = parse_structure_options(lookup);
   if (!options.ok()) return done(status_error_reply(options.error(), route));
+  if (const status declared = declare_file_field_format(file->name, *options); !declared.ok()) {
+    return done(status_error_reply(declared, route));
+  }
 
   // POST /mesh answers with mesh bytes: their coding is negotiated before any work is done.
   const std::optional<content_coding> coding =
@@ -1070,20 +1139,37 @@ std::optional<reply> api_handlers::authorization_failure(const request_head& hea
 
 void api_handlers::job_mesh(const request_head& head, const std::string& id,
                             std::optional<proto::mesh_format> requested, reply_sink done) {
+  if (requested) return job_mesh_in(head, id, *requested, true, std::nullopt, std::move(done));
+  // Without ?format: the format of the job's first submission (the one links.mesh names), from the queue while it
+  // holds the job, else from the job's record (after a restart, or with Redis on another replica); OFF when
+  // neither knows the job (the store's mesh may outlive its record).
+  if (std::optional<job_snapshot> job = deps_.jobs.find(id)) {
+    const proto::mesh_format format = job->format;
+    return job_mesh_in(head, id, format, false, std::move(job), std::move(done));
+  }
+  off_io_thread_if_blocking([this, head, id, done = std::move(done)]() mutable {
+    const result<std::optional<job_snapshot>> record = deps_.coordinator.find(id);
+    if (!record.ok()) return done(records_unreachable_reply(record.error(), "/jobs/{id}/mesh"));
+    const proto::mesh_format format = *record ? (*record)->format : proto::mesh_format::off;
+    job_mesh_in(head, id, format, false, *record, std::move(done));
+  });
+}
+
+void api_handlers::job_mesh_in(const request_head& head, const std::string& id, proto::mesh_format format,
+                               bool requested, std::optional<job_snapshot> job, reply_sink done) {
   const std::string route = "/jobs/{id}/mesh";
-  std::optional<job_snapshot> job;
-  if (!requested) job = deps_.jobs.find(id);
-  // Without ?format: the format of the job's first submission while the queue remembers the job, else OFF.
-  const proto::mesh_format format = requested ? *requested : job ? job->format : proto::mesh_format::off;
   // Only a URL naming its format always names the same bytes.
-  const bool immutable = requested.has_value();
+  const bool immutable = requested;
   const std::optional<content_coding> coding = mesh_coding(accept_encoding(head), format);
   if (!coding) return done(not_acceptable_reply(format, route));
   const std::string etag = etag_for(id, format, *coding);
+  const bool if_match_failed = if_match_fails(head, etag);
   const bool if_none_match = etag_matches(head, etag);
-  // The whole answer once the bytes are known: 304, or the bytes (a range of them, 416) with their headers.
-  auto answer = [id, format, coding = *coding, etag, if_none_match, immutable, route, head_copy = head](
-                    std::shared_ptr<const std::string> bytes, bool cache_hit) {
+  // The whole answer once the bytes are known: 412 (If-Match goes first, RFC 9110 §13.2.2), 304, or the bytes
+  // (a range of them, 416) with their headers.
+  auto answer = [id, format, coding = *coding, etag, if_match_failed, if_none_match, immutable, route,
+                 head_copy = head](std::shared_ptr<const std::string> bytes, bool cache_hit) {
+    if (if_match_failed) return precondition_failed_reply(etag, route);
     if (if_none_match) return not_modified(id, format, coding, route);
     return with_range(mesh_reply(id, format, coding, std::move(bytes), cache_hit, route, immutable), head_copy, etag);
   };

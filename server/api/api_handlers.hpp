@@ -98,6 +98,9 @@ class api_handlers final : public request_handler {
   void log_result_lost(const std::string& id, proto::mesh_format format, const std::string& reason);
   void job_mesh(const request_head& head, const std::string& id, std::optional<proto::mesh_format> format,
                 reply_sink done);
+  /// GET /jobs/{id}/mesh in `format` (`requested`: the URL named it); `job`: the queue's snapshot, when it has one.
+  void job_mesh_in(const request_head& head, const std::string& id, proto::mesh_format format, bool requested,
+                   std::optional<job_snapshot> job, reply_sink done);
   void prepare_upload(std::shared_ptr<upload_request> upload);  // on the prep pool
   void submit_job(std::shared_ptr<upload_request> upload, const std::string& id, std::size_t atoms);
   /// The pool that parses an upload of `body_bytes` (gzip-encoded ones always take the large-upload pool).

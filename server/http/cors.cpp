@@ -8,9 +8,13 @@ namespace {
 
 // What a front-end needs to read besides the simple response headers.
 constexpr const char* exposed_headers =
-    "ETag, X-Cache, X-Job-Id, X-Request-Id, Content-Disposition, Retry-After, Location, Content-Range, Accept-Ranges";
+    "ETag, X-Cache, X-Job-Id, X-Job-Token, X-Request-Id, Content-Disposition, Retry-After, Location, Content-Range, "
+    "Accept-Ranges";
+// Authorization (a server run with bearer tokens) and X-Job-Token (DELETE /jobs/{id}) are not CORS-safelisted:
+// without them here a browser refuses to send an authenticated request or a cancellation at all.
 constexpr const char* allowed_request_headers =
-    "Content-Type, Content-Encoding, If-None-Match, X-Request-Id, Range, If-Range";
+    "Content-Type, Content-Encoding, If-None-Match, If-Match, X-Request-Id, Range, If-Range, Authorization, "
+    "X-Job-Token";
 constexpr const char* preflight_max_age_seconds = "600";
 
 }  // namespace

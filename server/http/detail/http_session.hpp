@@ -5,6 +5,8 @@
 /// (tests/fuzz/http_request_fuzzer.cpp). A stream type plugs in through a stream_transport specialisation that
 /// arms and disarms deadlines and closes the connection.
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdint>
 #include <limits>
@@ -73,6 +75,9 @@ inline constexpr std::size_t first_read_bytes = 4096;
 
 /// The request and response header carrying the request id.
 inline constexpr const char* request_id_field = "X-Request-Id";
+/// Sent on every response: browsers must take Content-Type as it is and never sniff a mesh or an error body
+/// into something they would run.
+inline constexpr const char* content_type_options_field = "X-Content-Type-Options";
 
 /// The route label used for requests rejected before routing.
 inline constexpr const char* unrouted_route = "(unrouted)";
@@ -98,12 +103,51 @@ inline bool transfer_encoding_acceptable(const request_head& head) {
   return !present || (codings == 1 && chunked && head.find(http::field::content_length) == head.end());
 }
 
-/// True when an HTTP/1.1 request carries exactly one Host field (RFC 9112 §3.2: otherwise 400). HTTP/1.0 has no
-/// such requirement.
-inline bool host_acceptable(const request_head& head) {
-  if (head.version() < 11) return true;
+/// True when `value` is a Host field value (RFC 9110 §7.2: uri-host [":" port], RFC 3986 §3.2.2): empty (a
+/// target without authority), an IP-literal in brackets, or a reg-name / IPv4 address of unreserved, percent-encoded
+/// and sub-delim characters; then an optional port of digits. Spaces, '/', '@', control bytes and the like are not.
+inline bool host_value_valid(std::string_view value) {
+  const auto is_port = [](std::string_view port) {
+    return std::all_of(port.begin(), port.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  if (!value.empty() && value.front() == '[') {
+    const std::size_t close = value.find(']');
+    if (close == std::string_view::npos || close == 1) return false;
+    const std::string_view literal = value.substr(1, close - 1);
+    const bool literal_chars = std::all_of(literal.begin(), literal.end(), [](char c) {
+      return std::isxdigit(static_cast<unsigned char>(c)) || c == ':' || c == '.' || c == 'v' || c == 'V';
+    });
+    const std::string_view rest = value.substr(close + 1);
+    return literal_chars && (rest.empty() || (rest.front() == ':' && is_port(rest.substr(1))));
+  }
+  const std::size_t colon = value.rfind(':');
+  const std::string_view host = value.substr(0, colon);
+  if (colon != std::string_view::npos && !is_port(value.substr(colon + 1))) return false;
+  for (std::size_t i = 0; i < host.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(host[i]);
+    if (std::isalnum(c) || std::string_view("-._~!$&'()*+,;=").find(static_cast<char>(c)) != std::string_view::npos) {
+      continue;
+    }
+    if (c == '%' && i + 2 < host.size() && std::isxdigit(static_cast<unsigned char>(host[i + 1])) &&
+        std::isxdigit(static_cast<unsigned char>(host[i + 2]))) {
+      i += 2;
+      continue;
+    }
+    return false;
+  }
+  return true;
+}
+
+/// Why the request's Host fields are refused (400), or nothing: an HTTP/1.1 request carries exactly one Host field
+/// (RFC 9112 §3.2), and any Host value must be valid (RFC 9110 §7.2). HTTP/1.0 need not send one.
+inline std::optional<std::string> host_problem(const request_head& head) {
   const auto hosts = head.equal_range(http::field::host);
-  return std::distance(hosts.first, hosts.second) == 1;
+  const auto count = std::distance(hosts.first, hosts.second);
+  if (head.version() >= 11 && count != 1) return "an HTTP/1.1 request must carry exactly one Host header field";
+  for (const auto& field : boost::make_iterator_range(hosts)) {
+    if (!host_value_valid(to_std(field.value()))) return "the Host header field is not a host[:port]";
+  }
+  return std::nullopt;
 }
 
 /// One connection. Lives as long as an operation or a pending reply holds a shared_ptr to it.
@@ -177,6 +221,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     plan_ = body_plan{};
     upload_bytes_ = 0;
     rate_violated_ = false;
+    skipped_empty_line_bytes_ = 0;
     encoded_body_.clear();
     // header_timeout runs from here: keep-alive idle time and a slow header together.
     transport::expire_after(stream_, context_.limits.header_timeout);
@@ -213,6 +258,28 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     read_header_block();
   }
 
+  /// RFC 9112 §2.2: a server should ignore empty lines before a request line (clients send a CRLF after a body
+  /// now and then). Drops them, up to max_header_bytes per request (more is a malformed request for the parser);
+  /// true when the buffer then holds nothing but the start of one (more bytes are needed).
+  bool skip_empty_lines() {
+    const auto* bytes = static_cast<const char*>(buffer_.data().data());
+    const std::string_view held(bytes, buffer_.size());
+    std::size_t skip = 0;
+    while (skip < held.size() && skipped_empty_line_bytes_ + skip < context_.limits.max_header_bytes) {
+      if (held[skip] == '\n') {
+        ++skip;
+      } else if (held[skip] == '\r' && skip + 1 < held.size() && held[skip + 1] == '\n') {
+        skip += 2;
+      } else {
+        break;
+      }
+    }
+    buffer_.consume(skip);
+    skipped_empty_line_bytes_ += skip;
+    const bool lone_cr = buffer_.size() == 1 && *static_cast<const char*>(buffer_.data().data()) == '\r';
+    return (buffer_.size() == 0 || lone_cr) && skipped_empty_line_bytes_ < context_.limits.max_header_bytes;
+  }
+
   std::uint64_t next_idle_generation() { return ++idle_generation_; }
 
   void close_if_idle(std::uint64_t generation) {
@@ -233,8 +300,18 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   void read_header_block() {
+    if (skip_empty_lines()) {
+      return stream_.async_read_some(buffer_.prepare(first_read_bytes), beast::bind_front_handler(
+                                         &http_session::on_more_header_bytes, this->shared_from_this()));
+    }
     http::async_read_header(stream_, buffer_, *header_parser_,
                             beast::bind_front_handler(&http_session::on_header, this->shared_from_this()));
+  }
+
+  void on_more_header_bytes(beast::error_code ec, std::size_t bytes) {
+    if (ec) return close();  // the header deadline passed, or the client left, with only empty lines sent
+    buffer_.commit(bytes);
+    read_header_block();
   }
 
   void on_header(beast::error_code ec, std::size_t header_bytes) {
@@ -251,9 +328,8 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
                               unrouted_route),
                   /*force_close=*/true);
     }
-    if (!host_acceptable(head_)) {
-      return send(error_reply(400, "bad_request", "an HTTP/1.1 request must carry exactly one Host header field",
-                              unrouted_route),
+    if (const std::optional<std::string> problem = host_problem(head_)) {
+      return send(error_reply(400, "bad_request", *problem, unrouted_route),
                   /*force_close=*/!header_parser_->is_done());
     }
     if (health_only_ && !context_.handler.is_health_route(to_std(head_.target()))) {
@@ -495,6 +571,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     if (r.compressible && !(r.status == 204 || r.status == 304)) compress_json(r);
     response_.emplace(static_cast<http::status>(r.status), head_.version() == 10 ? 10 : 11);
     response_->set(http::field::server, "tracemeshd");
+    response_->set(content_type_options_field, "nosniff");
     const bool bodiless_status = r.status == 204 || r.status == 304;
     if (!bodiless_status) response_->set(http::field::content_type, r.content_type);
     const std::string origin(head_[http::field::origin]);
@@ -549,6 +626,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     chunked_ = head_.version() >= 11;
     stream_response_.emplace(http::status::ok, head_.version() == 10 ? 10 : 11);
     stream_response_->set(http::field::server, "tracemeshd");
+    stream_response_->set(content_type_options_field, "nosniff");
     stream_response_->set(http::field::content_type, "text/event-stream");
     stream_response_->set(http::field::cache_control, "no-store");
     const std::string origin(head_[http::field::origin]);
@@ -711,6 +789,7 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   std::uint64_t idle_generation_ = 0;      // tells a stale close_if_idle from the current idle period
   std::string encoded_body_;  // a Content-Encoding: gzip upload, compressed
   beast::flat_buffer buffer_;
+  std::size_t skipped_empty_line_bytes_ = 0;  // before this request's line (skip_empty_lines)
   std::optional<http::request_parser<http::empty_body>> header_parser_;
   std::optional<http::request_parser<http::buffer_body>> body_parser_;
   std::optional<http::request_parser<http::string_body>> small_parser_;
