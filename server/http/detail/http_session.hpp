@@ -138,12 +138,15 @@ inline bool host_value_valid(std::string_view value) {
   return true;
 }
 
+/// The refusal of a request without exactly one Host field.
+inline constexpr const char* missing_host_message = "an HTTP/1.1 request must carry exactly one Host header field";
+
 /// Why the request's Host fields are refused (400), or nothing: an HTTP/1.1 request carries exactly one Host field
 /// (RFC 9112 §3.2), and any Host value must be valid (RFC 9110 §7.2). HTTP/1.0 need not send one.
 inline std::optional<std::string> host_problem(const request_head& head) {
   const auto hosts = head.equal_range(http::field::host);
   const auto count = std::distance(hosts.first, hosts.second);
-  if (head.version() >= 11 && count != 1) return "an HTTP/1.1 request must carry exactly one Host header field";
+  if (head.version() >= 11 && count != 1) return std::string(missing_host_message);
   for (const auto& field : boost::make_iterator_range(hosts)) {
     if (!host_value_valid(to_std(field.value()))) return "the Host header field is not a host[:port]";
   }
@@ -329,8 +332,11 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
                   /*force_close=*/true);
     }
     if (const std::optional<std::string> problem = host_problem(head_)) {
+      // A missing Host on a request read whole leaves the connection usable; a malformed Host value says the
+      // client (or a proxy before it) is confused about what it talks to: the connection ends.
+      const bool malformed_value = *problem != missing_host_message;
       return send(error_reply(400, "bad_request", *problem, unrouted_route),
-                  /*force_close=*/!header_parser_->is_done());
+                  /*force_close=*/malformed_value || !header_parser_->is_done());
     }
     if (health_only_ && !context_.handler.is_health_route(to_std(head_.target()))) {
       return send(health_only_refusal_, /*force_close=*/true);
