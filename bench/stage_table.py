@@ -9,7 +9,7 @@ Two tables, Markdown:
 2. With --callgrind MOLECULE (a small one: callgrind runs ~50× slower): instructions per stage, load-independent
    (valgrind --tool=callgrind, one thread), from the inclusive cost of the function that runs each stage; the calls
    of gaussian_field's point evaluations by calling function (the field evaluations outside the root finder's own
-   line sampling); and, with --heaptrack as well, the calls to allocation functions per stage (heaptrack, same
+   line sampling; through a field_neighbourhood or not); and, with --heaptrack as well, the calls to allocation functions per stage (heaptrack, same
    attribution: allocations made under each stage's function).
 
 Environment: TRACEMESH (default build/bin/tracemesh), TRACEMESH_MOLECULES_DIR (default: as bench/bench_lib.sh),
@@ -41,9 +41,10 @@ STAGE_FUNCTIONS = {
     "refining": "remesh_surface(",
     "certifying": "certify(",
 }
-# gaussian_field's point evaluations.
+# The field's point evaluations: gaussian_field's own, and those through a field_neighbourhood.
 FIELD_FUNCTIONS = ["gaussian_field::value_and_gradient(", "gaussian_field::value(", "gaussian_field::probe(",
-                   "gaussian_field::surface_distance(", "gaussian_field::project_to_surface("]
+                   "gaussian_field::surface_distance(", "gaussian_field::project_to_surface(",
+                   "field_neighbourhood::value_and_gradient("]
 
 
 def molecule_path(name):
@@ -205,8 +206,8 @@ def callgrind_table(binary, molecule, with_heaptrack):
             row += f" {allocations[1].get(s, '—')} |"
         print(row)
     print(f"| total | {total / 1e6:.1f} | 100% |" + (f" {allocations[0]} |" if allocations else ""))
-    print("\nPoint evaluations of the field (gaussian_field) by caller (the root finder's line samples are not "
-          "among them)\n")
+    print("\nPoint evaluations of the field by caller (the root finder's line samples are not among them; a "
+          "neighbourhood's include its gathers)\n")
     print("| evaluation | caller | calls | per vertex | instructions (10⁶) | per call |")
     print("|---|---|---:|---:|---:|---:|")
     for callee, caller, calls, cost in sorted(field_calls(tree), key=lambda r: -r[2]):
