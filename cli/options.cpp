@@ -108,6 +108,8 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
                  "Trace: ε, |φ_x| < ε·|∇φ| marks an extreme point in x, " +
                      range_and_default(r::min_extreme_tolerance, r::max_extreme_tolerance, trace.extreme_tolerance))
       ->type_name("F");
+  app.add_option("--format-in", texts["format_in"],
+                 "Input format pqr | pdb | mmcif | xyzr (default: the file extension, else detected from the content)");
   app.add_option("--radii", texts["radii"], "PDB/mmCIF: van der Waals radii, bondi (default) | mantina");
   app.add_option("--hydrogens", texts["hydrogens"], "PDB/mmCIF: keep (default) | drop hydrogen atoms");
   app.add_option("--waters", texts["waters"], "PDB/mmCIF: keep | drop (default) water molecules");
@@ -131,7 +133,12 @@ status finish_options(const CLI::App& app, cli_options& options, parameter_texts
   options.params = *params;
   options.params.threads = threads;
   const result<structure_options> input_options = parse_structure_options(lookup_in(texts));
-  if (!input_options) return {input_options.error().code(), "--" + input_options.error().message()};
+  if (!input_options) {
+    // "format_in must be ..." → "--format-in must be ...": the field as this command line spells it.
+    const std::string message = input_options.error().message();
+    const std::size_t field_end = std::min(message.find(' '), message.size());
+    return {input_options.error().code(), option_name(message.substr(0, field_end)) + message.substr(field_end)};
+  }
   options.input_options = *input_options;
 
   const result<output_format> format =

@@ -80,6 +80,8 @@ nlohmann::json certificate_to_json(const mesh_output& output) {
       {"unreferenced_vertices", report.unreferenced_vertices},
       {"self_intersections", report.self_intersections},
       {"inward_oriented_components", report.inward_oriented_components},
+      {"folded_triangles", report.folded_triangles},
+      {"near_duplicate_vertex_pairs", report.near_duplicate_vertex_pairs},
       {"max_surface_distance", number(output.max_surface_distance)},
       {"field_cutoff_error", number(output.field_cutoff_error)},
   };

@@ -71,11 +71,13 @@ class CliInputFormat : public ::testing::Test {
     return dir_ / name;
   }
 
-  /// Runs tracemesh on `input` with a report, stdout discarded and stderr captured.
-  run_result run(const fs::path& input) const {
+  /// Runs tracemesh on `input` with a report (and `extra` arguments), stdout discarded and stderr captured.
+  run_result run(const fs::path& input, const std::vector<std::string>& extra = {}) const {
     std::string command = shell_quote(tracemesh::testing::binary_path("tracemesh").string());
-    for (const std::string& arg : {input.string(), std::string("-o"), (dir_ / "out.off").string(),
-                                  std::string("--report"), (dir_ / "report.json").string()}) {
+    std::vector<std::string> args{input.string(), "-o", (dir_ / "out.off").string(), "--report",
+                                  (dir_ / "report.json").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    for (const std::string& arg : args) {
       command += ' ';
       command += shell_quote(arg);
     }
@@ -89,8 +91,8 @@ class CliInputFormat : public ::testing::Test {
   }
 
   /// The report's "input" section after a successful run.
-  nlohmann::json input_read(const fs::path& input) const {
-    const run_result result = run(input);
+  nlohmann::json input_read(const fs::path& input, const std::vector<std::string>& extra = {}) const {
+    const run_result result = run(input, extra);
     EXPECT_EQ(result.exit_code, 0) << input << ": " << result.err;
     const nlohmann::json report = nlohmann::json::parse(read_file(dir_ / "report.json"), nullptr, false);
     if (report.is_discarded() || !report.contains("input")) return nullptr;
@@ -138,6 +140,17 @@ TEST_F(CliInputFormat, AnExtensionTheContentContradictsFailsWithOneLine) {
   const auto atoms = tracemesh::testing::atoms_of_pqr(gly);
   expect_one_line_failure(run(write("gly.pqr", tracemesh::testing::to_mmcif(atoms))),
                           "the file name 'gly.pqr' declares pqr, but the text is mmCIF");
+}
+
+TEST_F(CliInputFormat, FormatInDeclaresTheFormatOverTheExtension) {
+  EXPECT_EQ(input_read(write("a.pqr.txt", pdb_record_without_element), {"--format-in", "pdb"}),
+            nlohmann::json({{"format", "pdb"}, {"radii", "bondi"}}));
+  const std::string gly = read_file(tracemesh::testing::molecule_path("gly.pqr"));
+  expect_one_line_failure(run(write("gly.pqr", gly), {"--format-in", "xyzr"}),
+                          "declares xyzr, but the text has ATOM/HETATM records");
+  const run_result unknown = run(write("gly.pqr", gly), {"--format-in", "gro"});
+  EXPECT_EQ(unknown.exit_code, 2) << "a usage error";
+  EXPECT_EQ(unknown.err, "tracemesh: --format-in must be pqr, pdb, mmcif or xyzr, not 'gro' (see tracemesh --help)\n");
 }
 
 }  // namespace tracemesh::cli_input_format_test

@@ -198,7 +198,7 @@ std::string serve(fuzz_service& service, std::string_view input, std::size_t rea
 }
 
 const std::set<unsigned> known_statuses{100, 200, 202, 204, 304, 400, 401, 403, 404, 405, 408, 409,
-                                        413, 415, 422, 429, 431, 500, 503, 504};
+                                        412, 413, 415, 422, 429, 431, 500, 503, 504};
 
 void check_error_body(const std::string& body, std::string_view context) {
   const nlohmann::json doc = nlohmann::json::parse(body, nullptr, false);

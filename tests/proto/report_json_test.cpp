@@ -36,6 +36,8 @@ mesh_output sample_output() {
   r.unreferenced_vertices = 6;
   r.self_intersections = 7;
   r.inward_oriented_components = 8;
+  r.folded_triangles = 9;
+  r.near_duplicate_vertex_pairs = 10;
   r.achieved_density = 1.157;
   r.quality.edge_ratio_mean = 0.71;
   r.quality.edge_ratio_min = 0.12;
@@ -243,6 +245,8 @@ TEST(ReportJson, CopiesEveryValue) {
   EXPECT_EQ(certificate["unreferenced_vertices"], 6);
   EXPECT_EQ(certificate["self_intersections"], 7);
   EXPECT_EQ(certificate["inward_oriented_components"], 8);
+  EXPECT_EQ(certificate["folded_triangles"], 9);
+  EXPECT_EQ(certificate["near_duplicate_vertex_pairs"], 10);
   EXPECT_EQ(certificate["max_surface_distance"], 2.5e-7);
   EXPECT_EQ(certificate["field_cutoff_error"], 1e-6);
 

@@ -18,23 +18,35 @@ export async function fileText(file) {
 
 const isNumber = (text) => text !== '' && Number.isFinite(Number(text));
 
-/// 'mmcif', 'xyzr', 'pdb' or 'pqr', by the server's rules.
+/// 'mmcif', 'xyzr', 'pdb' or 'pqr', by the server's rules (core/io/input_format.cpp): mmCIF from a leading data_
+/// block, xyzr from a first line of four numbers, PDB after a HEADER or CRYST1 line before any atom; otherwise the
+/// majority of the ATOM/HETATM records decides (PQR when at least half end with five numbers), so one damaged line
+/// does not turn a PQR file into PDB.
 export function detectFormat(text) {
-  const lines = text.split(/\r?\n/, 2000);
-  if (lines[0]?.startsWith('data_')) return 'mmcif';
-  const firstContent = lines.find((line) => line.trim() !== '');
-  if (firstContent) {
-    const fields = firstContent.trim().split(/\s+/);
-    if (fields.length === 4 && fields.every(isNumber)) return 'xyzr';
-  }
-  for (const line of lines) {
-    if (line.startsWith('HEADER') || line.startsWith('CRYST1')) return 'pdb';
+  let start = 0;
+  let first = true;
+  let pqrRecords = 0;
+  let otherRecords = 0;
+  while (start < text.length) {
+    let end = text.indexOf('\n', start);
+    if (end < 0) end = text.length;
+    const line = text.slice(start, end).replace(/\r$/, '');
+    start = end + 1;
+    if (line.trim() === '') continue;
+    if (first) {
+      first = false;
+      if (line.startsWith('data_')) return 'mmcif';
+      const fields = line.trim().split(/\s+/);
+      if (fields.length === 4 && fields.every(isNumber)) return 'xyzr';
+    }
+    if (pqrRecords + otherRecords === 0 && (line.startsWith('HEADER') || line.startsWith('CRYST1'))) return 'pdb';
     if (line.startsWith('ATOM') || line.startsWith('HETATM')) {
       const fields = line.trim().split(/\s+/);
-      return fields.length >= 6 && fields.slice(-5).every(isNumber) ? 'pqr' : 'pdb';
+      if (fields.length >= 6 && fields.slice(-5).every(isNumber)) ++pqrRecords;
+      else ++otherRecords;
     }
   }
-  return 'pqr';
+  return pqrRecords >= otherRecords ? 'pqr' : 'pdb';
 }
 
 /// PQR: ATOM/HETATM records of 10 fields (ATOM serial name resName resSeq x y z charge radius) or 11 (a chain id
