@@ -30,12 +30,12 @@ constexpr double surface_distance_tolerance = 1e-3;
 double target_edge_length(double density) { return mesh_edge_length(density); }
 
 /// Cutoff tolerance (relative to t0) of the field the trace path walks on between lines: its contour lies within
-/// ~1e-3 Å of the exact one and it sums about half as many atoms (README "Method"); a strip whose walk conflicts is
+/// ~1e-3 Å of the exact one and it sums about half as many atoms (docs/method.md); a strip whose walk conflicts is
 /// traced again on the exact field.
 constexpr double trace_walk_tolerance = 1e-3;
 
 /// Outer iterations of the quality pass on the trace path's polygons, which already have about the output's
-/// density (remesh_options::iterations, 3, is for marching-tetrahedra input): README "Method", quality pass.
+/// density (remesh_options::iterations, 3, is for marching-tetrahedra input): docs/method.md, quality pass.
 constexpr int trace_refine_iterations = 2;
 
 /// Meshes of fewer raw triangles have their quality pass's final whole-mesh check (self-intersections, inward
@@ -50,10 +50,10 @@ constexpr std::size_t unchecked_quality_pass_triangles = 20'000;
 /// close a cell or whose mesh fails a check (at sharp kernels, d ≤ −8 in the README's sweep, a strip plane can pass
 /// within a hair of where the surface is tangent to it, and no walk gets past that point) is tried again on the
 /// next grid, and only after the last one meshed by the lattice path. Each grid is at least h̃/4 away from the
-/// others on both axes. README "Method": how often each was needed.
+/// others on both axes. docs/method.md: how often each was needed.
 constexpr std::array<line_grid_offset, 3> trace_line_grids{{{0, 0}, {0.5, 0.5}, {0.25, 0.75}}};
 
-/// Lattice spacing relative to the target edge length (see README "Method": sampling step).
+/// Lattice spacing relative to the target edge length (see docs/method.md: sampling step).
 constexpr double lattice_spacing_factor = 1.0;
 
 status cancelled_status() { return {errc::cancelled, "meshing was cancelled"}; }

@@ -613,7 +613,7 @@ std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges,
     for (const candidate_edge& e : edges) {
       // The lower-numbered end is kept (a line root of the raw trace mesh is never removed). Where that is refused,
       // a triangle turning over, say, the other end may be kept when both may move: with lines 0.93 Å apart at
-      // 1 v/Å² (a calibration tried, README "Deviations"), 2buk_capsid at 2 v/Å² kept a lens of 0.086 × the median
+      // 1 v/Å² (a calibration tried, docs/method.md), 2buk_capsid at 2 v/Å² kept a lens of 0.086 × the median
       // edge, frozen by the quality pass, that only collapsed that way; the raw trace mesh of 3j6r_asu at 1 v/Å²
       // loses 14 more short edges (of 7,430).
       if (!w.try_collapse(e.a, e.b, true, e) && e.a >= first_movable_vertex) w.try_collapse(e.b, e.a, true, e);

@@ -36,7 +36,7 @@ namespace tracemesh {
 struct remesh_options {
   double target_edge = 1.0;        ///< L, Å. The mesher derives it from the density: L = √(2 / (√3 · density)).
   /// Outer iterations of split / collapse / flip / relax. 3: the 1k4r_5asu ladder row at 5 took 27% longer for an
-  /// edge-ratio mean of 0.861 instead of 0.851 (README "Method").
+  /// edge-ratio mean of 0.861 instead of 0.851 (docs/method.md).
   int iterations = 3;
   double split_above = 4.0 / 3.0;  ///< split edges longer than this × L
   double collapse_below = 4.0 / 5.0;  ///< collapse edges shorter than this × L (never creating one > split_above × L)

@@ -26,7 +26,7 @@ constexpr std::int64_t cells_per_chunk = 12;
 /// chunk_edges·L wide, but never fewer than this: grown patches of one colour stay 2·6 − (6 + 2) = 4 cells apart.
 /// With 12 grown cells, the trace path's input (whose long diagonals double the cells) made 8 times fewer, larger
 /// patches: 17 instead of 67 on 2buk_capsid at 1 v/Å², and a patch that failed a round redid 1/17 of the mesh
-/// (quality pass 4.6-5.5 s; 2.8-3.1 s with 6 cells a chunk, for the same edge ratio: README "Method").
+/// (quality pass 4.6-5.5 s; 2.8-3.1 s with 6 cells a chunk, for the same edge ratio: docs/method.md).
 constexpr std::int64_t min_cells_per_chunk = 6;
 /// A chunk's patch reaches this many cells beyond it; its context this many more.
 constexpr std::int64_t patch_growth = 1;
@@ -399,7 +399,7 @@ class chunked_mesh {
 /// Such edges are the trace path's few long triangulation diagonals (up to 7.2 Å on 2buk_capsid at 1 v/Å², whose
 /// triangles face away from the surface normals, so that the quality pass could not split them anyway). Before,
 /// cells were always twice the longest edge: 2buk_capsid made 8 patches, a patch that failed a round redid an eighth
-/// of the mesh and the pass took 37 s instead of 22 s, for the same edge ratio (README "Method", quality pass).
+/// of the mesh and the pass took 37 s instead of 22 s, for the same edge ratio (docs/method.md, quality pass).
 constexpr double max_cell_growth = 2;
 
 cell_grid make_grid(const surface_mesh& mesh, const remesh_options& options) {

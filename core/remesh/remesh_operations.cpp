@@ -27,7 +27,7 @@ constexpr double small_change_agreement_slack = 0.2;
 /// Å: the new vertex of a split or of a collapse onto the midpoint is projected to this first-order distance from
 /// the surface only, not to surface_tolerance: relaxation moves it again with single Newton steps, and
 /// settle_vertices() projects every vertex an edit placed to surface_tolerance before the round is checked. On
-/// 2buk_capsid this took 3.5% off the quality pass, same edge ratio (README "Method").
+/// 2buk_capsid this took 3.5% off the quality pass, same edge ratio (docs/method.md).
 constexpr double edit_surface_tolerance = 1e-2;
 
 bool contains(const std::vector<std::uint32_t>& list, std::uint32_t value) {
@@ -155,7 +155,7 @@ bool remesh_operations::try_split(std::uint32_t h) {
 bool remesh_operations::collapse_short_edges(double shorter_than) {
   // One sweep, as for splits: on 1rb8_capsid repeated sweeps tried 1.2 M more edges (a fifth of all tries) for
   // 71,000 more collapses (2%), most of which the next iteration makes anyway; one sweep took 9% off the quality
-  // pass for 0.841 -> 0.840 in edge-ratio mean (README "Method").
+  // pass for 0.841 -> 0.840 in edge-ratio mean (docs/method.md).
   const double limit2 = shorter_than * shorter_than;
   for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
     if (stop_requested(h)) return false;

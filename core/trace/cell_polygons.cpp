@@ -11,7 +11,7 @@ namespace tracemesh {
 namespace {
 
 /// A Steiner point must lie this far (× h̃) inside the cell's cross-section, off its walls, so that its fan stays
-/// admissible (method.md §7.8).
+/// admissible (docs/method.md#the-admissibility-rule).
 constexpr double steiner_wall_margin = 1e-3;
 /// A fan triangle's area must be at least this × its longest edge² (the certificate's degeneracy rule is 1e-12).
 constexpr double steiner_min_area_ratio = 1e-9;
@@ -125,7 +125,7 @@ bool chain_loops(const std::vector<cell_arc>& arcs, std::vector<std::vector<numb
 
 /// How a loop is triangulated, in order of preference; all but the first are fallbacks (trace_stats::fallback_loops).
 enum class loop_strategy {
-  admissible,          ///< the admissible maximin triangulation (method.md §7.8)
+  admissible,          ///< the admissible maximin triangulation (docs/method.md#the-admissibility-rule)
   admissible_flat,     ///< the admissible triangulation whose faces agree best with −∇φ (it folds least)
   steiner_fan,         ///< a fan around one new point of the surface inside the cell, faces agreeing with −∇φ
   /// The admissible triangulation without the rule that faces agree with the normals, but for its floor: no face
@@ -387,7 +387,7 @@ bool boxes_overlap(const box3& a, const box3& b) {
          b.lo.z <= a.hi.z;
 }
 
-/// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test: method.md §7.8 —
+/// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test: docs/method.md#the-admissibility-rule —
 /// with admissible triangulations, triangles of different cells meet only along shared arcs, so this per-cell test
 /// covers the whole mesh). Triangles whose bounding boxes are apart cannot meet and are not tested.
 std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<numbered_vertex>>& loops,

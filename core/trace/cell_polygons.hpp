@@ -4,7 +4,7 @@
 /// (J+1, K+1)), walked along the arcs that its four wall strips hold, then triangulated.
 ///
 /// Each arc is read in the direction that keeps the surface on its left seen from outside when the cell lies
-/// beyond the wall (method.md §7.9: orientation from the walls, so the two cells of a strip always walk a shared
+/// beyond the wall (docs/method.md#orientation-from-the-walls: orientation from the walls, so the two cells of a strip always walk a shared
 /// arc in opposite directions and the mesh is consistently oriented): with the canonical direction s = +1 of
 /// trace_step.hpp, the cell above an xy wall (+z) and the cell below an xz wall (−y) reverse the arc. Every root on a
 /// corner line then starts one arc and ends another in the cell, so the arcs chain into closed loops.

@@ -2,12 +2,12 @@
 /// @file loop_triangulation.hpp
 /// Triangulation of the closed polygons of TMSmesh's Algorithm 2 (method.md §5): the loops of traced arcs on the
 /// four walls of one cell (the long box parallel to x between the lines (J,K), (J+1,K), (J,K+1), (J+1,K+1)).
-/// No vertex is added. The triangulation obeys the admissibility rule of method.md §7.8, so that triangles of
+/// No vertex is added. The triangulation obeys the admissibility rule of docs/method.md#the-admissibility-rule, so that triangles of
 /// different cells meet only along shared arc edges, and maximises the worst triangle's shape by dynamic
 /// programming over sub-polygons (§7.8: the only method of the prototype that always passed; greedy ear clipping
 /// failed even with the rule).
 ///
-/// Also the band between two loops bounding a tube inside one cell (method.md §7.6): triangulate_annulus.
+/// Also the band between two loops bounding a tube inside one cell (docs/method.md#tubes-inside-a-cell): triangulate_annulus.
 ///
 /// Shape measure (1 = equilateral, 0 = degenerate), used by both:
 ///     q = min( shortest edge / longest edge,  4√3·area / Σ edge² )
@@ -97,7 +97,7 @@ double triangle_quality(const vec3& a, const vec3& b, const vec3& c);
 ///               in loop order, hence counter-clockwise seen from outside like the loop.
 /// @param stats  counters, added to (see loop_triangulation_stats).
 /// @return false, appending nothing, when n < 3 or no triangulation satisfies every rule:
-///  1. admissibility (method.md §7.8): no triangle has its three corners on one common wall
+///  1. admissibility (docs/method.md#the-admissibility-rule): no triangle has its three corners on one common wall
 ///     ((a.planes & b.planes & c.planes) != 0); no edge joins two vertices that share a wall unless they are
 ///     consecutive on the loop (the loop's own edges are always allowed);
 ///  2. orientation: dot(cross(b − a, c − a), n_a + n_b + n_c) > settings.min_normal_cosine · |cross| · |Σn|
@@ -124,7 +124,7 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
                       loop_triangulation_stats& stats);
 
 /// Triangulates the band (annulus) between two loops that together bound one piece of surface inside a cell — a
-/// tube (method.md §7.6) — without new vertices. The two loops play symmetric roles.
+/// tube (docs/method.md#tubes-inside-a-cell) — without new vertices. The two loops play symmetric roles.
 /// @param outer, inner  the two loops, p ≥ 3 and q ≥ 3 vertices, no vertex repeated or shared. Each is oriented
 ///               like a loop of triangulate_loop, with the surface piece on its left seen from outside: counter-
 ///               clockwise seen from outside, so the two are traversed in opposite senses around the tube's axis.

@@ -20,9 +20,9 @@ namespace {
 
 /// h̃ = line_spacing_at_unit_density / √density. The paper: h̃ = 1.0 Å ≈ 1 vertex/Å², 0.7 Å ≈ 2. With arc points
 /// a little further apart than the lines (below), 0.93 Å gives the raw mesh the density asked for (0.97–1.03 and
-/// 1.93–1.98 v/Å² over the ladder) and better raw triangles (README "Deviations", engine 15).
+/// 1.93–1.98 v/Å² over the ladder) and better raw triangles (docs/method.md, engine 15).
 constexpr double line_spacing_at_unit_density = 0.93;
-/// Kept interior points of an arc are about this × h̃ apart (method.md §7.7 asks for ≤ 1.5 h̃): the raw edge-ratio
+/// Kept interior points of an arc are about this × h̃ apart (docs/method.md#long-arcs-are-resampled asks for ≤ 1.5 h̃): the raw edge-ratio
 /// mean is at least 0.70 on every ladder row from 1.12 to 1.18 (0.69 on `gly` at 1.0).
 constexpr double resample_spacing_factor = 1.15;
 /// A root where |φ_x| is below this × |∇φ| is a tangency of its line (a double root), not a crossing…
@@ -44,7 +44,7 @@ constexpr double weld_below = 1e-2;
 /// When the polygons' triangles are delivered as they are (refine=none; not the paper's), raw edges at an arc point
 /// shorter than this × the arcs' point spacing are collapsed as well, the arc point going. Where a line meets the
 /// surface at a grazing angle, the first points of its xy and xz arcs leave the root in nearly the same direction
-/// and lie close together, in thin triangles that kept the raw edge-ratio mean under 0.70 (README "Deviations":
+/// and lie close together, in thin triangles that kept the raw edge-ratio mean under 0.70 (docs/method.md:
 /// 0.687 → 0.706 on mache at 1 v/Å²; swept from 0.3 to 0.6). Not before the quality pass, whose own collapses do
 /// the same: from the collapsed mesh it gained nothing and ran a second round on mache at 2 v/Å² (0.21 → 0.41 s).
 constexpr double raw_collapse_below = 0.5;
@@ -147,7 +147,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
 }
 
 
-/// Algorithm 1 on every strip, then again on the strips whose lines gained late roots (method.md §7.2), until no
+/// Algorithm 1 on every strip, then again on the strips whose lines gained late roots (docs/method.md#late-roots), until no
 /// trace finds a new root.
 status trace_all_strips(const gaussian_field& field, const strip_settings& settings, traced_surface& surface,
                         progress_token& progress, trace_stats& stats) {

@@ -1,6 +1,6 @@
 #pragma once
 /// @file untouched_cavities.hpp
-/// Cavities that no line touches (method.md §7.5): a void of φ < t0 that fits between the lines of the grid has no
+/// Cavities that no line touches (docs/method.md#loops-that-touch-no-line): a void of φ < t0 that fits between the lines of the grid has no
 /// root on any line, so Algorithm 2 never sees it. It is found from the lines themselves, proven with the bounds of
 /// stage one, and handed back as a box that holds it and nothing else, for the trace path to mesh on a finer grid
 /// of its own (trace_mesher.cpp):
@@ -43,7 +43,7 @@ struct untouched_cavity_settings {
   /// Spacing of the local grid: this × the pocket's narrowest reach ρ in y and z, at most max_local_spacing × h̃.
   /// The lines at 0 and ±0.85ρ from the minimum cross the void, clear of the tangency at its extreme points (±ρ:
   /// a line there touches the void, a double root). Finer grids give the tiny void many more vertices that the
-  /// quality pass cannot remove (README "Method", stage 7).
+  /// quality pass cannot remove (docs/method.md, stage 7).
   double local_spacing = 0.85;
   double max_local_spacing = 0.5;
 };

@@ -85,7 +85,7 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     EXPECT_EQ(r.folded_triangles, 0u);  // issue 34: a boundary-element solver stalls on folds
     EXPECT_EQ(raw->method, mesh_method::trace);
     EXPECT_EQ(raw->refine, refine_mode::none);
-    // Issue 10's target, 0.70, once the short edges are collapsed for delivery (README "Deviations": without them
+    // Issue 10's target, 0.70, once the short edges are collapsed for delivery (docs/method.md: without them
     // 0.688–0.698 on villin_1vii, fas2 and mache); gly's 246 triangles, mostly where its atoms meet, reach 0.687.
     EXPECT_GE(r.quality.edge_ratio_mean, r.triangles >= 1000 ? 0.70 : 0.68);
     // Issue 10's target for the raw mesh is under 1%; on the smallest meshes a few triangles are a large share (gly
@@ -104,7 +104,7 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     EXPECT_GT(t.lines, 0u);
     EXPECT_GT(t.polygons, 0u);
     EXPECT_GT(t.field_evaluations, 0u);
-    EXPECT_LE(t.fallback_loops, t.polygons / 100 + 5);  // a handful of fallbacks (method.md §7.8: ~0.25%)
+    EXPECT_LE(t.fallback_loops, t.polygons / 100 + 5);  // a handful of fallbacks (docs/method.md#the-admissibility-rule: ~0.25%)
   }
   {
     SCOPED_TRACE("refine full");

@@ -2,7 +2,7 @@
 // (closed form for one atom, dense sampling + bisection otherwise), every strip beside a line traced with
 // trace_strip, late roots added until none appear — and every cell is closed and triangulated by mesh_cell. The
 // cells' triangles, put together, must form a closed surface in which every directed edge appears exactly once and
-// its reverse exactly once (orientation from the walls, method.md §7.9).
+// its reverse exactly once (orientation from the walls, docs/method.md#orientation-from-the-walls).
 #include "core/trace/cell_polygons.hpp"
 
 #include <gtest/gtest.h>

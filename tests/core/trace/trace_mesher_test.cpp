@@ -62,7 +62,7 @@ void expect_consistent_stats(const mesh_output& out, double density) {
   EXPECT_GT(t.raw_vertices, 0u);
   EXPECT_GT(t.raw_triangles, 0u);
   EXPECT_LE(t.fallback_loops, t.polygons);
-  // Every root ends exactly one arc in each of its four strips (method.md §7.10), and an arc has two ends.
+  // Every root ends exactly one arc in each of its four strips (docs/method.md#one-arc-per-root-per-strip), and an arc has two ends.
   const std::size_t roots = t.polynomial_roots + t.bracketed_roots + t.late_roots;
   EXPECT_EQ(t.arcs, 2 * roots);
   EXPECT_GE(t.raw_vertices + t.welded_edges, roots + t.extreme_points);  // a weld may take an extreme point
@@ -235,7 +235,7 @@ INSTANTIATE_TEST_SUITE_P(refine, trace_shapes, refine_values, refine_case_name);
 // A void so small that no line reaches it at density 1 (lengths in units of h̃ there, unit_h): 100 atoms of radius
 // 2.07 on a sphere of radius 5 centred at (0.13, 0.5, 0.5), the middle of a cell of the lattice, leave a void of
 // radius ≈ 0.61 (φ = 0.80 at its centre). The lines nearest to it are 0.71 away, so no line holds a root of it
-// (method.md §7.5). Before the search for untouched cavities it was lost at density 1 (one component); now the
+// (docs/method.md#loops-that-touch-no-line). Before the search for untouched cavities it was lost at density 1 (one component); now the
 // lines' dips lead to it, and it is meshed on a local grid of its own (spacing 0.5, one line through its minimum)
 // as a cavity with the area and volume that the trace itself gives at density 4 (h̃ = 0.5, lines through the void;
 // 4.50 Å², −0.63 Å³ with unit_h = 1 Å), and the area of the lattice path's at 20 v/Å² (4.57 Å²; its volume, −0.91
@@ -344,7 +344,7 @@ TEST(trace_mesher, lines_exactly_tangent_to_a_sphere_on_a_lattice_point_give_a_c
 }
 
 // Low-degree polynomials miss roots that the line samples and the traces then find (bracketed and late roots,
-// method.md §7.2); every documented parameter extreme still gives a certified mesh of the same topology.
+// docs/method.md#late-roots); every documented parameter extreme still gives a certified mesh of the same topology.
 TEST(trace_mesher, parameter_extremes_still_give_certified_meshes) {
   auto mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
@@ -401,7 +401,7 @@ TEST(trace_mesher, output_is_identical_whatever_the_thread_count) {
 }
 
 // mache at 2 v/Å² has a void 0.44 × 0.52 × 0.76 Å at (−8.21, −8.91, −16.11) that the lattice path meshes at 8 v/Å²
-// and that no line of h̃ = 0.71 Å meets (README "Method": where the topology differs). The search for untouched
+// and that no line of h̃ = 0.71 Å meets (docs/method.md: where the topology differs). The search for untouched
 // cavities meshes it as a cavity of its own, certified, and the bytes stay the same on 1 and 2 threads.
 TEST(trace_mesher, a_real_void_no_line_meets_is_meshed_the_same_on_any_thread_count) {
   auto mol = read_pqr_file(testing::molecule_path("mache.pqr"));
@@ -557,7 +557,7 @@ TEST(trace_mesher, the_lattice_path_leaves_the_trace_statistics_empty) {
   EXPECT_EQ(out->trace.raw_vertices, 0u);
 }
 
-// h̃ ∝ 1/√density (the paper: 1.0 Å ≈ 1 v/Å², 0.7 Å ≈ 2), calibrated at 0.93 Å for 1 v/Å² (README "Method").
+// h̃ ∝ 1/√density (the paper: 1.0 Å ≈ 1 v/Å², 0.7 Å ≈ 2), calibrated at 0.93 Å for 1 v/Å² (docs/method.md).
 TEST(trace_mesher, line_spacing_follows_the_density) {
   EXPECT_DOUBLE_EQ(trace_line_spacing(1.0), 0.93);
   EXPECT_NEAR(trace_line_spacing(2.0), 0.93 / std::sqrt(2.0), 1e-15);
