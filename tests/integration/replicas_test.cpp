@@ -4,6 +4,10 @@
 // another, and a Redis restart (append-only file on) loses nothing accepted. nginx in front (docker/nginx's
 // replicas upstream) spreads requests and stops routing to a dead replica. Molecules are the small ones of the
 // ladder, timeouts short (flags), so the whole file runs in well under a minute and a half.
+// A test that needs a job still running when it acts (cancels it, kills its replica) does not count on the mesher
+// being slow: it plays a third replica that is meshing that job (held_run holds the job's run lease), so the replica
+// that takes the job follows it, running, until the test lets go. No wait depends on the machine's speed: waits are
+// tracemesh::testing::eventually(), whose deadline only bounds how long a failing test takes.
 #include <gtest/gtest.h>
 
 #include <signal.h>
@@ -20,7 +24,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/io/structure/molecule_reader.hpp"
+#include "proto/api_types.hpp"
+#include "server/admission/server_limits.hpp"
+#include "server/jobs/job_id.hpp"
+#include "server/redis/redis_run_lease.hpp"
 #include "support/event_stream.hpp"
+#include "support/eventually.hpp"
 #include "support/nginx_process.hpp"
 #include "support/redis_process.hpp"
 #include "support/test_http_client.hpp"
@@ -31,6 +41,7 @@ namespace {
 
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
+using tracemesh::testing::eventually;
 using tracemesh::testing::http_reply;
 using tracemesh::testing::molecule_path;
 using tracemesh::testing::read_file;
@@ -41,12 +52,6 @@ using tracemesh::testing::temp_dir;
 /// The reclaim timeout the replicas run with: a dead replica's job is taken over after this long.
 constexpr auto reclaim_timeout = 2s;
 
-/// How long a test waits for an outcome that takes a few seconds in a release build; the sanitizer build is
-/// several times slower.
-std::chrono::milliseconds patience(std::chrono::milliseconds release) {
-  return std::getenv("TRACEMESH_SANITIZED") != nullptr ? release * 6 : release;
-}
-
 /// A PQR of the shared ladder.
 std::string molecule(const std::string& name) { return read_file(molecule_path(name)); }
 
@@ -56,11 +61,48 @@ struct job_spec {
   std::vector<std::pair<std::string, std::string>> fields;
 };
 
-/// A job that meshes for a second or more (fas2 at 4 vertices/Å², one mesher thread): long enough to be caught
-/// running, short enough to be meshed again after a kill.
-const job_spec slow_job{"fas2.pqr", {{"density", "4"}}};
-/// A job that meshes for several seconds (mache, 8,279 atoms): it never ends before a test cancels it.
-const job_spec long_job{"mache.pqr", {{"density", "1.5"}}};
+/// The id the service gives the job of `spec` (server/jobs/job_id.hpp), known before it is submitted: read and
+/// parsed as POST /jobs does.
+std::string job_id_of(const job_spec& spec) {
+  const auto read = tracemesh::read_molecule(molecule(spec.molecule), tracemesh::structure_options{},
+                                             tracemesh::mesh_limits{}, tracemesh::server::server_limits{}.max_pqr_bytes);
+  const auto params = tracemesh::proto::parse_mesh_params([&](std::string_view name) -> std::optional<std::string> {
+    for (const auto& [field, value] : spec.fields) {
+      if (field == name) return value;
+    }
+    return std::nullopt;
+  });
+  EXPECT_TRUE(read.ok() && params.ok()) << spec.molecule;
+  return read.ok() && params.ok() ? tracemesh::server::compute_job_id(read->mol, *params) : std::string();
+}
+
+/// The test as replica "T" meshing a job: it holds the job's run lease (server/redis/redis_run_lease.hpp) from
+/// construction to release(), so whichever replica takes the job follows T's run (redis_job_store::claim_run) and
+/// stays running (cancellable, its record "running") instead of meshing. The lease outlives any test; release()
+/// gives it up, and the follower then meshes the job itself.
+class held_run {
+ public:
+  held_run(const tracemesh::server::redis_endpoint& redis, std::string job_id)
+      : client_(redis, {}), lease_(client_, "T"), job_id_(std::move(job_id)) {
+    const auto acquired = lease_.acquire(job_id_, std::chrono::minutes(30));
+    EXPECT_TRUE(acquired.ok() && *acquired) << "could not hold the run lease of " << job_id_;
+  }
+  ~held_run() { release(); }
+  held_run(const held_run&) = delete;
+  held_run& operator=(const held_run&) = delete;
+
+  void release() {
+    if (released_) return;
+    released_ = true;
+    EXPECT_TRUE(lease_.release(job_id_).ok());
+  }
+
+ private:
+  tracemesh::server::redis_client client_;
+  tracemesh::server::redis_run_lease lease_;
+  std::string job_id_;
+  bool released_ = false;
+};
 
 class ReplicasTest : public ::testing::Test {
  protected:
@@ -102,29 +144,21 @@ class ReplicasTest : public ::testing::Test {
     return reply.status == 200 ? nlohmann::json::parse(reply.body, nullptr, false) : nlohmann::json();
   }
 
-  /// Polls GET /jobs/{id} on `port` until the job is final (its document) or `within` passed (null).
-  static nlohmann::json wait_final(unsigned short port, const std::string& id, std::chrono::milliseconds within) {
-    const auto deadline = std::chrono::steady_clock::now() + within;
-    while (std::chrono::steady_clock::now() < deadline) {
-      nlohmann::json doc = job(port, id);
-      if (doc.is_object()) {
-        const std::string status = doc.value("status", "");
-        if (status == "done" || status == "failed" || status == "cancelled") return doc;
-      }
-      std::this_thread::sleep_for(50ms);
-    }
-    return nullptr;
+  /// Polls GET /jobs/{id} on `port` until the job is final: its document (null when it never was, within
+  /// eventually()'s deadline).
+  static nlohmann::json wait_final(unsigned short port, const std::string& id) {
+    nlohmann::json doc;
+    const bool final = eventually([&] {
+      doc = job(port, id);
+      const std::string status = doc.is_object() ? doc.value("status", "") : "";
+      return status == "done" || status == "failed" || status == "cancelled";
+    });
+    return final ? doc : nlohmann::json(nullptr);
   }
 
-  /// Polls `condition` every 20 ms for up to `within`; its last value.
-  template <typename Condition>
-  static bool eventually(std::chrono::milliseconds within, Condition condition) {
-    const auto deadline = std::chrono::steady_clock::now() + within;
-    while (std::chrono::steady_clock::now() < deadline) {
-      if (condition()) return true;
-      std::this_thread::sleep_for(20ms);
-    }
-    return condition();
+  /// held_run of the job of `spec`, on this test's Redis.
+  std::unique_ptr<held_run> hold(const job_spec& spec) {
+    return std::make_unique<held_run>(redis_.endpoint(), job_id_of(spec));
   }
 
   /// One sample of /metrics on `port` ("name{labels}" exactly as rendered); -1 when absent.
@@ -154,6 +188,8 @@ class ReplicasTest : public ::testing::Test {
 // 20 jobs of mixed molecules and parameters through nginx (docker/nginx's replicas upstream): both replicas take
 // work from the shared stream (each ran at least one), every job ends done, and every mesh is served through nginx
 // and by either replica. Then one replica is killed: nginx stops routing to it and every request still succeeds.
+// The first job is held (held_run) until the other 19 are done: its replica's one worker stays busy, so the other
+// replica must take work, however fast either meshes.
 TEST_F(ReplicasTest, MixedJobsThroughNginxSpreadOverBothReplicasAndNginxSkipsADeadOne) {
   TRACEMESH_REQUIRE_NGINX();
   auto a = start_replica("A");
@@ -161,18 +197,26 @@ TEST_F(ReplicasTest, MixedJobsThroughNginxSpreadOverBothReplicasAndNginxSkipsADe
   tracemesh::testing::nginx_process nginx(work_.path() / "nginx", {a->port(), b->port()});
   ASSERT_NE(nginx.port(), 0);
   const std::vector<std::string> molecules{"gly.pqr", "adp.pqr", "villin_1vii.pqr", "fas2.pqr"};
+  const auto spec_of = [&](int i) {
+    return job_spec{molecules[i % 4], {{"density", std::to_string(0.8 + 0.1 * (i / 4))}}};
+  };
+  const std::unique_ptr<held_run> first = hold(spec_of(0));
   std::vector<std::string> ids;
   for (int i = 0; i < 20; ++i) {
-    const job_spec spec{molecules[i % 4], {{"density", std::to_string(0.8 + 0.1 * (i / 4))}}};
-    const nlohmann::json accepted = submit(nginx.port(), spec);
+    const nlohmann::json accepted = submit(nginx.port(), spec_of(i));
     ASSERT_TRUE(accepted.contains("id")) << accepted;
     ids.push_back(accepted["id"]);
   }
-  for (const std::string& id : ids) {
-    const nlohmann::json doc = wait_final(nginx.port(), id, patience(60s));
+  ASSERT_EQ(ids.front(), job_id_of(spec_of(0))) << "the held lease is not the first job's";
+  ASSERT_TRUE(eventually([&] { return !running_on(ids.front()).empty(); })) << "no replica took the first job";
+  const auto wait_done = [&](const std::string& id) {
+    const nlohmann::json doc = wait_final(nginx.port(), id);
     ASSERT_TRUE(doc.is_object()) << "job " << id << " did not finish";
     EXPECT_EQ(doc["status"], "done") << doc.dump();
-  }
+  };
+  for (std::size_t i = 1; i < ids.size(); ++i) wait_done(ids[i]);
+  first->release();
+  wait_done(ids.front());
   const double ran_on_a = jobs_run(a->port(), "A", "taken");
   const double ran_on_b = jobs_run(b->port(), "B", "taken");
   std::cout << "[ spread   ] A ran " << ran_on_a << ", B ran " << ran_on_b << " of 20 jobs\n";
@@ -191,7 +235,7 @@ TEST_F(ReplicasTest, MixedJobsThroughNginxSpreadOverBothReplicasAndNginxSkipsADe
   }
   const nlohmann::json after = submit(nginx.port(), {"gly.pqr", {{"density", "3"}}});
   ASSERT_TRUE(after.contains("id"));
-  const nlohmann::json doc = wait_final(nginx.port(), after["id"], patience(20s));
+  const nlohmann::json doc = wait_final(nginx.port(), after["id"]);
   ASSERT_TRUE(doc.is_object());
   EXPECT_EQ(doc["status"], "done");
 }
@@ -222,69 +266,79 @@ TEST_F(ReplicasTest, SameMoleculeSentToBothReplicasIsMeshedOnce) {
   ASSERT_EQ(mesh_a.status, 200) << mesh_a.body;
   ASSERT_EQ(mesh_b.status, 200) << mesh_b.body;
   EXPECT_EQ(mesh_a.body, mesh_b.body);
-  const nlohmann::json doc = wait_final(a->port(), from_a["id"], patience(30s));
+  const nlohmann::json doc = wait_final(a->port(), from_a["id"]);
   ASSERT_TRUE(doc.is_object());
   EXPECT_EQ(doc["status"], "done");
   EXPECT_EQ(metric(a->port(), "tracemesh_mesher_runs_total") + metric(b->port(), "tracemesh_mesher_runs_total"), 1)
       << "the molecule was meshed more than once";
 }
 
-// A job created through replica A is read, streamed and cancelled through replica B with its owner token.
+// A job created through replica A is read, streamed and cancelled through replica B with its owner token. The job
+// is held (held_run): it is still running when the cancel arrives, however fast the machine.
 TEST_F(ReplicasTest, JobCreatedThroughOneReplicaIsReadStreamedAndCancelledThroughAnother) {
   auto a = start_replica("A");
   auto b = start_replica("B");
-  const nlohmann::json accepted = submit(a->port(), long_job);
+  const job_spec spec{"villin_1vii.pqr", {{"density", "2"}}};
+  const std::unique_ptr<held_run> held = hold(spec);
+  const nlohmann::json accepted = submit(a->port(), spec);
   const std::string id = accepted["id"];
   const std::string token = accepted["token"];
-  ASSERT_TRUE(eventually(patience(10s), [&] { return !running_on(id).empty(); })) << "no replica took the job";
+  ASSERT_EQ(id, job_id_of(spec)) << "the held lease is not this job's";
+  ASSERT_TRUE(eventually([&] { return !running_on(id).empty(); })) << "no replica took the job";
 
   const nlohmann::json through_b = job(b->port(), id);
   ASSERT_TRUE(through_b.is_object());
   EXPECT_EQ(through_b["id"], id);
   EXPECT_EQ(through_b["status"], "running");
-  EXPECT_TRUE(eventually(patience(10s), [&] { return job(b->port(), id).value("progress", 0.0) > 0.0; }))
-      << "B never saw the progress of the replica running the job";
 
-  http_reply events;
-  std::thread stream([&] { events = get(b->port(), "/jobs/" + id + "/events"); });
+  tracemesh::testing::raw_connection stream(b->port());
+  ASSERT_TRUE(stream.send(tracemesh::testing::get_request("/jobs/" + id + "/events")));
+  const auto events = [&] { return tracemesh::testing::parse_raw_event_stream(stream.unread()); };
+  ASSERT_TRUE(eventually([&] { return !events().events.empty() || stream.closed_by_peer(1ms); }));
+  ASSERT_FALSE(events().events.empty()) << stream.unread();
+  EXPECT_EQ(events().events.front().name, "progress") << "the stream through B starts with the job's progress";
   EXPECT_EQ(round_trip(b->port(), "DELETE /jobs/" + id + " HTTP/1.1\r\nHost: t\r\n\r\n").status, 401);
   EXPECT_EQ(round_trip(b->port(), "DELETE /jobs/" + id + " HTTP/1.1\r\nHost: t\r\nX-Job-Token: " +
                                       std::string(64, 'f') + "\r\n\r\n")
                 .status,
             403);
-  std::this_thread::sleep_for(300ms);  // the stream has sent its first progress event
   const http_reply cancelled =
       round_trip(b->port(), "DELETE /jobs/" + id + " HTTP/1.1\r\nHost: t\r\nX-Job-Token: " + token + "\r\n\r\n");
   EXPECT_EQ(cancelled.status, 200) << cancelled.body;
-  stream.join();
+  ASSERT_TRUE(stream.closed_by_peer()) << "the stream through B did not end";
 
-  EXPECT_EQ(events.status, 200);
-  const auto sse = tracemesh::testing::parse_sse(tracemesh::testing::dechunk(events.body));
-  ASSERT_GE(sse.size(), 2u) << events.body;
-  EXPECT_EQ(sse.front().name, "progress");
-  EXPECT_EQ(sse.back().name, "error") << "the stream through B ends with the cancellation";
-  const nlohmann::json final_doc = wait_final(a->port(), id, patience(10s));
+  const tracemesh::testing::raw_event_stream sse = events();
+  EXPECT_EQ(sse.headers.count(":status") ? sse.headers.at(":status") : "", "200");
+  ASSERT_GE(sse.events.size(), 2u) << stream.unread();
+  EXPECT_EQ(sse.events.front().name, "progress");
+  EXPECT_EQ(sse.events.back().name, "error") << "the stream through B ends with the cancellation";
+  const nlohmann::json final_doc = wait_final(a->port(), id);
   ASSERT_TRUE(final_doc.is_object());
   EXPECT_EQ(final_doc["status"], "cancelled");
   EXPECT_EQ(job(b->port(), id)["status"], "cancelled");
 }
 
 // kill -9 of the replica running a job: another replica reclaims it after the reclaim timeout, meshes it, and
-// serves its mesh.
+// serves its mesh. The job is held (held_run) until the kill, so it is still running on the victim, however fast
+// the machine.
 TEST_F(ReplicasTest, JobOfAKilledReplicaCompletesOnAnotherAndItsMeshIsServed) {
   std::map<std::string, std::unique_ptr<server_process>> replicas;
   replicas["A"] = start_replica("A");
   replicas["B"] = start_replica("B");
-  const nlohmann::json accepted = submit(replicas["A"]->port(), slow_job);
+  const job_spec spec{"fas2.pqr", {{"density", "2"}}};
+  const std::unique_ptr<held_run> held = hold(spec);
+  const nlohmann::json accepted = submit(replicas["A"]->port(), spec);
   const std::string id = accepted["id"];
+  ASSERT_EQ(id, job_id_of(spec)) << "the held lease is not this job's";
   std::string victim;
-  ASSERT_TRUE(eventually(patience(10s), [&] { return !(victim = running_on(id)).empty(); }));
+  ASSERT_TRUE(eventually([&] { return !(victim = running_on(id)).empty(); }));
   const std::string survivor = victim == "A" ? "B" : "A";
   const auto killed_at = std::chrono::steady_clock::now();
   replicas[victim]->kill(SIGKILL);
+  held->release();
   const unsigned short port = replicas[survivor]->port();
 
-  const nlohmann::json doc = wait_final(port, id, reclaim_timeout + patience(20s));
+  const nlohmann::json doc = wait_final(port, id);
   ASSERT_TRUE(doc.is_object()) << "the job did not finish on " << survivor;
   EXPECT_EQ(doc["status"], "done") << doc.dump();
   std::cout << "[ reclaim  ] done on " << survivor << " "
@@ -308,21 +362,22 @@ TEST_F(ReplicasTest, RedisRestartLosesNoAcceptedJob) {
   }
   redis_.stop();
   for (server_process* replica : {a.get(), b.get()}) {
-    EXPECT_TRUE(eventually(5s, [&] { return get(replica->port(), "/readyz").status == 503; }))
+    EXPECT_TRUE(eventually([&] { return get(replica->port(), "/readyz").status == 503; }))
         << "/readyz stayed ready without Redis";
   }
   const http_reply refused =
       round_trip(a->port(), tracemesh::testing::upload_request("/jobs", molecule("gly.pqr"), {{"density", "3"}}));
   EXPECT_EQ(refused.status, 503) << "a job that cannot be recorded is not accepted";
   EXPECT_EQ(get(a->port(), "/healthz").status, 200) << "alive without Redis";
-  std::this_thread::sleep_for(1s);  // jobs run on and finish while Redis is away
+  // Jobs run on (and may finish) while Redis is away; nothing below depends on how far they got meanwhile.
+  std::this_thread::sleep_for(1s);
   ASSERT_TRUE(redis_.restart());
   for (server_process* replica : {a.get(), b.get()}) {
-    EXPECT_TRUE(eventually(patience(10s), [&] { return get(replica->port(), "/readyz").status == 200; }))
+    EXPECT_TRUE(eventually([&] { return get(replica->port(), "/readyz").status == 200; }))
         << "a replica did not reconnect";
   }
   for (const std::string& id : ids) {
-    const nlohmann::json doc = wait_final(a->port(), id, patience(40s));
+    const nlohmann::json doc = wait_final(a->port(), id);
     ASSERT_TRUE(doc.is_object()) << "job " << id << " was lost or never finished";
     EXPECT_EQ(doc["status"], "done") << doc.dump();
   }
