@@ -150,9 +150,9 @@ cancel_outcome job_queue::cancel_locked(std::unique_lock<std::mutex>& lock, cons
   remember_finished(target);
   std::vector<job_listener> listeners = std::move(target->listeners);
   const job_snapshot final_state = snapshot_of(*target);
+  metrics_.count_job_finished(proto::job_state_name(job_state::cancelled), 0.0);  // as in finish(): while locked
   lock.unlock();
   idle_or_stopping_.notify_all();
-  metrics_.count_job_finished(proto::job_state_name(job_state::cancelled), 0.0);
   notify(std::move(listeners), final_state, nullptr);
   return cancel_outcome::cancelled;
 }
@@ -171,6 +171,7 @@ void job_queue::shutdown(std::chrono::milliseconds grace) {
     waiting->error_code = job_error::shutdown;
     waiting->error = status(errc::cancelled, "the server shut down before the job started");
     remember_finished(waiting);
+    metrics_.count_job_finished(proto::job_state_name(job_state::failed), 0.0);  // as in finish(): while locked
     dropped.emplace_back(std::move(waiting->listeners), snapshot_of(*waiting));
   }
   queue_.clear();
@@ -182,10 +183,7 @@ void job_queue::shutdown(std::chrono::milliseconds grace) {
   lock.unlock();
   work_available_.notify_all();
   idle_or_stopping_.notify_all();
-  for (auto& [listeners, final_state] : dropped) {
-    metrics_.count_job_finished(proto::job_state_name(job_state::failed), 0.0);
-    notify(std::move(listeners), final_state, nullptr);
-  }
+  for (auto& [listeners, final_state] : dropped) notify(std::move(listeners), final_state, nullptr);
   for (auto& worker : workers_) worker.join();
   watchdog_.join();
   lock.lock();
@@ -279,9 +277,11 @@ void job_queue::finish(const std::shared_ptr<job>& j, result<job_output> outcome
   remember_finished(j);
   std::vector<job_listener> listeners = std::move(j->listeners);
   const job_snapshot final_state = snapshot_of(*j);
+  // Counted before the final state can be read (find() takes this lock): whoever sees the job final finds it in
+  // /metrics too. The metrics lock is a leaf (render() samples its gauges before taking it).
+  metrics_.count_job_finished(proto::job_state_name(final_state.state), final_state.seconds);
   lock.unlock();
   idle_or_stopping_.notify_all();
-  metrics_.count_job_finished(proto::job_state_name(final_state.state), final_state.seconds);
   notify(std::move(listeners), final_state, outcome.ok() ? &outcome.value() : nullptr);
 }
 
