@@ -90,7 +90,7 @@ class nginx_process {
   bool launch(unsigned short port) {
     const std::string binary = nginx_binary();
     pid_ = spawn_process({binary, "-p", dir_.string(), "-c", (dir_ / "nginx.conf").string(), "-g", "daemon off;"});
-    return wait_until_ready(pid_, std::chrono::seconds(10), [&] {
+    return wait_until_ready(pid_, std::chrono::seconds(120), [&] {
       return raw_connection(port, std::chrono::milliseconds(200)).connected();
     });
   }

@@ -98,7 +98,7 @@ class redis_process {
     server::redis_limits limits;
     limits.connect_timeout = std::chrono::milliseconds(500);
     server::redis_client probe(endpoint(), limits);
-    return wait_until_ready(pid_, std::chrono::seconds(10), [&] { return probe.connect().ok(); });
+    return wait_until_ready(pid_, std::chrono::seconds(120), [&] { return probe.connect().ok(); });
   }
 
   const bool persistent_;

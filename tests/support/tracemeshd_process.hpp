@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support/eventually.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh::testing {
@@ -108,18 +109,28 @@ class server_process {
   }
 
  private:
+  /// The port of the "started" log line. Waits as long as the process runs (a loaded machine or a sanitizer build
+  /// starts it slowly); eventually()'s deadline only bounds a server that never starts.
   unsigned short wait_for_port() {
-    for (int i = 0; i < 1000; ++i) {
+    unsigned short port = 0;
+    bool exited = false;
+    eventually([&] {
       std::istringstream lines(read_file(log_));
       std::string line;
       while (std::getline(lines, line)) {
         if (line.find("\"event\":\"started\"") == std::string::npos) continue;
-        return nlohmann::json::parse(line).at("port").get<unsigned short>();
+        port = nlohmann::json::parse(line).at("port").get<unsigned short>();
+        return true;
       }
-      std::this_thread::sleep_for(5ms);
+      int status = 0;
+      exited = ::waitpid(pid_, &status, WNOHANG) == pid_;
+      if (exited) pid_ = -1;
+      return exited;
+    });
+    if (port == 0) {
+      ADD_FAILURE() << "tracemeshd did not start" << (exited ? " (it exited)" : "") << ": " << read_file(log_);
     }
-    ADD_FAILURE() << "tracemeshd did not start: " << read_file(log_);
-    return 0;
+    return port;
   }
 
   fs::path log_;
