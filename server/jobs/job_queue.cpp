@@ -115,6 +115,12 @@ std::optional<job_snapshot> job_queue::find(const std::string& id) const {
   return snapshot_of(*it->second);
 }
 
+std::size_t job_queue::listeners(const std::string& id) const {
+  std::lock_guard lock(mutex_);
+  const auto it = jobs_.find(id);
+  return it == jobs_.end() ? 0 : it->second->listeners.size();
+}
+
 cancel_outcome job_queue::cancel(const std::string& id) {
   std::unique_lock lock(mutex_);
   const auto it = jobs_.find(id);

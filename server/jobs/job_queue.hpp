@@ -143,6 +143,10 @@ class job_queue {
   /// The job's state, while it is active or among the last max_records finished jobs.
   std::optional<job_snapshot> find(const std::string& id) const;
 
+  /// How many listeners wait for the queued or running job `id` to end (each synchronous request that created or
+  /// joined it); 0 when the job is unknown or final. Lets a caller know that every request has joined a job.
+  std::size_t listeners(const std::string& id) const;
+
   /// Cancels a queued job at once, or asks a running job to stop (it then ends as cancelled).
   cancel_outcome cancel(const std::string& id);
   /// Withdraws the owner `owner_hash` from the job; the job is cancelled (as cancel()) when it was the last holder.

@@ -39,11 +39,12 @@ TEST_F(ClientIsolationTest, ASlowUploadBodyIsAnswered408AndItsSlotFreed) {
     c.limits.upload_rate_grace = 200ms;
   });
   const std::string full = upload_request("/mesh", gly_);
-  raw_connection slow(port_, 2s);
+  raw_connection slow(port_);
   std::size_t sent = body_start(full) + 5;
   ASSERT_TRUE(slow.send(full.substr(0, sent)));
-  // A real slow client: one byte every 100 ms (10 B/s), until the server answers (at most 3 s).
-  for (int i = 0; i < 30 && !slow.closed_by_peer(100ms); ++i) {
+  // A real slow client: one byte every 100 ms (10 B/s), until the server answers (its last byte is never sent:
+  // only the rate limit can end this upload).
+  while (sent + 1 < full.size() && !slow.closed_by_peer(100ms)) {
     if (!slow.send(full.substr(sent++, 1))) break;
   }
   const http_reply cut = slow.read_reply();
@@ -91,7 +92,7 @@ TEST_F(ClientIsolationTest, AClientOverItsConnectionLimitGets429ButHealthAnswers
   expect_error(refused, 429, "client_limit");
   EXPECT_EQ(refused.header("retry-after"), "5");
   EXPECT_NE(message_of(refused).find("max_connections_per_client"), std::string::npos) << refused.body;
-  EXPECT_TRUE(third.closed_by_peer(2s));
+  EXPECT_TRUE(third.closed_by_peer());
 
   raw_connection health(port_);
   ASSERT_TRUE(health.send(tracemesh::testing::get_request("/healthz")));
@@ -124,7 +125,7 @@ TEST_F(ClientIsolationTest, OneClientsSurplusConnectionsGiveWayToAnotherClient) 
   ASSERT_TRUE(other.connected());
   ASSERT_TRUE(other.send(tracemesh::testing::get_request("/jobs/" + std::string(64, '0'))));
   EXPECT_EQ(other.read_reply().status, 404) << "served, not 503";
-  EXPECT_TRUE(surplus_1.closed_by_peer(2s) || surplus_2.closed_by_peer(2s));
+  EXPECT_TRUE(eventually([&] { return surplus_1.closed_by_peer(1ms) || surplus_2.closed_by_peer(1ms); }));
 }
 
 TEST_F(ClientIsolationTest, UploadsAreLimitedPerBearerTokenNotAcrossClients) {

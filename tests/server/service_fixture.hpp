@@ -154,11 +154,13 @@ class service_fixture : public ::testing::Test {
     config_.workers = 1;
     config_.limits.max_upload_bytes = 256 * 1024;
     config_.limits.max_queue = 4;
-    config_.limits.header_timeout = 2s;
-    config_.limits.request_timeout = 3s;
-    config_.limits.write_timeout = 3s;
+    // Deadlines no test reaches unless it sets them itself to exercise them: a loaded machine that stalls a test
+    // between two requests must not have its connections cut under it.
+    config_.limits.header_timeout = 60s;
+    config_.limits.request_timeout = 60s;
+    config_.limits.write_timeout = 60s;
     config_.limits.shutdown_grace = 200ms;
-    config_.limits.job_timeout = 10s;
+    config_.limits.job_timeout = std::chrono::minutes(10);
     if (adjust) adjust(config_);
     service_ = std::make_unique<service>(config_, make_null_logger(), mesher_.function());
     const status started = service_->start();
@@ -189,17 +191,21 @@ class service_fixture : public ::testing::Test {
     return request("DELETE", "/jobs/" + doc.at("id").get<std::string>(),
                    "X-Job-Token: " + doc.at("token").get<std::string>() + "\r\n");
   }
-  /// Polls GET /jobs/{id} until the job is final.
+  /// Polls GET /jobs/{id} until the job is final: its document; {"http": status} when the job is unknown,
+  /// {"status": "never final"} when it stayed unfinished past eventually()'s deadline.
   nlohmann::json wait_job(const std::string& id) {
-    for (int i = 0; i < 500; ++i) {
+    nlohmann::json doc;
+    const bool final = eventually([&] {
       const http_reply r = get("/jobs/" + id);
-      if (r.status != 200) return nlohmann::json{{"http", r.status}};
-      const auto doc = nlohmann::json::parse(r.body);
+      if (r.status != 200) {
+        doc = nlohmann::json{{"http", r.status}};
+        return true;
+      }
+      doc = nlohmann::json::parse(r.body);
       const std::string state = doc.at("status");
-      if (state == "done" || state == "failed" || state == "cancelled") return doc;
-      std::this_thread::sleep_for(10ms);
-    }
-    return nlohmann::json{{"timeout", true}};
+      return state == "done" || state == "failed" || state == "cancelled";
+    });
+    return final ? doc : nlohmann::json{{"status", "never final"}};
   }
   /// Waits until no job is queued or running.
   bool jobs_settled() {
