@@ -7,12 +7,14 @@
 #include <thread>
 
 #include "server/observability/logging.hpp"
+#include "support/eventually.hpp"
 #include "support/redis_process.hpp"
 
 namespace tracemesh::server::test {
 namespace {
 
 using namespace std::chrono_literals;
+using tracemesh::testing::eventually;
 
 /// One replica's coordinator on a real redis-server, its job queue running a fake work that reports progress and
 /// waits until released (or cancelled), so the tests see every state.
@@ -66,11 +68,6 @@ class RedisJobCoordinator : public ::testing::Test {
   std::optional<job_snapshot> state_of(const std::string& id) {
     const auto found = coordinator_->find(id);
     return found.ok() ? *found : std::nullopt;
-  }
-  template <typename Condition>
-  static bool eventually(Condition condition) {
-    for (int i = 0; i < 250 && !condition(); ++i) std::this_thread::sleep_for(20ms);
-    return condition();
   }
 
   const std::string id_ = std::string(64, 'c');

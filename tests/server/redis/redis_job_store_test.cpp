@@ -86,6 +86,10 @@ TEST_F(RedisJobStore, AMeshCompletedByOneReplicaIsFoundByAnother) {
 }
 
 TEST_F(RedisJobStore, AReplicaWaitsOnAnothersRunAndTakesItsResult) {
+  // A lease no pause of this test outlasts: B must find A meshing, never A's lease expired.
+  limits_.reclaim_timeout = std::chrono::hours(1);
+  a_ = std::make_unique<redis_job_store>(*records_a_, *lease_a_, *cache_a_, stats_a_, limits_);
+  b_ = std::make_unique<redis_job_store>(*records_b_, *lease_b_, *cache_b_, stats_b_, limits_);
   progress_token token_a, token_b;
   ASSERT_TRUE(*a_->claim_run(stored_job_id, token_a));
   auto waiting = std::async(std::launch::async, [&] { return b_->claim_run(stored_job_id, token_b); });
@@ -102,8 +106,8 @@ TEST_F(RedisJobStore, AReplicaWaitsOnAnothersRunAndTakesItsResult) {
 
 TEST_F(RedisJobStore, TheLeaseOfADeadReplicaExpiresAndAnotherMeshes) {
   progress_token token_a, token_b;
+  const auto started = std::chrono::steady_clock::now();  // before A's lease is set, so its whole ttl is after
   ASSERT_TRUE(*a_->claim_run(stored_job_id, token_a));  // A never renews nor releases: it died
-  const auto started = std::chrono::steady_clock::now();
   const result<bool> claimed = b_->claim_run(stored_job_id, token_b);
   ASSERT_TRUE(claimed.ok());
   EXPECT_TRUE(*claimed);

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "redis_fixture.hpp"
+#include "support/eventually.hpp"
 
 namespace tracemesh::server::test {
 namespace {
@@ -56,7 +57,7 @@ TEST_F(RedisWorkQueue, TakeWaitsForAJobPushedElsewhere) {
     EXPECT_TRUE(b.push("late").ok());
   });
   std::vector<queue_entry> taken;
-  for (int attempt = 0; attempt < 20 && taken.empty(); ++attempt) taken = a.take(1, 500ms).value();
+  EXPECT_TRUE(tracemesh::testing::eventually([&] { return !(taken = a.take(1, 500ms).value()).empty(); }));
   pusher.join();
   ASSERT_EQ(taken.size(), 1u);
   EXPECT_EQ(taken.front().job_id, "late");
@@ -88,8 +89,18 @@ TEST_F(RedisWorkQueue, TouchKeepsARunningJobFromBeingReclaimed) {
   ASSERT_TRUE(a.push("long-run").ok());
   const queue_entry entry = a.take(1, 0ms)->front();
   std::this_thread::sleep_for(30ms);
-  ASSERT_TRUE(*a.touch(entry.entry_id));  // idle time back to 0
-  EXPECT_TRUE(b.reclaim(1s, 10)->empty());
+  // After the touch the entry's idle time counts from the touch: at most the time since, however long this test
+  // pauses anywhere (an untouched entry would be idle for the 30 ms above and more).
+  const auto touched_at = std::chrono::steady_clock::now();
+  ASSERT_TRUE(*a.touch(entry.entry_id));
+  const auto pending = replica_a_->command({"XPENDING", a.stream_key(), redis_work_queue::group, "-", "+", "10"});
+  const auto since_touch = std::chrono::steady_clock::now() - touched_at;
+  ASSERT_TRUE(pending.ok());
+  ASSERT_EQ(pending->elements.size(), 1u);
+  ASSERT_EQ(pending->elements[0].elements.size(), 4u);  // id, consumer, idle ms, deliveries
+  EXPECT_LE(std::chrono::milliseconds(pending->elements[0].elements[2].integer),
+            std::chrono::ceil<std::chrono::milliseconds>(since_touch));
+  EXPECT_TRUE(b.reclaim(1h, 10)->empty());
 }
 
 TEST_F(RedisWorkQueue, RefusesABlockAsLongAsTheCommandTimeout) {
