@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "server/storage/content_hash.hpp"
+#include "support/eventually.hpp"
 
 namespace tracemesh::server {
 namespace {
@@ -310,9 +311,9 @@ TEST_F(ResultCacheTest, SigkillDuringAWriteLeavesAUsableCache) {
     }
     ::_exit(0);
   }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  bool caught_mid_write = false;  // a temporary file exists after at least two complete entries
-  while (!caught_mid_write && std::chrono::steady_clock::now() < deadline) {
+  // A temporary file exists after at least two complete entries: the writer is mid-write (it never finishes its
+  // 10,000 entries first, however fast or slow the machine).
+  const bool caught_mid_write = tracemesh::testing::eventually([&] {
     std::error_code ignored;
     int temps = 0;
     int complete = 0;
@@ -321,9 +322,8 @@ TEST_F(ResultCacheTest, SigkillDuringAWriteLeavesAUsableCache) {
       temps += name.rfind(".tmp-", 0) == 0;
       complete += is_valid_cache_key(name);
     }
-    caught_mid_write = temps > 0 && complete >= 2;
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  }
+    return temps > 0 && complete >= 2;
+  });
   ::kill(child, SIGKILL);
   int wait_status = 0;
   ASSERT_EQ(::waitpid(child, &wait_status, 0), child);
