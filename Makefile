@@ -11,7 +11,7 @@ CMAKE_FLAGS      ?=
 TRACEMESH_MOLECULES_DIR ?= $(if $(wildcard $(CURDIR)/../shared/molecules),$(abspath $(CURDIR)/../shared/molecules),$(CURDIR)/tests/data/molecules)
 export TRACEMESH_MOLECULES_DIR
 
-.PHONY: deps deps-run build-run install package test-package deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp fuzz fuzz-campaign image test-image clean
+.PHONY: deps deps-run build-run install package test-package deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp bench-nanoshaper bench-stages fuzz fuzz-campaign image test-image clean
 
 # What building and running tracemesh and tracemeshd needs (`make run`), and what the suite adds (`make test`).
 deps-run:
@@ -93,6 +93,15 @@ bench-chaos: build
 bench-paper: build
 	@bash scripts/install-deps.sh --bench-paper
 	BUILD_DIR=$(BUILD_DIR) bash bench/run_paper.sh
+
+# tracemesh against NanoShaper's Blobby surface at the same vertex count (bench/nanoshaper_bench.py; NANOSHAPER=the
+# binary, skipped without it; docs/benchmarks.md says how to build one). Needs the large molecules.
+bench-nanoshaper: build
+	TRACEMESH=$(BUILD_DIR)/bin/tracemesh python3 bench/nanoshaper_bench.py $(NANOSHAPER_ARGS)
+
+# Seconds, field evaluations, instructions and allocations per stage of the trace path (bench/stage_table.py).
+bench-stages: build
+	TRACEMESH=$(BUILD_DIR)/bin/tracemesh python3 bench/stage_table.py $(STAGES_ARGS)
 
 # Robustness of the trace path at sharp kernels: where each mesh came from (line grid or lattice path) over d x t0 x
 # density (bench/sharp_kernel_sweep.py: SHARP_ARGS="--baseline OLD/tracemesh --molecules fas2" ...).
