@@ -916,11 +916,13 @@ bool api_handlers::is_health_route(std::string_view target) const {
 void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   const char* route = info(upload->route).name;
   const std::size_t upload_bytes = upload->pqr.size();
+  std::optional<proto::input_summary> input_read;
   result<molecule> mol = [&]() -> result<molecule> {
     result<read_molecule_result> read =
         read_molecule(upload->pqr, upload->options, deps_.config.limits.mesh, deps_.config.limits.max_pqr_bytes);
     std::string().swap(upload->pqr);
     if (!read.ok()) return read.error();
+    input_read = proto::input_summary{read->format, std::string(read->radii)};
     // Refused here (422) rather than by the job: the client learns at once which atom is too small.
     if (status resolvable = check_atom_resolution(read->mol, upload->request.params); !resolvable) return resolvable;
     return std::move(read->mol);
@@ -971,6 +973,7 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
   input->mol = std::move(*mol);
   input->params = upload->request.params;
   input->format = upload->request.format;
+  input->input = std::move(input_read);
   job_listener listener;
   submit_options how;
   std::string owner_token;

@@ -32,6 +32,7 @@
 #include "core/progress.hpp"
 #include "core/status.hpp"
 #include "proto/api_types.hpp"
+#include "proto/report_json.hpp"
 #include "server/jobs/eta_estimator.hpp"
 #include "server/observability/metrics.hpp"
 
@@ -46,6 +47,9 @@ struct job_input {
   /// The format asked for by the submission that created the job: GET /jobs/{id}/mesh serves it when the
   /// request names no format. Not part of the job id (one job produces every encoding).
   proto::mesh_format format = proto::mesh_format::off;
+  /// What the submission that created the job read: its format and where the radii came from (the report's
+  /// "input"). Not part of the job id either: the same atoms sent in another format are the same job.
+  std::optional<proto::input_summary> input;
 };
 
 /// job_snapshot::error_code values set by the queue itself (other failures carry the errc_name of their status).

@@ -118,7 +118,7 @@ result<job_output> run_mesh_job(const mesh_job_context& context, const std::stri
     log_event(context.log, spdlog::level::warn, "trace_fallback", {{"job", id}, {"reason", meshed->fallback_reason}});
   }
   if (!token.report(mesh_stage::encoding, 0.0)) return status(errc::cancelled, "cancelled");
-  nlohmann::json report_doc = proto::report_to_json(*meshed, input.params);
+  nlohmann::json report_doc = proto::report_to_json(*meshed, input.params, input.input);
   // Filled as formats are first encoded (encoded_result). A result made again after the store lost its mesh keeps
   // the entries already known: the mesh is the same (deterministic), and so are the cached encodings they describe.
   report_doc["encodings"] = nlohmann::json::object();

@@ -448,7 +448,7 @@ TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheRe
   EXPECT_EQ(result.err.rfind("tracemesh: warning: the trace path failed (", 0), 0u) << result.err;
 }
 
-// fas2 at d = −20, t0 = 1 leaves cells open on the first line grid and closes on the second: no warning (the
+// fas2 at d = −20, t0 = 1 leaves cells open on the first two line grids and closes on the third: no warning (the
 // mesh is the trace path's), and the report says where the lines were and how long the failed attempt took.
 TEST_F(TracemeshCli, ATraceRetriedOnAnotherLineGridSaysSoInTheReport) {
   const fs::path off = path("fas2.off");
@@ -458,8 +458,8 @@ TEST_F(TracemeshCli, ATraceRetriedOnAnotherLineGridSaysSoInTheReport) {
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method_used"), "trace");
   EXPECT_TRUE(report.at("fallback").is_null());
-  EXPECT_EQ(report.at("trace").at("grid_retries"), 1);
-  EXPECT_EQ(report.at("trace").at("line_offset"), nlohmann::json::parse("[0.5, 0.5]"));
+  EXPECT_EQ(report.at("trace").at("grid_retries"), 2);
+  EXPECT_EQ(report.at("trace").at("line_offset"), nlohmann::json::parse("[0.25, 0.75]"));
   const nlohmann::json& timings = report.at("timings");
   const double failed = timings.at("failed_attempts").get<double>();
   EXPECT_GT(failed, 0.0);

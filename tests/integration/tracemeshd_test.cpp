@@ -123,9 +123,12 @@ class TracemeshdTest : public ::testing::Test {
     EXPECT_NE(out.find("exit=0"), std::string::npos) << "JSON bodies against openapi.json:\n" << out;
   }
 
-  curl_reply upload(const server_process& server, const fs::path& pqr, const std::string& fields = {},
+  /// Uploads `file` as the field `pqr` (which declares PQR) when it is a .pqr file, else as `structure`.
+  curl_reply upload(const server_process& server, const fs::path& file, const std::string& fields = {},
                     const std::string& route = "/mesh") {
-    return curl("-F pqr=@" + pqr.string() + " " + fields, server.url(route));
+    const std::string name = file.filename().string();
+    const bool pqr = name.ends_with(".pqr") || name.ends_with(".pqr.gz");
+    return curl(std::string(pqr ? "-F pqr=@" : "-F structure=@") + file.string() + " " + fields, server.url(route));
   }
 
   /// The value of an unlabelled sample in /metrics.

@@ -596,12 +596,14 @@ TEST_F(ServiceTest, MethodRefineAndTraceParametersAreReadFromFormFieldsAndQueryP
   const http_reply jobs_query = post("/jobs" + query_of(trace_fields), atom_line(1, 0.0));
   EXPECT_EQ(job_id_of(jobs_query), job_id_of(jobs_form)) << "form fields and query parameters are the same job";
 
-  // A form field wins over the query parameter of the same name.
-  const http_reply both = post("/jobs?method=trace&refine=none", atom_line(1, 5.0), {{"method", "lattice"}});
-  ASSERT_EQ(both.status, 202) << both.body;
-  ASSERT_EQ(wait_job(job_id_of(both)).at("status"), "done");
+  // A parameter in both the query and the form: the same value is one parameter, different values are refused.
+  const http_reply agreeing = post("/jobs?method=lattice&refine=none", atom_line(1, 5.0), {{"method", "lattice"}});
+  ASSERT_EQ(agreeing.status, 202) << agreeing.body;
+  ASSERT_EQ(wait_job(job_id_of(agreeing)).at("status"), "done");
   EXPECT_EQ(mesher_.last_params().method, mesh_method::lattice);
   EXPECT_EQ(mesher_.last_params().refine, refine_mode::none);
+  expect_error(post("/jobs?method=trace&refine=none", atom_line(1, 5.0), {{"method", "lattice"}}), 400,
+               "invalid_argument");
 }
 
 TEST_F(ServiceTest, BadMethodRefineAndTraceParametersAre400NamingTheParameter) {

@@ -134,3 +134,24 @@ TEST_F(InputFormatTest, AQueryParameterAndAFormFieldMustAgree) {
 }
 
 }  // namespace tracemesh::server::test::input_format
+
+namespace tracemesh::server::test::input_format {
+
+// The job's report (and so its record) says what the submission read and where the radii came from.
+TEST_F(InputFormatTest, TheJobReportSaysWhichFormatWasReadAndWhereTheRadiiCameFrom) {
+  start();
+  const auto job_report_input = [&](const std::string& field, const std::string& target, const std::string& file) {
+    const http_reply accepted = send(field, target, file);
+    EXPECT_EQ(accepted.status, 202) << accepted.body;
+    const nlohmann::json doc = wait_job(nlohmann::json::parse(accepted.body).at("id").get<std::string>());
+    EXPECT_EQ(doc.value("status", ""), "done") << doc;
+    return doc.contains("report") ? doc.at("report").value("input", nlohmann::json()) : nlohmann::json();
+  };
+  EXPECT_EQ(job_report_input("pqr", "/jobs", gly_), (nlohmann::json{{"format", "pqr"}, {"radii", "file"}}));
+  const std::string pdb = tracemesh::testing::to_pdb(tracemesh::testing::atoms_of_pqr(gly_));
+  EXPECT_EQ(job_report_input("structure", "/jobs", pdb), (nlohmann::json{{"format", "pdb"}, {"radii", "bondi"}}));
+  EXPECT_EQ(job_report_input("structure", "/jobs?radii=mantina", pdb),
+            (nlohmann::json{{"format", "pdb"}, {"radii", "mantina"}}));
+}
+
+}  // namespace tracemesh::server::test::input_format
