@@ -19,6 +19,7 @@
 #include "support/shell_xyzr.hpp"
 #include "support/terminal_child.hpp"
 #include "support/test_paths.hpp"
+#include "support/text_files.hpp"
 
 namespace {
 
@@ -30,18 +31,8 @@ struct run_result {
   std::string err;
 };
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::string shell_quote(const std::string& text) {
-  std::string quoted = "'";
-  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
-}
+using tracemesh::testing::read_file;
+using tracemesh::testing::shell_quote;
 
 std::size_t line_count(const std::string& text) {
   return static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n'));

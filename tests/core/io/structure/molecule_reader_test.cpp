@@ -2,39 +2,19 @@
 #include "core/io/structure/molecule_reader.hpp"
 
 #include <gtest/gtest.h>
-#include <zlib.h>
 
-#include <fstream>
-#include <iterator>
 #include <string>
 
 #include "core/io/pqr_reader.hpp"
 #include "core/mesher.hpp"
 #include "support/structure_writers.hpp"
 #include "support/test_paths.hpp"
+#include "support/text_files.hpp"
 
 namespace tracemesh {
 namespace {
 
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-std::string gzip(const std::string& text) {
-  uLongf size = compressBound(text.size()) + 32;
-  std::string out(size, '\0');
-  z_stream stream{};
-  deflateInit2(&stream, Z_DEFAULT_COMPRESSION, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY);
-  stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(text.data()));
-  stream.avail_in = static_cast<uInt>(text.size());
-  stream.next_out = reinterpret_cast<Bytef*>(out.data());
-  stream.avail_out = static_cast<uInt>(out.size());
-  deflate(&stream, Z_FINISH);
-  out.resize(stream.total_out);
-  deflateEnd(&stream);
-  return out;
-}
+using testing::gzip;
 
 read_molecule_result read_ok(const std::string& bytes, const structure_options& options = {}) {
   result<read_molecule_result> read = read_molecule(bytes, options, mesh_limits{}, 1 << 26);
@@ -51,7 +31,7 @@ void expect_same_geometry(const molecule& a, const molecule& b, const char* what
 }
 
 TEST(MoleculeReader, EveryFormatOfFas2GivesTheSameAtomsAndMesh) {
-  const auto atoms = testing::atoms_of_pqr(read_text(testing::molecule_path("fas2.pqr")));
+  const auto atoms = testing::atoms_of_pqr(testing::read_file(testing::molecule_path("fas2.pqr")));
   ASSERT_EQ(atoms.size(), 906u);
   const read_molecule_result pqr = read_ok(testing::to_pqr(atoms, radii_set::bondi));
   EXPECT_EQ(pqr.format, input_format::pqr);
@@ -97,7 +77,7 @@ TEST(MoleculeReader, EveryFormatOfFas2GivesTheSameAtomsAndMesh) {
 TEST(MoleculeReader, ReadsFilesOfEveryFormat) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "tracemesh_molecule_reader_test";
   std::filesystem::create_directories(dir);
-  const auto atoms = testing::atoms_of_pqr(read_text(testing::molecule_path("gly.pqr")));
+  const auto atoms = testing::atoms_of_pqr(testing::read_file(testing::molecule_path("gly.pqr")));
   std::ofstream(dir / "gly.cif.gz", std::ios::binary) << gzip(testing::to_mmcif(atoms));
   result<read_molecule_result> read = read_molecule_file(dir / "gly.cif.gz", {});
   ASSERT_TRUE(read.ok()) << read.error().message();
