@@ -156,6 +156,18 @@ class ReplicasTest : public ::testing::Test {
     return final ? doc : nlohmann::json(nullptr);
   }
 
+  /// Waits until no replica on `ports` runs a job. A job's record says done as soon as its mesh is stored, a moment
+  /// before the replica that ran it has finished it locally; until then that replica answers the job's /mesh with
+  /// 409 "running".
+  static bool nothing_running(const std::vector<unsigned short>& ports) {
+    return eventually([&] {
+      for (const unsigned short port : ports) {
+        if (metric(port, "tracemesh_running_jobs") != 0) return false;
+      }
+      return true;
+    });
+  }
+
   /// held_run of the job of `spec`, on this test's Redis.
   std::unique_ptr<held_run> hold(const job_spec& spec) {
     return std::make_unique<held_run>(redis_.endpoint(), job_id_of(spec));
@@ -217,6 +229,7 @@ TEST_F(ReplicasTest, MixedJobsThroughNginxSpreadOverBothReplicasAndNginxSkipsADe
   for (std::size_t i = 1; i < ids.size(); ++i) wait_done(ids[i]);
   first->release();
   wait_done(ids.front());
+  ASSERT_TRUE(nothing_running({a->port(), b->port()}));
   const double ran_on_a = jobs_run(a->port(), "A", "taken");
   const double ran_on_b = jobs_run(b->port(), "B", "taken");
   std::cout << "[ spread   ] A ran " << ran_on_a << ", B ran " << ran_on_b << " of 20 jobs\n";
@@ -345,6 +358,7 @@ TEST_F(ReplicasTest, JobOfAKilledReplicaCompletesOnAnotherAndItsMeshIsServed) {
             << std::chrono::duration<double>(std::chrono::steady_clock::now() - killed_at).count()
             << " s after kill -9 of " << victim << "\n";
   EXPECT_EQ(jobs_run(port, survivor, "reclaimed"), 1);
+  ASSERT_TRUE(nothing_running({port}));
   const http_reply mesh = get(port, "/jobs/" + id + "/mesh?format=off");
   EXPECT_EQ(mesh.status, 200) << mesh.body.substr(0, 300) << "\n" << replicas[survivor]->log();
   EXPECT_EQ(mesh.body.rfind("OFF", 0), 0u);
