@@ -1185,7 +1185,8 @@ TEST_F(TracemeshdTest, JobsAcceptedBeforeAKill9FinishAfterTheRestart) {
   for (const std::string& id : ids) {
     const curl_reply first = curl("", restarted.url("/jobs/" + id));
     ASSERT_EQ(first.status, 200) << "a 202-accepted job is known after kill -9: " << first.body;
-    const auto deadline = std::chrono::steady_clock::now() + 120s;
+    // Bounds only a job that never ends: 2buk_12asu under ThreadSanitizer beside a CPU hog took over 2 minutes.
+    const auto deadline = std::chrono::steady_clock::now() + 10min;
     nlohmann::json doc = nlohmann::json::parse(first.body);
     while (doc.at("status") != "done" && doc.at("status") != "failed" && std::chrono::steady_clock::now() < deadline) {
       std::this_thread::sleep_for(50ms);
