@@ -45,7 +45,7 @@ class array_reader {
     bytes_.remove_prefix(sizeof count);
     if (count > bytes_.size() / sizeof(T)) return false;
     values.resize(count);
-    std::memcpy(values.data(), bytes_.data(), count * sizeof(T));
+    if (count != 0) std::memcpy(values.data(), bytes_.data(), count * sizeof(T));  // data() may be null when empty
     bytes_.remove_prefix(count * sizeof(T));
     return true;
   }
