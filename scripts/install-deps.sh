@@ -14,7 +14,7 @@ build_packages=(
   libboost-dev nlohmann-json3-dev libdraco-dev libtinygltf-dev libspdlog-dev libfmt-dev libtbb-dev
   libssl-dev libcli11-dev zlib1g-dev libbrotli-dev gemmi-dev tao-pegtl-dev
   libhiredis-dev  # the Redis client of `tracemeshd --store redis://…` (server/redis/)
-  dpkg-dev        # dpkg-shlibdeps: `make package` computes the .deb's Depends from the programs
+  dpkg-dev file   # dpkg-shlibdeps and file: `make package` computes the .deb's Depends from the programs
 )
 # The suite, the benchmarks, the fuzzers and the tools the tests call (draco_decoder, curl, wrk, nginx).
 test_packages=(
