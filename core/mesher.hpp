@@ -103,27 +103,8 @@ inline mesh_method method_used(mesh_method requested, const mesh_output& out) {
 result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params, const mesh_limits& limits,
                                   progress_token& progress);
 
-/// Version of the engine's output; part of every cache key. Bump when the mesh or the report for a given input
-/// changes (5: the trace path's vertex placement, vertex numbering and the quality pass's chunks; 6: the lattice
-/// fallback of trace jobs and the report's method_used and fallback; both 2026-11-27; 7: the trace retried on other
-/// line grids, the report's line_offset, grid_retries and failed_attempts seconds, a strip's root free until an arc
-/// takes it, the quality pass keeping components outward, 2026-11-28; 8: strips whose contour crosses itself traced
-/// at a shifted level and the report's level_shifted_strips, loops that double back in a wall cut into ears in their
-/// plane, 2026-11-28; 9: cavities that no line touches found and meshed on a local grid, the report's
-/// untouched_cavities and untouched_cavities_left, 2026-11-28; 10: a pair of roots bounding a cap under 1e-4 h̃
-/// high left out as a tangency, raw edges between two arc points under h̃/100 welded and the report's welded_edges,
-/// 2026-11-29; 11: the quality pass makes components at most 2 L across again as star-shaped polyhedra, 2026-11-29;
-/// 12: short-edge collapses in passes, each over the short edges a collapse made, and no refusal when t0 ≥ e^{-d},
-/// 2026-11-29; 13: refine=none on the trace path collapses raw edges under h̃/2 and the report's collapsed_raw_edges,
-/// 2026-11-29; 14: the quality pass lengthens small components' shortest edges after polishing and flips an edge
-/// that blocks a collapse's link condition, and a collapse may keep its higher-numbered end, 2026-11-29; 15: the
-/// trace path's lines 0.93 Å/√density apart with arc points 1.15 h̃ apart, the arcs of a strip untangled and the
-/// report's untangled_points, 2026-11-29; 16: a short-edge collapse may turn over a triangle that faced against the
-/// vertex normals when that puts it right, 2026-11-29; 17: the quality pass's next collapse pass also looks beside a
-/// kept end, 2026-11-29; 18: no collapse, flip, triangulation, quality-pass edit or small-component remake makes a
-/// triangle that faces against the field normals at all three corners, the lattice path collapses the edges of such
-/// folds and splits a tetrahedron's quadrilateral along the diagonal that does not fold, the certificate refuses
-/// folds on the trace path and the report's folded_triangles and near_duplicate_vertex_pairs, 2026-12-01).
+/// The engine's version: part of every job id and report, so that a change to the meshes it makes never serves a
+/// mesh cached by an older engine. Bump it whenever delivered meshes change; CHANGELOG.md says what each changed.
 inline constexpr const char* engine_version = "tracemesh-engine-18";
 
 }  // namespace tracemesh

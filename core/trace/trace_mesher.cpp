@@ -20,7 +20,7 @@ namespace {
 
 /// h̃ = line_spacing_at_unit_density / √density. The paper: h̃ = 1.0 Å ≈ 1 vertex/Å², 0.7 Å ≈ 2. With arc points
 /// a little further apart than the lines (below), 0.93 Å gives the raw mesh the density asked for (0.97–1.03 and
-/// 1.93–1.98 v/Å² over the ladder) and better raw triangles (docs/method.md, engine 15).
+/// 1.93–1.98 v/Å² over the ladder) and better raw triangles (docs/method.md#line-spacing-and-arc-point-spacing).
 constexpr double line_spacing_at_unit_density = 0.93;
 /// Kept interior points of an arc are about this × h̃ apart (docs/method.md#long-arcs-are-resampled asks for ≤ 1.5 h̃): the raw edge-ratio
 /// mean is at least 0.70 on every ladder row from 1.12 to 1.18 (0.69 on `gly` at 1.0).

@@ -416,8 +416,8 @@ TEST(mesher_retry, a_trace_that_closes_every_cell_is_not_retried) {
 }
 
 // Sharp kernels make creases that the trace path cannot always close on any of its line grids: mache at d = −15,
-// t0 = 0.3 and density 0.5 leaves cells open on all three (7 of the 225 jobs of bench/sharp_kernel_sweep.py, all of
-// mache, on 2026-11-29; docs/method.md). The job is meshed by the lattice path instead, says so, counts the failed attempts' time, and is the
+// t0 = 0.3 and density 0.5 leaves cells open on all three (docs/method.md#line-grid-retries-and-lattice-fallback). The job
+// is meshed by the lattice path instead, says so, counts the failed attempts' time, and is the
 // lattice path's very mesh. Should the trace path learn to close these cells, this test needs another input it fails
 // on (tests/cli and tests/integration have the same case).
 TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_lattice_path_and_says_so) {
