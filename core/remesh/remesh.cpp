@@ -46,6 +46,7 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
   }
   std::vector<vec3> input_normals;
   const bool trusted = options.trust_input_normals && mesh.normals.size() == mesh.positions.size();
+  const std::size_t normal_evaluations = trusted ? 0 : mesh.positions.size();
   if (!trusted) {
     input_normals.resize(mesh.positions.size());
     parallel_over(mesh.positions.size(),
@@ -58,6 +59,7 @@ result<remesh_stats> remesh_surface(surface_mesh& mesh, const gaussian_field& fi
     if (!done) return done.error();
     stats = done.value();
   }
+  stats.field_evaluations += normal_evaluations;
   mesh.atom_index.clear();  // the caller's to fill (the mesher does, with the certificate's field probe)
   stats.remade_components = detail::resample_small_components(mesh, field, l);
   // After the remakes: a small cavity whose remake the certificate's tests refused (a thin wall to another sheet,

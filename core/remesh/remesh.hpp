@@ -96,6 +96,9 @@ struct remesh_stats {
   std::size_t final_collapses = 0;    ///< short edges collapsed at the end (final_collapse_below)
   std::size_t remade_components = 0;  ///< small components made again (remesh_small_components.hpp)
   bool unchecked = false;  ///< the mesh was remeshed as one patch without the check (unchecked_below_triangles)
+  /// Evaluations of φ and ∇φ, all rounds included (input normals, projections, relaxation steps; not the few of
+  /// the small-component remakes).
+  std::size_t field_evaluations = 0;
 };
 
 /// Improves `mesh` in place.

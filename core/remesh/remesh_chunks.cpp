@@ -451,6 +451,7 @@ void add_stats(remesh_stats& total, const remesh_stats& s) {
   total.rejected_ops += s.rejected_ops;
   total.frozen_vertices += s.frozen_vertices;
   total.retried_stages += s.retried_stages;
+  total.field_evaluations += s.field_evaluations;
   total.rounds = std::max(total.rounds, s.rounds);
   total.unchanged_patches += s.input_returned ? 1 : 0;
   ++total.patches;

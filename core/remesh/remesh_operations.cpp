@@ -55,7 +55,16 @@ bool remesh_operations::stop_requested(std::size_t step) const {
 }
 
 bool remesh_operations::project(vec3& p, vec3& n, double tolerance) const {
-  return project_onto_surface(field_, p, n, thresholds_.max_move, tolerance);
+  std::size_t evaluations = 0;
+  const bool projected = project_onto_surface(field_, p, n, thresholds_.max_move, tolerance, &evaluations);
+  field_evaluations_.fetch_add(evaluations, std::memory_order_relaxed);
+  return projected;
+}
+
+operation_counts remesh_operations::counts() const {
+  operation_counts c = counts_;
+  c.field_evaluations = field_evaluations_.load(std::memory_order_relaxed);
+  return c;
 }
 
 bool remesh_operations::project_new_vertex(vec3& p, vec3& n) const {
@@ -336,6 +345,7 @@ bool remesh_operations::relaxed_position(std::uint32_t v, vec3& position, vec3& 
   // A vertex already (almost) where its ring wants it stays: its move would cost a field evaluation for nothing.
   if (squared_norm(move) <= settled_move2_) return false;
   vec3 q = p + move, nq;
+  field_evaluations_.fetch_add(1, std::memory_order_relaxed);
   if (!newton_step_to_surface(field_, q, nq, thresholds_.max_move)) return false;
 
   g = start;

@@ -8,6 +8,7 @@
 /// vertex colouring (no two neighbours move at once). Everything is deterministic whatever the thread count.
 
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -33,6 +34,7 @@ struct remesh_thresholds {
 
 struct operation_counts {
   std::size_t splits = 0, collapses = 0, flips = 0, relaxations = 0, rejected = 0;
+  std::size_t field_evaluations = 0;  ///< φ and ∇φ evaluations (projections, relaxation steps)
 };
 
 class remesh_operations {
@@ -57,7 +59,8 @@ class remesh_operations {
   /// projected (normally none). Parallel.
   std::vector<std::uint32_t> settle_vertices();
 
-  const operation_counts& counts() const { return counts_; }
+  /// The operations made, and the field evaluations they took.
+  operation_counts counts() const;
 
  private:
   /// A triangle with the field normals at its corners.
@@ -112,6 +115,7 @@ class remesh_operations {
   remesh_thresholds thresholds_;
   const progress_token& progress_;
   operation_counts counts_;
+  mutable std::atomic<std::size_t> field_evaluations_{0};  ///< counted by parallel sweeps too
   std::vector<std::uint32_t> ring_a_, ring_b_;  // scratch
   std::vector<triangle_shape> fan_shapes_;      // scratch of collapse_outcome
   double settled_move2_;  ///< Å²: relaxation moves shorter than this are skipped

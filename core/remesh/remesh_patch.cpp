@@ -296,6 +296,7 @@ result<remesh_patch_output> remesh_patch(const remesh_patch_input& input, const 
     result<bool> clean = run_round(state, stages, options, progress, report_stages);
     if (!clean) return clean.error();
     stats.retried_stages += stages.retried_stages();
+    stats.field_evaluations += stages.field_evaluations();
     if (clean.value()) {
       surface_mesh out = certificate_view(state);
       // Cannot differ by construction; checked so that a bug never hands out a broken mesh.

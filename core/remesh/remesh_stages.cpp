@@ -58,6 +58,7 @@ result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage,
   if (!settle && !limits_.check_every_stage) {  // kept unchecked: no copy to fall back on is needed
     remesh_operations ops(state, field_, thresholds_, progress_);
     if (!stage(state, ops)) return status{errc::cancelled, "remesh: cancelled"};
+    field_evaluations_ += ops.counts().field_evaluations;
     if (status s = compact_within(state, limits_.max_triangles); !s) return s;
     add_counts(counts_, ops.counts());
     return true;
@@ -68,6 +69,7 @@ result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage,
     if (!stage(trial, ops)) return status{errc::cancelled, "remesh: cancelled"};
     if (status s = compact_within(trial, limits_.max_triangles); !s) return s;
     const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
+    field_evaluations_ += ops.counts().field_evaluations;
     failure_.mesh = certificate_view(trial);
     failure_.offending = finder_(trial, failure_.mesh);
     add_triangles_at(failure_.mesh.triangles, unsettled, failure_.offending);

@@ -59,6 +59,8 @@ class verified_stages {
   /// Operations of the kept copies.
   const operation_counts& counts() const { return counts_; }
   std::size_t retried_stages() const { return retried_; }
+  /// Field evaluations of every try, kept or not.
+  std::size_t field_evaluations() const { return field_evaluations_; }
   const check_failure& last_failure() const { return failure_; }
 
  private:
@@ -69,6 +71,7 @@ class verified_stages {
   offending_finder finder_;
   operation_counts counts_;
   std::size_t retried_ = 0;
+  std::size_t field_evaluations_ = 0;
   check_failure failure_;
 };
 

@@ -575,6 +575,8 @@ void expect_remeshed_well(const std::vector<std::pair<vec3, double>>& atoms, dou
   EXPECT_EQ(run.stats.rounds, 1);
   EXPECT_FALSE(run.stats.input_returned);
   EXPECT_GT(run.stats.collapses + run.stats.splits, 0U);
+  // Every relaxation moved with one Newton step (a field evaluation); projections count too.
+  EXPECT_GT(run.stats.field_evaluations, run.stats.relaxations + run.stats.splits);
   expect_valid(run.mesh, field, before);
   expect_quality(run.mesh, edge);
 }
@@ -633,6 +635,7 @@ TEST(RemeshSurface, IsDeterministicWhateverTheThreadCount) {
   EXPECT_EQ(one.mesh.normals, two.mesh.normals);
   EXPECT_EQ(two.mesh.positions, again.mesh.positions);
   EXPECT_EQ(one.stats.relaxations, two.stats.relaxations);
+  EXPECT_EQ(one.stats.field_evaluations, two.stats.field_evaluations);
 }
 
 /// A protein-like chain: 24 overlapping atoms wound along x over ~55 Å, with crevices between them.
