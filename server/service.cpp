@@ -16,9 +16,10 @@ constexpr std::chrono::milliseconds response_flush_time{2000};
 
 mesher_function default_mesher(mesher_function mesher) {
   if (mesher) return mesher;
-  return [](const molecule& mol, const mesh_params& params, const mesh_limits& limits, progress_token& token) {
-    return mesh_molecule(mol, params, limits, token);
-  };
+  mesher_function production = [](const molecule& mol, const mesh_params& params, const mesh_limits& limits,
+                                  progress_token& token) { return mesh_molecule(mol, params, limits, token); };
+  if (wrap_mesher_for_tests != nullptr) return wrap_mesher_for_tests(std::move(production));  // service.hpp: why
+  return production;
 }
 
 job_queue_options queue_options(const server_config& config) {

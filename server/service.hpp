@@ -28,6 +28,13 @@
 
 namespace tracemesh::server {
 
+/// Test-only seam: when a program defines it, the service's default mesher is what it returns for
+/// tracemesh::mesh_molecule. Only tests/support/held_mesher_hook.cpp defines it, linked only into the test program
+/// tracemeshd_testable (tests/CMakeLists.txt), where it holds chosen jobs until the test lets them go. The
+/// production tracemeshd does not define it: the weak symbol is null there, so no flag or environment variable can
+/// reach the hook.
+[[gnu::weak]] mesher_function wrap_mesher_for_tests(mesher_function mesher);
+
 class service {
  public:
   /// Nothing runs until start(). `mesher` defaults to tracemesh::mesh_molecule.

@@ -47,7 +47,10 @@ namespace {
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 using tracemesh::testing::binary_path;
+using tracemesh::testing::eventually;
+using tracemesh::testing::held_jobs;
 using tracemesh::testing::molecule_path;
+using tracemesh::testing::open_gate;
 using tracemesh::testing::read_file;
 using tracemesh::testing::server_process;
 using tracemesh::testing::temp_dir;
@@ -139,6 +142,15 @@ class TracemeshdTest : public ::testing::Test {
       if (line.rfind(name + " ", 0) == 0) return std::stod(line.substr(name.size() + 1));
     }
     return -1;
+  }
+
+  /// Jobs of at least `min_atoms` atoms, held by the server until open_gate() (support/held_jobs.hpp): running,
+  /// cancellable, but not meshing. A test that acts on a running job holds it, so no mesher is too fast for it.
+  held_jobs hold_jobs(std::size_t min_atoms = 0) const { return held_jobs{work_.path() / "gate", min_atoms}; }
+
+  /// Waits until `server` runs at least `jobs` jobs (a worker took them); false only at eventually()'s deadline.
+  bool jobs_running(const server_process& server, double jobs = 1) {
+    return eventually([&] { return metric(server, "tracemesh_running_jobs") >= jobs; });
   }
 
   void expect_error(const curl_reply& reply, int status, const std::string& code, const std::string& what) {
@@ -582,10 +594,13 @@ TEST_F(TracemeshdTest, TwentyConcurrentIdenticalUploadsRunTheMesherOnce) {
 }
 
 TEST_F(TracemeshdTest, QueueOverflowGives429WithRetryAfter) {
-  // No small-job lane: fas2 would run on it instead of waiting in the queue.
-  server_process server(work_.path(), {"--workers", "1", "--small-job-workers", "0", "--max-queue", "1"});
+  // No small-job lane: fas2 would run on it instead of waiting in the queue. The first job is held on the only
+  // worker, so the queue holds exactly the second when the third arrives.
+  const held_jobs held = hold_jobs();
+  server_process server(work_.path(), {"--workers", "1", "--small-job-workers", "0", "--max-queue", "1"}, held);
   const fs::path fas2 = molecule_path("fas2.pqr");
   curl_reply running = upload(server, fas2, "-F density=2", "/jobs");
+  EXPECT_TRUE(jobs_running(server)) << "the first job was never taken";
   curl_reply queued = upload(server, fas2, "-F density=2.5", "/jobs");
   curl_reply refused = upload(server, fas2, "-F density=3", "/jobs");
   EXPECT_EQ(running.status, 202) << running.body;
@@ -758,12 +773,18 @@ TEST_F(TracemeshdTest, KillDuringCacheWritesLeavesAUsableCache) {
 }
 
 TEST_F(TracemeshdTest, SigtermFinishesRunningWorkThenExitsZero) {
-  // Generous grace: sanitizer builds are slow.
-  server_process server(work_.path(), {"--shutdown-grace", "120", "--cache-dir", cache_.path().string()});
+  // The job is held until the shutdown has begun, so it is running at SIGTERM however fast it meshes. Generous
+  // grace: sanitizer builds are slow.
+  const held_jobs held = hold_jobs();
+  server_process server(work_.path(), {"--shutdown-grace", "120", "--cache-dir", cache_.path().string()}, held);
   curl_reply waiting;
   std::thread client([&] { waiting = upload(server, molecule_path("villin_1vii.pqr")); });
-  for (int i = 0; i < 200 && metric(server, "tracemesh_running_jobs") < 1; ++i) std::this_thread::sleep_for(5ms);
-  EXPECT_EQ(server.kill(SIGTERM), 0);
+  EXPECT_TRUE(jobs_running(server)) << "the job was never taken";
+  server.send(SIGTERM);
+  EXPECT_TRUE(eventually([&] { return server.log().find("\"event\":\"shutdown_started\"") != std::string::npos; }))
+      << server.log();
+  open_gate(held);
+  EXPECT_EQ(server.wait_exit(), 0);
   client.join();
   EXPECT_EQ(waiting.status, 200) << "the running job finishes within the grace period";
   EXPECT_EQ(waiting.headers["connection"], "close") << "in-flight responses close their connection";
@@ -776,10 +797,12 @@ TEST_F(TracemeshdTest, SigtermFinishesRunningWorkThenExitsZero) {
 }
 
 TEST_F(TracemeshdTest, SigtermCancelsWorkStillRunningAtTheGraceDeadline) {
-  server_process server(work_.path(), {"--shutdown-grace", "0.05", "--cache-dir", cache_.path().string()});
+  // The job is held (its gate never opens): it is still running at the grace deadline however fast it would mesh.
+  server_process server(work_.path(), {"--shutdown-grace", "0.05", "--cache-dir", cache_.path().string()},
+                        hold_jobs());
   curl_reply waiting;
   std::thread client([&] { waiting = upload(server, molecule_path("fas2.pqr"), "-F density=4"); });
-  for (int i = 0; i < 200 && metric(server, "tracemesh_running_jobs") < 1; ++i) std::this_thread::sleep_for(5ms);
+  EXPECT_TRUE(jobs_running(server)) << "the job was never taken";
   EXPECT_EQ(server.kill(SIGTERM), 0);  // the deadline shows in the reply, not in a stopwatch a loaded machine can miss
   client.join();
   expect_error(waiting, 503, "shutdown", "job cancelled at the grace deadline");
@@ -830,8 +853,9 @@ TEST_F(TracemeshdTest, AnEventStreamFollowsARealJobToItsDoneEvent) {
 
 TEST_F(TracemeshdTest, AnEventStreamOfAFailingJobEndsWithAnErrorEvent) {
   // Inputs the mesher would refuse are refused at upload (422), before any job exists; a job that fails is one
-  // past its deadline.
-  server_process server(work_.path(), {"--job-timeout", "0.01", "--cache-dir", cache_.path().string()});
+  // past its deadline: held (its gate never opens), it is still running at its deadline however fast it would mesh.
+  server_process server(work_.path(), {"--job-timeout", "0.01", "--cache-dir", cache_.path().string()},
+                        hold_jobs());
   const curl_reply accepted = upload(server, molecule_path("fas2.pqr"), "-F density=2", "/jobs");
   ASSERT_EQ(accepted.status, 202) << accepted.body;
   const std::string id = nlohmann::json::parse(accepted.body).at("id");
@@ -873,7 +897,9 @@ TEST_F(TracemeshdTest, CavitiesDropIsItsOwnJobAndDeliversOnlyTheOuterSurface) {
 }
 
 TEST_F(TracemeshdTest, AJobPastItsDeadlineAnswers504AndIsNotCached) {
-  server_process server(work_.path(), {"--job-timeout", "0.01", "--cache-dir", cache_.path().string()});
+  // Held (its gate never opens): the job is still running at its deadline however fast it would mesh.
+  server_process server(work_.path(), {"--job-timeout", "0.01", "--cache-dir", cache_.path().string()},
+                        hold_jobs());
   curl_reply late = upload(server, molecule_path("fas2.pqr"));
   expect_error(late, 504, "timeout", "synchronous job past --job-timeout");
   EXPECT_TRUE(late.headers["retry-after"].empty());
@@ -1172,20 +1198,22 @@ TEST_F(TracemeshdTest, ADoneJobServesEveryFormatAfterItsCacheEntriesAreGone) {
 TEST_F(TracemeshdTest, JobsAcceptedBeforeAKill9FinishAfterTheRestart) {
   std::vector<std::string> ids;
   {
-    server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "1"});
-    for (const char* molecule : {"2buk_12asu.pqr", "fas2.pqr", "villin_1vii.pqr", "gly.pqr"}) {
+    // Every job is held: the kill finds the first running and none finished, however fast the machine.
+    server_process server(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "1"}, hold_jobs());
+    for (const char* molecule : {"adp.pqr", "fas2.pqr", "villin_1vii.pqr", "gly.pqr"}) {
       const curl_reply accepted = upload(server, molecule_path(molecule), "", "/jobs");
       ASSERT_EQ(accepted.status, 202) << molecule << ": " << accepted.body;
       ids.push_back(id_and_token(accepted).first);
     }
-    server.kill(SIGKILL);  // the first is running, the others queued
+    EXPECT_TRUE(jobs_running(server)) << "no job was taken";
+    server.kill(SIGKILL);  // the first is running, the others queued (or running on the small-job lane)
   }
   server_process restarted(work_.path(), {"--cache-dir", cache_.path().string(), "--workers", "2"});
   EXPECT_NE(restarted.log().find("\"event\":\"jobs_requeued\""), std::string::npos) << restarted.log();
   for (const std::string& id : ids) {
     const curl_reply first = curl("", restarted.url("/jobs/" + id));
     ASSERT_EQ(first.status, 200) << "a 202-accepted job is known after kill -9: " << first.body;
-    // Bounds only a job that never ends: 2buk_12asu under ThreadSanitizer beside a CPU hog took over 2 minutes.
+    // Bounds only a job that never ends.
     const auto deadline = std::chrono::steady_clock::now() + 10min;
     nlohmann::json doc = nlohmann::json::parse(first.body);
     while (doc.at("status") != "done" && doc.at("status") != "failed" && std::chrono::steady_clock::now() < deadline) {
@@ -1277,10 +1305,13 @@ TEST_F(TracemeshdTest, AnUnusableCacheOrJobDirectoryStopsTheStartWithOneLine) {
 // Finding 2: any client could DELETE any job, and a second submitter of the same molecule lost its job. Now each
 // submission gets an owner token; a shared job is cancelled only when every owner withdrew.
 TEST_F(TracemeshdTest, ASharedJobIsCancelledOnlyWhenEveryOwnerWithdrew) {
-  // No small-job lane: the shared fas2 job must stay queued behind the blocker.
-  server_process server(work_.path(), {"--no-disk-store", "--workers", "1", "--small-job-workers", "0"});
-  const curl_reply blocker = upload(server, molecule_path("2buk_12asu.pqr"), "", "/jobs");
+  // No small-job lane: the shared fas2 job must stay queued behind the blocker, which is held on the only worker
+  // (its gate never opens) however fast it would mesh.
+  server_process server(work_.path(), {"--no-disk-store", "--workers", "1", "--small-job-workers", "0"},
+                        hold_jobs());
+  const curl_reply blocker = upload(server, molecule_path("villin_1vii.pqr"), "", "/jobs");
   ASSERT_EQ(blocker.status, 202) << blocker.body;
+  ASSERT_TRUE(jobs_running(server)) << "the blocker was never taken";
   const curl_reply first = upload(server, molecule_path("fas2.pqr"), "", "/jobs");
   const curl_reply second = upload(server, molecule_path("fas2.pqr"), "", "/jobs");
   ASSERT_EQ(first.status, 202) << first.body;
@@ -1331,12 +1362,15 @@ TEST_F(TracemeshdTest, ABearerTokenFileGuardsEveryRouteButTheExemptOnes) {
 }
 
 // Issue 12, finding 10: a small job waited behind big ones. With one general worker busy on 2buk_12asu
-// (34,284 atoms, over --small-job-max-atoms), fas2 (906 atoms) is meshed on the small-job lane meanwhile.
+// (34,284 atoms, over --small-job-max-atoms), fas2 (906 atoms) is meshed on the small-job lane meanwhile. The big
+// job is held (its gate never opens; jobs over 20,000 atoms only) so it is still running, however fast the machine.
 TEST_F(TracemeshdTest, ASmallJobIsMeshedWhileABigOneHoldsTheOnlyWorker) {
-  server_process server(work_.path(), {"--workers", "1", "--small-job-workers", "1", "--small-job-max-atoms", "20000"});
+  server_process server(work_.path(), {"--workers", "1", "--small-job-workers", "1", "--small-job-max-atoms", "20000"},
+                        hold_jobs(20001));
   const curl_reply big = upload(server, molecule_path("2buk_12asu.pqr"), "", "/jobs");
   ASSERT_EQ(big.status, 202) << big.body;
   const std::string big_url = server.url("/jobs/" + nlohmann::json::parse(big.body).at("id").get<std::string>());
+  ASSERT_TRUE(jobs_running(server)) << "the big job was never taken";
   const curl_reply small = upload(server, molecule_path("fas2.pqr"));
   EXPECT_EQ(small.status, 200) << small.body;
   EXPECT_EQ(nlohmann::json::parse(curl("", big_url).body).at("status"), "running")

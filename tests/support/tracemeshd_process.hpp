@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -22,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include "support/eventually.hpp"
+#include "support/held_jobs.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh::testing {
@@ -53,16 +55,22 @@ class temp_dir {
   fs::path path_;
 };
 
-/// tracemeshd as a child process on an ephemeral loopback port; killed on destruction.
+/// Creates the gate file of `held`: the jobs it holds mesh from now on.
+inline void open_gate(const held_jobs& held) { std::ofstream(held.gate) << "open\n"; }
+
+/// tracemeshd as a child process on an ephemeral loopback port; killed on destruction. With `held`, the process is
+/// tracemeshd_testable holding those jobs (support/held_jobs.hpp) until open_gate(); else the production tracemeshd.
 class server_process {
  public:
-  server_process(const fs::path& work, std::vector<std::string> args) : log_(work / "server.log") {
+  server_process(const fs::path& work, std::vector<std::string> args, std::optional<held_jobs> held = std::nullopt)
+      : log_(work / "server.log") {
     // Tests that give no --cache-dir run without a disk store, which tracemeshd requires to be asked for.
     if (std::find(args.begin(), args.end(), "--cache-dir") == args.end() &&
         std::find(args.begin(), args.end(), "--no-disk-store") == args.end()) {
       args.push_back("--no-disk-store");
     }
-    args.insert(args.begin(), {binary_path("tracemeshd").string(), "--listen", "127.0.0.1:0"});
+    const char* program = held ? "tracemeshd_testable" : "tracemeshd";
+    args.insert(args.begin(), {binary_path(program).string(), "--listen", "127.0.0.1:0"});
     std::error_code ignored;
     fs::remove(log_, ignored);  // the port is read from this run's "started" line
     pid_ = ::fork();
@@ -70,6 +78,10 @@ class server_process {
       const int log_fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
       ::dup2(log_fd, STDERR_FILENO);
       ::dup2(log_fd, STDOUT_FILENO);
+      if (held) {
+        ::setenv(held_jobs_gate_variable, held->gate.c_str(), 1);
+        ::setenv(held_jobs_min_atoms_variable, std::to_string(held->min_atoms).c_str(), 1);
+      }
       std::vector<char*> argv;
       for (auto& arg : args) argv.push_back(arg.data());
       argv.push_back(nullptr);
@@ -86,26 +98,23 @@ class server_process {
 
   /// Sends `signal` and reaps the process; returns its exit status (-1 when killed by a signal or already gone).
   int kill(int signal) {
+    send(signal);
+    return wait_exit();
+  }
+
+  /// Sends `signal` without waiting for the process (wait_exit() reaps it).
+  void send(int signal) {
+    if (pid_ > 0) ::kill(pid_, signal);
+  }
+
+  /// Waits for the process to exit by itself and reaps it; its exit status (-1 when killed by a signal or already
+  /// gone).
+  int wait_exit() {
     if (pid_ <= 0) return -1;
-    ::kill(pid_, signal);
     int status = 0;
     ::waitpid(pid_, &status, 0);
     pid_ = -1;
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
-
-  /// Waits up to `within` for the process to exit by itself; its exit code, or -1.
-  int wait_exit(std::chrono::milliseconds within) {
-    const auto deadline = std::chrono::steady_clock::now() + within;
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-      }
-      std::this_thread::sleep_for(10ms);
-    }
-    return -1;
   }
 
  private:
