@@ -54,6 +54,7 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   double job_timeout = 600, header_timeout = 30, request_timeout = 300, write_timeout = 60, shutdown_grace = 20;
   double upload_rate_grace = 10;
   std::vector<std::string> cors_origins;
+  std::vector<std::string> trusted_proxies;
 
   app.add_option("--listen", listen, "Address and port to listen on (host:port; port 0 = any free port)")
       ->capture_default_str();
@@ -97,10 +98,14 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
                  "Open connections; one more closes the oldest idle keep-alive connection, else gets 503")
       ->capture_default_str();
   app.add_option("--health-connection-reserve", limits.health_connection_reserve,
-                 "Connections beyond --max-connections that may still ask /healthz or /readyz")
+                 "Connections over --max-connections or --max-connections-per-client that may still ask /healthz "
+                 "or /readyz (a new one closes the oldest that sent nothing)")
       ->capture_default_str();
   app.add_option("--max-event-streams", limits.max_event_streams,
                  "GET /jobs/{id}/events streams open at once; more get 503")
+      ->capture_default_str();
+  app.add_option("--max-event-streams-per-client", limits.max_event_streams_per_client,
+                 "GET /jobs/{id}/events streams of one client open at once; more get 429")
       ->capture_default_str();
   app.add_option("--max-concurrent-uploads", limits.max_concurrent_uploads,
                  "Uploads received or parsed at the same time; more get 429")
@@ -130,6 +135,9 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
   app.add_option("--max-jobs-per-client", limits.max_jobs_per_client,
                  "Jobs of one client queued or running; more get 429")
       ->capture_default_str();
+  app.add_option("--trusted-proxy", trusted_proxies,
+                 "Reverse proxy network (CIDR, IPv4 or IPv6; repeat or comma-separate): from these peers the client "
+                 "is taken from Forwarded / X-Forwarded-For (default: none, the headers are ignored)");
   app.add_option("--small-job-max-atoms", limits.small_job_max_atoms,
                  "Jobs of at most this many atoms may run on the workers reserved for small jobs")
       ->capture_default_str();
@@ -168,6 +176,12 @@ std::optional<int> parse_command_line(int argc, char** argv, command_line& line)
     return app.exit(error);
   }
 
+  const auto networks = tracemesh::server::parse_networks(trusted_proxies);
+  if (!networks.ok()) {
+    std::fprintf(stderr, "tracemeshd: --trusted-proxy: %s\n", networks.error().message().c_str());
+    return 2;
+  }
+  limits.trusted_proxies = *networks;
   if (!tracemesh::server::parse_listen_address(listen, config)) {
     std::fprintf(stderr, "tracemeshd: --listen expects host:port, got '%s'\n", listen.c_str());
     return 2;

@@ -23,6 +23,12 @@ namespace {
 
 double seconds(std::chrono::milliseconds duration) { return static_cast<double>(duration.count()) / 1000.0; }
 
+std::vector<std::string> trusted_proxy_texts(const std::vector<ip_network>& networks) {
+  std::vector<std::string> texts;
+  for (const ip_network& network : networks) texts.push_back(network.to_string());
+  return texts;
+}
+
 }  // namespace
 
 nlohmann::json config_to_json(const server_config& config) {
@@ -54,7 +60,12 @@ nlohmann::json config_to_json(const server_config& config) {
       {"max_header_bytes", limits.max_header_bytes},
       {"max_connections", limits.max_connections},
       {"health_connection_reserve", limits.health_connection_reserve},
+      {"probe_header_timeout_ms", limits.probe_header_timeout.count()},
+      {"accept_error_pause_ms", limits.accept_error_pause.count()},
       {"max_event_streams", limits.max_event_streams},
+      {"max_event_streams_per_client", limits.max_event_streams_per_client},
+      {"refusal_log_interval_s", seconds(limits.refusal_log_interval)},
+      {"max_refusal_log_clients", limits.max_refusal_log_clients},
       {"event_interval_ms", limits.event_interval.count()},
       {"event_keepalive_s", seconds(limits.event_keepalive)},
       {"max_concurrent_uploads", limits.max_concurrent_uploads},
@@ -65,6 +76,7 @@ nlohmann::json config_to_json(const server_config& config) {
       {"max_connections_per_client", limits.max_connections_per_client},
       {"max_uploads_per_client", limits.max_uploads_per_client},
       {"max_jobs_per_client", limits.max_jobs_per_client},
+      {"trusted_proxies", trusted_proxy_texts(limits.trusted_proxies)},
       {"small_job_max_atoms", limits.small_job_max_atoms},
       {"max_form_parts", limits.max_form_parts},
       {"max_form_field_bytes", limits.max_form_field_bytes},

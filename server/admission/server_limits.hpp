@@ -14,6 +14,7 @@
 
 #include "core/limits.hpp"
 #include "core/io/pqr_reader.hpp"
+#include "server/admission/forwarded_client.hpp"
 
 namespace tracemesh::server {
 
@@ -83,14 +84,32 @@ struct server_limits {
   /// Request line + header fields; over it → 431 and the connection is closed.
   std::uint32_t max_header_bytes = 8 * 1024;
   /// Open connections. A connection over it makes the oldest idle keep-alive connection close; when none is idle
-  /// it may only ask /healthz or /readyz (anything else → 503 + Retry-After, then closed).
+  /// it becomes a probe connection (health_connection_reserve): it may only ask /healthz or /readyz (anything else
+  /// → 503 + Retry-After, then closed).
   std::size_t max_connections = 256;
-  /// Connections beyond max_connections kept open to answer /healthz and /readyz when every connection is busy;
-  /// past max_connections + this, a new connection is answered 503 and closed without being read.
+  /// Probe connections: connections over max_connections or over their client's max_connections_per_client, kept
+  /// open to read one request, answered only when it asks /healthz or /readyz, then closed. They are counted apart
+  /// from max_connections and bounded by this (the fd budget is max_connections + this). A new probe over it makes
+  /// the oldest probe that has not sent a byte close, so silent connections can never shut out a monitor's health
+  /// check; with none silent, the new connection is answered 503 and closed without being read.
   std::size_t health_connection_reserve = 16;
+  /// Header deadline of a probe connection: short, since a health check sends its request at once and a silent
+  /// probe only holds a descriptor.
+  std::chrono::milliseconds probe_header_timeout{std::chrono::seconds(2)};
+  /// A failed accept (out of descriptors: EMFILE, ENFILE) is retried after this pause instead of at once, so the
+  /// listener does not spin (and log) while the connection waits in the backlog.
+  std::chrono::milliseconds accept_error_pause{100};
   /// GET /jobs/{id}/events streams open at once (--max-event-streams); over it → 503 + Retry-After. Each stream
   /// also holds one of max_connections (it is busy, never closed as idle), so this keeps room for other requests.
   std::size_t max_event_streams = 64;
+  /// Event streams of one client (--max-event-streams-per-client); over it → 429 client_limit. Half of
+  /// max_event_streams, as the other per-client limits: one client's streams never take every slot.
+  std::size_t max_event_streams_per_client = 32;
+  /// A client refused by a per-client limit is logged (warning) at most once per this interval, and at most
+  /// max_refusal_log_clients clients are remembered for it (server/observability/log_throttle.hpp): refusals are
+  /// cheap to provoke, the log must not be.
+  std::chrono::milliseconds refusal_log_interval{std::chrono::minutes(1)};
+  std::size_t max_refusal_log_clients = 1024;
   /// An event stream looks at its job this often: at most ~4 progress events per second.
   std::chrono::milliseconds event_interval{250};
   /// An event stream without events for this long sends a comment line (keeps proxies from closing it, and
@@ -123,6 +142,11 @@ struct server_limits {
   std::size_t max_connections_per_client = 128;
   std::size_t max_uploads_per_client = 32;
   std::size_t max_jobs_per_client = 32;
+  /// Reverse proxies (--trusted-proxy): from a peer in these networks the client of the per-client limits, the
+  /// access log and the refusal log is the one its Forwarded / X-Forwarded-For header names (forwarded_client.hpp);
+  /// from anyone else those headers are ignored. A connection from a trusted proxy counts against the client of
+  /// the request it carries, from that request's header to its response (its idle time belongs to the proxy).
+  std::vector<ip_network> trusted_proxies;
   /// The small-job lane: jobs of at most this many atoms (--small-job-max-atoms) may also run on
   /// small_job_workers extra workers reserved for them, so a small molecule never waits behind big ones.
   std::size_t small_job_max_atoms = 20000;

@@ -433,16 +433,18 @@ std::string sse_event(std::string_view name, std::string_view data) {
   return text + '\n';
 }
 
-/// Holds one of limits.max_event_streams while it lives.
+/// Holds one of limits.max_event_streams, and one of its client's max_event_streams_per_client, while it lives.
 class event_stream_slot {
  public:
-  explicit event_stream_slot(std::atomic<std::size_t>& open) : open_(open) {}
+  event_stream_slot(std::atomic<std::size_t>& open, std::shared_ptr<client_lease> client)
+      : open_(open), client_(std::move(client)) {}
   ~event_stream_slot() { open_.fetch_sub(1, std::memory_order_relaxed); }
   event_stream_slot(const event_stream_slot&) = delete;
   event_stream_slot& operator=(const event_stream_slot&) = delete;
 
  private:
   std::atomic<std::size_t>& open_;
+  const std::shared_ptr<client_lease> client_;
 };
 
 /// The events of GET /jobs/{id}/events: a progress event at the first call and whenever the job's status, stage
@@ -634,7 +636,9 @@ api_handlers::api_handlers(api_dependencies deps)
     : deps_(deps),
       uploads_(deps.config.limits.max_concurrent_uploads, deps.config.limits.max_upload_bytes_in_flight),
       client_uploads_(deps.config.limits.max_uploads_per_client),
-      client_jobs_(deps.config.limits.max_jobs_per_client) {}
+      client_jobs_(deps.config.limits.max_jobs_per_client),
+      client_event_streams_(deps.config.limits.max_event_streams_per_client),
+      refusal_log_(deps.config.limits.refusal_log_interval, deps.config.limits.max_refusal_log_clients) {}
 
 std::string api_handlers::client_key(const request_head& head, const std::string& client_address) const {
   const std::string_view authorization = to_std(head[http::field::authorization]);
@@ -686,6 +690,7 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head, cons
     body_plan small;
     small.route = route.name;
     small.max_bytes = limits.max_small_body_bytes;
+    small.client = client_key(head, client_address);
     return small;
   }
 
@@ -746,7 +751,7 @@ std::variant<reply, body_plan> api_handlers::plan(const request_head& head, cons
   return plan;
 }
 
-void api_handlers::handle(const request_head& head, const body_plan&, std::string, reply_sink done) {
+void api_handlers::handle(const request_head& head, const body_plan& plan, std::string, reply_sink done) {
   const auto target = split_target(to_std(head.target()));
   const route_match match = match_route(target->path);
   const char* route = info(match.id).name;
@@ -786,7 +791,7 @@ void api_handlers::handle(const request_head& head, const body_plan&, std::strin
     if (const status known = only_known(*query, {}, "query parameter"); !known.ok()) {
       return done(error_reply(400, "invalid_argument", known.message(), route));
     }
-    return job_events(match.job_id, std::move(done));
+    return job_events(match.job_id, plan.client, std::move(done));
   }
   if (const status known = only_known(*query, {"format"}, "query parameter"); !known.ok()) {
     return done(error_reply(400, "invalid_argument", known.message(), route));
@@ -1071,8 +1076,19 @@ reply api_handlers::records_unreachable_reply(const status& error, std::string r
                           deps_.config.limits.retry_after_seconds);
 }
 
-void api_handlers::job_events(const std::string& id, reply_sink done) {
-  off_io_thread_if_blocking([this, id, done = std::move(done)] {
+void api_handlers::log_client_refusal(const std::string& client, std::string_view limit_name,
+                                      std::string_view route) {
+  std::uint64_t suppressed = 0;
+  if (!refusal_log_.admit(client, std::chrono::steady_clock::now(), suppressed)) return;
+  log_event(deps_.log, spdlog::level::warn, "client_limit_refused",
+            {{"client", client},
+             {"limit", limit_name},
+             {"route", route},
+             {"suppressed_before", suppressed}});
+}
+
+void api_handlers::job_events(const std::string& id, const std::string& client, reply_sink done) {
+  off_io_thread_if_blocking([this, id, client, done = std::move(done)] {
     const std::string route = "/jobs/{id}/events";
     if (!deps_.coordinator.find_in_memory(id)) {
       const result<std::optional<job_snapshot>> job = deps_.coordinator.find(id);
@@ -1080,6 +1096,12 @@ void api_handlers::job_events(const std::string& id, reply_sink done) {
       if (!*job) return done(error_reply(404, "not_found", "no such job", route));
     }
     const server_limits& limits = deps_.config.limits;
+    std::shared_ptr<client_lease> client_stream = client_event_streams_.acquire(client);
+    if (!client_stream) {
+      log_client_refusal(client, "max_event_streams_per_client", route);
+      return done(client_limit_reply("max_event_streams_per_client", limits.max_event_streams_per_client,
+                                     "event streams open", limits.retry_after_seconds, route));
+    }
     if (deps_.state.event_streams.fetch_add(1, std::memory_order_relaxed) >= limits.max_event_streams) {
       deps_.state.event_streams.fetch_sub(1, std::memory_order_relaxed);
       return done(with_retry_after(error_reply(503, "unavailable",
@@ -1090,7 +1112,8 @@ void api_handlers::job_events(const std::string& id, reply_sink done) {
                                    limits.retry_after_seconds));
     }
     auto source = std::make_shared<job_event_source>(deps_.coordinator, deps_.prep, id,
-                                                     std::make_unique<event_stream_slot>(deps_.state.event_streams),
+                                                     std::make_unique<event_stream_slot>(
+                                                         deps_.state.event_streams, std::move(client_stream)),
                                                      limits.replicas.event_fallback);
     reply r;
     r.route = route;

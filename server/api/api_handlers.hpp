@@ -16,8 +16,8 @@
 /// Threads: plan() and the cheap handlers run on I/O threads; small uploads' parsing, job-id hashing and every disk
 /// cache read run on the prep pool; decompression and parsing of large or gzip-encoded uploads on the
 /// large-upload pool (so a cache hit never waits behind them); meshing runs on the job queue's workers.
-/// Per client (bearer token, else IP address): uploads in flight and jobs queued or running are bounded
-/// (max_uploads_per_client, max_jobs_per_client → 429 client_limit).
+/// Per client (bearer token, else IP address): uploads in flight, jobs queued or running and event streams open
+/// are bounded (max_uploads_per_client, max_jobs_per_client, max_event_streams_per_client → 429 client_limit).
 
 #include <cstddef>
 #include <mutex>
@@ -37,6 +37,7 @@
 #include "server/jobs/job_queue.hpp"
 #include "server/storage/job_store.hpp"
 #include "server/jobs/mesh_job.hpp"
+#include "server/observability/log_throttle.hpp"
 #include "server/observability/metrics.hpp"
 #include "server/storage/result_cache.hpp"
 #include "server/admission/server_limits.hpp"
@@ -90,8 +91,12 @@ class api_handlers final : public request_handler {
   /// 503 + Retry-After (logged): the job records cannot be read now.
   reply records_unreachable_reply(const status& error, std::string route) const;
   void job_status(const std::string& id, reply_sink done);
-  /// GET /jobs/{id}/events: 404 for an unknown job, 503 past limits.max_event_streams, else the event stream.
-  void job_events(const std::string& id, reply_sink done);
+  /// GET /jobs/{id}/events: 404 for an unknown job, 429 past limits.max_event_streams_per_client for `client`,
+  /// 503 past limits.max_event_streams, else the event stream.
+  void job_events(const std::string& id, const std::string& client, reply_sink done);
+  /// The warning that `client` was refused by the per-client limit `limit_name` (at most one per client per
+  /// limits.refusal_log_interval).
+  void log_client_refusal(const std::string& client, std::string_view limit_name, std::string_view route);
   void cancel_job(const std::string& id, const std::string& owner_token, reply_sink done);
   std::optional<reply> authorization_failure(const request_head& head, const char* route) const;
   /// The error line of a done job whose stored mesh the job store cannot give back any more.
@@ -112,6 +117,8 @@ class api_handlers final : public request_handler {
   upload_admission uploads_;
   client_quota client_uploads_;
   client_quota client_jobs_;
+  client_quota client_event_streams_;
+  log_throttle refusal_log_;
 };
 
 }  // namespace tracemesh::server

@@ -90,14 +90,14 @@ reply client_limit_reply(std::string_view limit_name, std::size_t limit, std::st
   return r;
 }
 
-namespace {
-
 reply client_connection_limit_reply(const server_limits& limits) {
   reply r = client_limit_reply("max_connections_per_client", limits.max_connections_per_client, "open connections",
                                limits.retry_after_seconds, detail::unrouted_route);
   r.close = true;
   return r;
 }
+
+namespace {
 
 /// splitmix64's finaliser: a bijection on 64-bit integers, so distinct counters give distinct ids.
 std::uint64_t mix(std::uint64_t x) {
@@ -127,7 +127,7 @@ bool request_id_source::acceptable(std::string_view id) {
 }
 
 http_listener::http_listener(net::io_context& io, http_context& context)
-    : io_(io), context_(context), strand_(net::make_strand(io)), acceptor_(strand_) {}
+    : io_(io), context_(context), strand_(net::make_strand(io)), acceptor_(strand_), accept_retry_(strand_) {}
 
 status http_listener::open(const std::string& host, unsigned short port) {
   beast::error_code ec;
@@ -152,6 +152,7 @@ void http_listener::stop() {
   net::post(strand_, [self = shared_from_this()] {
     beast::error_code ignored;
     self->acceptor_.close(ignored);
+    self->accept_retry_.cancel();
   });
 }
 
@@ -163,33 +164,49 @@ void http_listener::do_accept() {
 
 void http_listener::on_accept(boost::system::error_code ec, tcp::socket socket) {
   if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;
-  if (!ec) {
-    beast::error_code address_error;
-    const tcp::endpoint peer = socket.remote_endpoint(address_error);
-    const std::string client = address_error ? std::string() : peer.address().to_string();
-    auto connection = std::make_shared<tcp_session>(beast::tcp_stream(std::move(socket)), context_);
-    std::shared_ptr<client_lease> lease = context_.state.client_connections.acquire(client);
-    // The new session already counts itself: more than the limit means this one is over it. An idle keep-alive
-    // connection gives way first (it closes on its own strand, soon); without one, a few more connections may
-    // still ask the health routes, and past those the new connection is refused at once. A client over its own
-    // connection limit may ask the health routes too, and hears 429 for anything else.
-    const std::size_t open = context_.state.open_connections.load(std::memory_order_relaxed);
-    const bool within_reserve =
-        open <= context_.limits.max_connections + context_.limits.health_connection_reserve;
-    if (lease && (open <= context_.limits.max_connections || context_.state.idle.close_oldest())) {
-      connection->hold(std::move(lease));
-      connection->run();
-    } else if (!lease && within_reserve) {
-      connection->run_over_client_limit(client_connection_limit_reply(context_.limits));
-    } else if (within_reserve) {
-      connection->run_health_only();
-    } else {
-      connection->refuse();
-    }
-  } else {
+  if (ec) {
+    // Out of descriptors (EMFILE, ENFILE) or a transient error: the connection waits in the backlog; retrying at
+    // once would spin on the same error.
     log_event(context_.log, spdlog::level::warn, "accept_failed", {{"error", ec.message()}});
+    accept_retry_.expires_after(context_.limits.accept_error_pause);
+    accept_retry_.async_wait([self = shared_from_this()](boost::system::error_code wait_error) {
+      if (!wait_error) self->do_accept();
+    });
+    return;
   }
+  beast::error_code address_error;
+  const tcp::endpoint peer = socket.remote_endpoint(address_error);
+  const std::string client = address_error ? std::string() : peer.address().to_string();
+  admit(std::make_shared<tcp_session>(beast::tcp_stream(std::move(socket)), context_), client);
   do_accept();
+}
+
+template <class Session>
+void http_listener::admit(const std::shared_ptr<Session>& connection, const std::string& client) {
+  http_server_state& state = context_.state;
+  const server_limits& limits = context_.limits;
+  // A trusted proxy's connection is counted against the client of each request it carries, once its header is
+  // read; anyone else's against its address, now.
+  const bool proxied = connection->from_trusted_proxy();
+  std::shared_ptr<client_lease> lease = proxied ? nullptr : state.client_connections.acquire(client);
+  if (proxied || lease) {
+    // The new session already counts itself: more than the limit means this one is over it. An idle keep-alive
+    // connection gives way first (it closes on its own strand, soon).
+    const std::size_t open = state.open_connections.load(std::memory_order_relaxed);
+    const std::size_t probes = state.probe_connections.load(std::memory_order_relaxed);
+    if (open - std::min(open, probes) <= limits.max_connections || state.idle.close_oldest()) {
+      connection->hold(std::move(lease));
+      return connection->run();
+    }
+  }
+  reply refusal = proxied || lease ? Session::too_many_connections(limits.retry_after_seconds)
+                                   : client_connection_limit_reply(limits);
+  // A probe; when the reserve is full, the oldest probe that has sent nothing gives way to this newer one.
+  if (state.probe_connections.load(std::memory_order_relaxed) < limits.health_connection_reserve ||
+      state.probes.close_oldest()) {
+    return connection->run_probe(std::move(refusal));
+  }
+  connection->refuse();
 }
 
 }  // namespace tracemesh::server

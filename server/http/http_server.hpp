@@ -24,11 +24,16 @@
 /// Every request gets a request id (a sane incoming X-Request-Id, else a generated one), echoed in X-Request-Id,
 /// and one "access" log line when its response is written (error level for 5xx); its duration runs from the
 /// request's first byte. Connections over max_connections first make the oldest idle keep-alive connection close;
-/// with none idle, up to health_connection_reserve more connections may still ask a health route (handler's
-/// is_health_route), anything else on them gets 503. A connection over its client's max_connections_per_client
-/// (by IP address) may likewise ask a health route; anything else gets 429 (client_limit) and the connection is
-/// closed; while it waits for its request it counts as idle, so it is closed first when the server is full. An upload body that falls behind min_upload_bytes_per_second after upload_rate_grace is answered 408
-/// and closed. CORS headers are added to every response.
+/// with none idle, or when the connection's client is over max_connections_per_client (by IP address), it becomes
+/// a probe connection: its one request is read under probe_header_timeout, answered when it is a health route
+/// (handler's is_health_route), else 503 (server full) or 429 client_limit (client over its limit), and the
+/// connection closed. Probes are bounded by health_connection_reserve; a new probe over it makes the oldest probe
+/// that has sent nothing close (so silent connections cannot shut a health check out), and with none silent the
+/// new connection gets 503 without being read. From a --trusted-proxy peer, the client is the one its request's
+/// Forwarded / X-Forwarded-For names (admission/forwarded_client.hpp): for plan(), the access log, and the
+/// connection limit, counted per request from its header to its response instead of per connection. An upload
+/// body that falls behind min_upload_bytes_per_second after upload_rate_grace is answered 408 and closed. CORS
+/// headers are added to every response.
 /// The session itself lives in detail/http_session.hpp, a template over its stream (the request fuzzer runs it
 /// over a Beast test stream).
 
@@ -47,6 +52,7 @@
 #include <vector>
 
 #include <boost/asio/io_context.hpp>
+#include <boost/asio/steady_timer.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core/string.hpp>
@@ -118,6 +124,9 @@ reply json_reply(unsigned status, std::string body, std::string route);
 reply client_limit_reply(std::string_view limit_name, std::size_t limit, std::string_view what,
                          unsigned retry_after_seconds, std::string route);
 
+/// 429 client_limit for a client over max_connections_per_client; closes the connection.
+reply client_connection_limit_reply(const server_limits& limits);
+
 /// Delivers the reply to a request; callable from any thread, exactly once.
 using reply_sink = std::function<void(reply)>;
 
@@ -143,7 +152,8 @@ struct body_plan {
 class request_handler {
  public:
   virtual ~request_handler() = default;
-  /// `client_address`: the peer's IP address (per-client limits key on it when no bearer token names the client).
+  /// `client_address`: the client's IP address (the peer's, or the one a trusted proxy names); per-client limits key
+  /// on it when no bearer token names the client.
   virtual std::variant<reply, body_plan> plan(const request_head& head, const std::string& client_address) = 0;
   /// A non-upload request whose (small) body has been read.
   virtual void handle(const request_head& head, const body_plan& plan, std::string body, reply_sink done) = 0;
@@ -197,6 +207,9 @@ struct http_server_state {
   std::atomic<bool> draining{false};          ///< SIGTERM received: answer with Connection: close
   std::atomic<std::size_t> event_streams{0};  ///< open event streams (bounded by limits.max_event_streams)
   idle_connections idle;
+  /// Probe connections (limits.health_connection_reserve) open, and those still waiting for their first byte.
+  std::atomic<std::size_t> probe_connections{0};
+  idle_connections probes;
   request_id_source request_ids;
   /// Open connections per client IP address (max_connections_per_client).
   client_quota client_connections;
@@ -228,11 +241,15 @@ class http_listener : public std::enable_shared_from_this<http_listener> {
  private:
   void do_accept();
   void on_accept(boost::system::error_code ec, net::ip::tcp::socket socket);
+  /// Lets a new connection in, as a probe connection, or refuses it (see the file comment).
+  template <class Session>
+  void admit(const std::shared_ptr<Session>& connection, const std::string& client);
 
   net::io_context& io_;
   http_context& context_;
   net::strand<net::io_context::executor_type> strand_;
   net::ip::tcp::acceptor acceptor_;
+  net::steady_timer accept_retry_;  // limits.accept_error_pause after a failed accept
   unsigned short port_ = 0;
 };
 

@@ -25,6 +25,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/range/iterator_range.hpp>
 
+#include "server/admission/forwarded_client.hpp"
 #include "server/http/content_coding.hpp"
 #include "server/http/http_server.hpp"
 #include "server/observability/logging.hpp"
@@ -163,12 +164,15 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   http_session(Stream&& stream, http_context& context)
       : stream_(std::move(stream)),
         context_(context),
-        client_(transport::client_address(stream_)),
+        peer_(transport::client_address(stream_)),
+        from_trusted_proxy_(in_networks(context_.limits.trusted_proxies, peer_)),
+        client_(peer_),
         rate_timer_(stream_.get_executor()) {
     context_.state.open_connections.fetch_add(1, std::memory_order_relaxed);
   }
   ~http_session() {
     stop_being_idle();
+    if (health_only_) context_.state.probe_connections.fetch_sub(1, std::memory_order_relaxed);
     context_.state.open_connections.fetch_sub(1, std::memory_order_relaxed);
   }
   http_session(const http_session&) = delete;
@@ -178,22 +182,26 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     net::dispatch(stream_.get_executor(), [self = this->shared_from_this()] { self->read_header(); });
   }
 
-  /// Over the connection limit with every connection busy: one request is read; a health route is answered,
-  /// anything else gets 503; then the connection is closed.
-  void run_health_only() {
+  /// A probe connection (over the server's or its client's connection limit; limits.health_connection_reserve):
+  /// one request is read under limits.probe_header_timeout; a health route is answered, anything else gets
+  /// `refusal`; then the connection is closed. Until its first byte arrives it waits in state.probes, so a newer
+  /// probe can make it give way when the reserve is full.
+  void run_probe(reply refusal) {
     health_only_ = true;
-    health_only_refusal_ = too_many_connections(context_.limits.retry_after_seconds);
+    context_.state.probe_connections.fetch_add(1, std::memory_order_relaxed);
+    health_only_refusal_ = std::move(refusal);
     run();
   }
 
-  /// A client over its own connection limit: as run_health_only(), answering `refusal` to anything but a health
-  /// route. While it waits for its request it counts as idle, so it is the first to close when the server's
-  /// connection limit is reached (one client's surplus connections never lock other clients out).
-  void run_over_client_limit(reply refusal) {
-    health_only_ = true;
-    over_client_limit_ = true;
-    health_only_refusal_ = std::move(refusal);
-    run();
+  /// The peer is in a --trusted-proxy network: each request names its client (forwarded_client.hpp).
+  bool from_trusted_proxy() const { return from_trusted_proxy_; }
+
+  /// 503 + Retry-After, closing: the server has no connection to spare.
+  static reply too_many_connections(unsigned retry_after_seconds) {
+    reply busy = error_reply(503, "unavailable", "too many connections", unrouted_route);
+    busy.headers.emplace_back("Retry-After", std::to_string(retry_after_seconds));
+    busy.close = true;
+    return busy;
   }
 
   /// Keeps `lease` (this connection counted against its client) as long as the session lives.
@@ -226,8 +234,10 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     rate_violated_ = false;
     skipped_empty_line_bytes_ = 0;
     encoded_body_.clear();
+    client_ = peer_;  // until a trusted proxy's next request names its client
     // header_timeout runs from here: keep-alive idle time and a slow header together.
-    transport::expire_after(stream_, context_.limits.header_timeout);
+    transport::expire_after(stream_, health_only_ ? context_.limits.probe_header_timeout
+                                                  : context_.limits.header_timeout);
     if (buffer_.size() > 0) {  // a pipelined request is already here
       request_started_ = clock::now();
       return read_header_block();
@@ -236,13 +246,9 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
   }
 
   /// Idle: waits for the first bytes of the next request (their arrival starts the request's clock). Meanwhile a
-  /// new connection over the limit may make this one close (close_if_idle).
+  /// new connection over the limit (a new probe, for a probe) may make this one close (close_if_idle).
   void wait_for_request() {
-    if (health_only_ && !over_client_limit_) {  // over the limit already: closing it would make no room
-      return stream_.async_read_some(buffer_.prepare(first_read_bytes), beast::bind_front_handler(
-                                         &http_session::on_first_bytes, this->shared_from_this()));
-    }
-    idle_key_ = context_.state.idle.add(
+    idle_key_ = idle_set().add(
         [weak = std::weak_ptr<http_session>(this->shared_from_this()), key = next_idle_generation()] {
           if (auto self = weak.lock()) {
             net::dispatch(self->stream_.get_executor(), [self, key] { self->close_if_idle(key); });
@@ -291,16 +297,21 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     if (!idle_ || generation != idle_generation_ || transport::has_unread_bytes(stream_)) return;
     idle_key_.reset();  // already taken out of the idle set
     idle_ = false;
-    log_event(context_.log, spdlog::level::info, "idle_connection_closed",
-              {{"client", client_}, {"reason", "connection limit reached"}});
+    // A silent probe is one of a flood's connections: debug level, or the flood would fill the log.
+    log_event(context_.log, health_only_ ? spdlog::level::debug : spdlog::level::info, "idle_connection_closed",
+              {{"client", client_},
+               {"reason", health_only_ ? "probe reserve full" : "connection limit reached"}});
     transport::close(stream_);  // the pending read ends with an error and the session goes away
   }
 
   void stop_being_idle() {
     idle_ = false;
-    if (idle_key_) context_.state.idle.remove(*idle_key_);
+    if (idle_key_) idle_set().remove(*idle_key_);
     idle_key_.reset();
   }
+
+  /// Where this connection waits while idle: probes give way only to probes.
+  idle_connections& idle_set() { return health_only_ ? context_.state.probes : context_.state.idle; }
 
   void read_header_block() {
     if (skip_empty_lines()) {
@@ -338,8 +349,15 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
       return send(error_reply(400, "bad_request", *problem, unrouted_route),
                   /*force_close=*/malformed_value || !header_parser_->is_done());
     }
-    if (health_only_ && !context_.handler.is_health_route(to_std(head_.target()))) {
-      return send(health_only_refusal_, /*force_close=*/true);
+    if (from_trusted_proxy_) client_ = forwarded_client_of(head_);
+    const bool health_route = context_.handler.is_health_route(to_std(head_.target()));
+    if (health_only_ && !health_route) return send(health_only_refusal_, /*force_close=*/true);
+    if (from_trusted_proxy_ && !health_only_) {
+      // A proxy's connection counts against the client of the request it carries, until it is answered.
+      request_lease_ = context_.state.client_connections.acquire(client_);
+      if (!request_lease_ && !health_route) {
+        return send(client_connection_limit_reply(context_.limits), /*force_close=*/true);
+      }
     }
     std::variant<reply, body_plan> decision = context_.handler.plan(head_, client_);
     if (auto* immediate = std::get_if<reply>(&decision)) {
@@ -372,6 +390,17 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     send(error_reply(400, "bad_request", "malformed HTTP request: " + ec.message(), unrouted_route), true);
   }
 
+  /// The client a trusted proxy's request names (Forwarded, else X-Forwarded-For), or the proxy itself.
+  std::string forwarded_client_of(const request_head& head) const {
+    std::vector<std::string_view> forwarded;
+    std::vector<std::string_view> x_forwarded_for;
+    for (const auto& field : head) {
+      if (beast::iequals(field.name_string(), "Forwarded")) forwarded.push_back(to_std(field.value()));
+      if (beast::iequals(field.name_string(), "X-Forwarded-For")) x_forwarded_for.push_back(to_std(field.value()));
+    }
+    return forwarded_client(peer_, forwarded, x_forwarded_for, context_.limits.trusted_proxies);
+  }
+
   /// The header is in (or the request is refused): count the request busy and give it its id.
   void begin_request() {
     if (!busy_) context_.state.busy_requests.fetch_add(1, std::memory_order_relaxed);
@@ -379,13 +408,6 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     const std::string_view incoming = to_std(head_[request_id_field]);
     request_id_ = request_id_source::acceptable(incoming) ? std::string(incoming)
                                                           : context_.state.request_ids.next();
-  }
-
-  static reply too_many_connections(unsigned retry_after_seconds) {
-    reply busy = error_reply(503, "unavailable", "too many connections", unrouted_route);
-    busy.headers.emplace_back("Retry-After", std::to_string(retry_after_seconds));
-    busy.close = true;
-    return busy;
   }
 
   void send_continue() {
@@ -730,12 +752,14 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
         {"status", status},
         {"bytes", bytes},
         {"ms", std::chrono::duration<double, std::milli>(clock::now() - request_started_).count()}};
+    if (client_ != peer_) fields["peer"] = peer_;  // through a trusted proxy
     if (ec) fields["write_error"] = ec.message();
     log_event(context_.log, status >= 500 ? spdlog::level::err : spdlog::level::info, "access", fields);
   }
 
   void on_write(beast::error_code ec, bool keep_alive) {
     end_request();
+    request_lease_.reset();
     response_.reset();
     response_body_.reset();
     if (ec) return close();
@@ -780,16 +804,19 @@ class http_session : public std::enable_shared_from_this<http_session<Stream>> {
     stop_being_idle();
     end_request();
     plan_.ticket.reset();
+    request_lease_.reset();
   }
 
   Stream stream_;
   http_context& context_;
-  const std::string client_;  // the peer's address, for the access log
+  const std::string peer_;        // the peer's address
+  const bool from_trusted_proxy_;  // peer_ is in limits.trusted_proxies
+  std::string client_;  // who sent the current request (peer_, or the client a trusted proxy names), for the log
   std::string request_id_;
-  bool health_only_ = false;  // over the connection limit: one health request, then close
+  bool health_only_ = false;  // a probe connection (run_probe): one health request, then close
   reply health_only_refusal_;  // health_only_: the answer to anything but a health route
-  bool over_client_limit_ = false;  // health_only_ because its client is over max_connections_per_client
   std::shared_ptr<client_lease> client_lease_;  // this connection counted against its client's connection limit
+  std::shared_ptr<client_lease> request_lease_;  // a trusted proxy's: the current request's client, until answered
   bool idle_ = false;         // waiting for the first bytes of a request
   std::optional<std::uint64_t> idle_key_;  // this connection's entry in context_.state.idle
   std::uint64_t idle_generation_ = 0;      // tells a stale close_if_idle from the current idle period
