@@ -200,6 +200,20 @@ result<bool> parse_keep_or_drop(std::string_view option, std::string_view value)
                 std::string(option) + " must be keep or drop, not '" + detail::quote_bytes(value) + "'"};
 }
 
+bool is_assembly_id_char(char c) {
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || is_digit(c) || c == '_' || c == '-' || c == '.';
+}
+
+result<std::string> parse_assembly(std::string_view value) {
+  const bool valid = !value.empty() && value.size() <= max_assembly_id_chars &&
+                     std::all_of(value.begin(), value.end(), is_assembly_id_char);
+  if (valid) return std::string(value);
+  return status{errc::invalid_argument,
+                "assembly must be asu or an assembly id of 1 to " + std::to_string(max_assembly_id_chars) +
+                    " letters, digits, '_', '-' or '.', not '" + detail::quote_bytes(value, max_assembly_id_chars) +
+                    "'"};
+}
+
 }  // namespace
 
 result<structure_options> parse_structure_options(
@@ -224,6 +238,11 @@ result<structure_options> parse_structure_options(
       if (!parsed.ok()) return parsed.error();
       *keep = *parsed;
     }
+  }
+  if (const std::optional<std::string> assembly = lookup("assembly")) {
+    result<std::string> parsed = parse_assembly(*assembly);
+    if (!parsed.ok()) return parsed.error();
+    options.assembly = std::move(*parsed);
   }
   return options;
 }

@@ -86,23 +86,35 @@ struct declared_format {
 /// errc::invalid_input saying what the declaration and the content each say.
 status check_declared_format(const declared_format& declared, const format_evidence& evidence);
 
+/// The assembly an input is meshed as unless another is asked for: the file's own coordinates (a crystal's
+/// asymmetric unit, a cryo-EM model as deposited), no symmetry operator applied.
+inline constexpr std::string_view deposited_assembly = "asu";
+/// The longest assembly id accepted; ids are letters, digits, '_', '-' and '.' (PDB and mmCIF ids are short:
+/// "1", "2", "PAU").
+inline constexpr std::size_t max_assembly_id_chars = 32;
+
 /// How an input is read: its declared format (none: detected), and what the PDB and mmCIF readers keep and how
-/// they size atoms. PQR and xyzr files carry their own radii and atoms, so the other options do not change them.
+/// they size atoms. PQR and xyzr files carry their own radii and atoms, so the other options do not change them;
+/// they have no symmetry operators either, so their assembly is deposited_assembly.
 struct structure_options {
   std::optional<declared_format> format;  ///< format_in=, a file field or a file extension; nullopt: detected
   radii_set radii = radii_set::bondi;  ///< van der Waals radii by element (vdw_radii.hpp)
   bool keep_hydrogens = true;          ///< H and D atoms as the file has them (X-ray files usually have none)
   bool keep_waters = false;            ///< water molecules (HOH, WAT, DOD, ...); dropped as pdb2pqr --drop-water
   bool keep_ligands = true;            ///< HETATM groups other than water: ligands, ions, cofactors
+  /// deposited_assembly, or the id of a biological assembly the file lists (PDB REMARK 350 BIOMOLECULE, mmCIF
+  /// _pdbx_struct_assembly.id), built by applying its symmetry operators (pdb_mmcif_reader.hpp).
+  std::string assembly = std::string(deposited_assembly);
 };
 
 /// The names of the options, as service fields and query parameters (the CLI's are --radii, --hydrogens, ...).
-inline constexpr std::array<std::string_view, 5> structure_option_names = {"format_in", "radii", "hydrogens",
-                                                                           "waters", "ligands"};
+inline constexpr std::array<std::string_view, 6> structure_option_names = {"format_in", "radii",  "hydrogens",
+                                                                           "waters",    "ligands", "assembly"};
 
 /// Reads the options by name: format_in = pqr | pdb | mmcif | xyzr (declared_by "format_in=<name>"), radii = bondi
-/// | mantina, hydrogens / waters / ligands = keep | drop; an absent option keeps its default. Error:
-/// errc::invalid_argument naming the option and the accepted values.
+/// | mantina, hydrogens / waters / ligands = keep | drop, assembly = asu | an id (1 to max_assembly_id_chars
+/// letters, digits, '_', '-', '.'; whether the file has it is the reader's to say); an absent option keeps its
+/// default. Error: errc::invalid_argument naming the option and the accepted values.
 result<structure_options> parse_structure_options(
     const std::function<std::optional<std::string>(std::string_view name)>& lookup);
 

@@ -4,6 +4,7 @@
 
 #include "core/io/pqr_gzip.hpp"
 #include "core/io/pqr_reader.hpp"
+#include "core/io/pqr_text.hpp"
 #include "core/io/structure/pdb_mmcif_reader.hpp"
 #include "core/io/xyzr_reader.hpp"
 
@@ -13,6 +14,23 @@ namespace {
 
 /// A UTF-8 byte order mark some editors put first.
 constexpr std::string_view utf8_bom = "\xEF\xBB\xBF";
+
+/// PQR and xyzr files are atoms only: no symmetry operators to build an assembly from.
+status check_assembly_possible(input_format format, const structure_options& options) {
+  if (options.assembly == deposited_assembly || format == input_format::pdb || format == input_format::mmcif) {
+    return status::success();
+  }
+  return {errc::invalid_input,
+          "assembly '" + detail::quote_bytes(options.assembly, max_assembly_id_chars) + "': " +
+              (format == input_format::pqr ? "a PQR" : "an xyzr") +
+              " file has no symmetry operators (PDB REMARK 350 BIOMT and mmCIF _pdbx_struct_oper_list have); only " +
+              std::string(deposited_assembly) + " (the file's atoms) can be meshed"};
+}
+
+result<structure_read> as_structure(result<molecule> mol) {
+  if (!mol) return mol.error();
+  return structure_read{std::move(*mol), 0, 0};
+}
 
 result<read_molecule_result> parse_text(std::string_view text, const structure_options& options,
                                         const mesh_limits& limits) {
@@ -24,17 +42,19 @@ result<read_molecule_result> parse_text(std::string_view text, const structure_o
     if (status readable = check_declared_format(*options.format, evidence); !readable) return readable;
   }
   const input_format format = options.format ? options.format->format : detected_format(evidence);
-  result<molecule> mol = [&]() -> result<molecule> {
+  if (status possible = check_assembly_possible(format, options); !possible) return possible;
+  result<structure_read> read = [&]() -> result<structure_read> {
     switch (format) {
-      case input_format::pqr: return parse_pqr(text, limits);
-      case input_format::xyzr: return parse_xyzr(text, limits);
-      case input_format::pdb: return parse_pdb(text, options, limits);
-      case input_format::mmcif: return parse_mmcif(text, options, limits);
+      case input_format::pqr: return as_structure(parse_pqr(text, limits));
+      case input_format::xyzr: return as_structure(parse_xyzr(text, limits));
+      case input_format::pdb: return read_pdb_structure(text, options, limits);
+      case input_format::mmcif: return read_mmcif_structure(text, options, limits);
     }
-    return parse_pqr(text, limits);
+    return as_structure(parse_pqr(text, limits));
   }();
-  if (!mol) return mol.error();
-  return read_molecule_result{std::move(*mol), format, radii_source(format, options)};
+  if (!read) return read.error();
+  return read_molecule_result{std::move(read->mol), format, radii_source(format, options), options.assembly,
+                              read->assembly_operators, read->assembly_merged_atoms};
 }
 
 }  // namespace

@@ -4,7 +4,9 @@
 /// checked against the content, or the format is detected from it (input_format.hpp), and the matching reader
 /// runs: PQR (pqr_reader.hpp), xyzr (xyzr_reader.hpp), PDB or mmCIF (pdb_mmcif_reader.hpp).
 
+#include <cstddef>
 #include <filesystem>
+#include <string>
 #include <string_view>
 
 #include "core/io/input_format.hpp"
@@ -18,10 +20,14 @@ struct read_molecule_result {
   molecule mol;
   input_format format = input_format::pqr;  ///< the format read
   std::string_view radii = "file";          ///< where the radii came from (radii_source)
+  std::string assembly = std::string(deposited_assembly);  ///< structure_options::assembly, built
+  std::size_t assembly_operators = 0;       ///< symmetry operators applied (structure_read); 0 for deposited_assembly
+  std::size_t assembly_merged_atoms = 0;    ///< copies merged on symmetry axes (structure_read)
 };
 
 /// Parses `bytes` (plain or gzip, decompressed to at most max_text_bytes). Errors: those of maybe_gunzip, of
-/// check_declared_format when options.format is set, and of the reader chosen.
+/// check_declared_format when options.format is set, errc::invalid_input for an assembly other than
+/// deposited_assembly asked of a PQR or xyzr input (no symmetry operators), and those of the reader chosen.
 result<read_molecule_result> read_molecule(std::string_view bytes, const structure_options& options,
                                            const mesh_limits& limits, std::size_t max_text_bytes);
 

@@ -1,5 +1,6 @@
 #include "core/io/structure/pdb_mmcif_reader.hpp"
 
+#include <gemmi/assembly.hpp>
 #include <gemmi/cif.hpp>
 #include <gemmi/mmcif.hpp>
 #include <gemmi/pdb.hpp>
@@ -16,6 +17,7 @@
 
 #include "core/io/atom_checks.hpp"
 #include "core/io/pqr_text.hpp"
+#include "core/io/structure/assembly_records.hpp"
 #include "core/io/text_lines.hpp"
 
 namespace tracemesh {
@@ -284,57 +286,249 @@ bool structure_has_atoms(const gemmi::Structure& structure) {
   return false;
 }
 
-/// The atoms of the first model that the options keep, with radii from the table.
-result<molecule> atoms_of(gemmi::Structure& structure, const structure_options& options, const mesh_limits& limits,
-                          std::string_view records) {
-  molecule mol;
-  if (structure.models.empty()) return detail::check_something_to_mesh(mol, records);
-  gemmi::add_entity_types(structure, /*overwrite=*/false);
-  for (const gemmi::Chain& chain : structure.models.front().chains) {
+/// The assembly id as messages quote it (ids from the options are plain; others are escaped).
+std::string quoted_assembly(const std::string& id) { return "'" + detail::quote_bytes(id, max_assembly_id_chars) + "'"; }
+
+/// Where a format lists its assemblies, as messages name it.
+struct assembly_listing {
+  const char* records;  ///< "REMARK 350 BIOMOLECULE" or "_pdbx_struct_assembly"
+  /// mmCIF: the assembly ids of the _pdbx_struct_assembly loop, also those gemmi could not read
+  std::vector<std::string> listed_ids;
+};
+
+std::string assembly_ids(const gemmi::Structure& structure) {
+  std::string ids;
+  for (const gemmi::Assembly& assembly : structure.assemblies) {
+    ids += (ids.empty() ? "" : ", ") + detail::quote_bytes(assembly.name, max_assembly_id_chars);
+  }
+  return ids;
+}
+
+status unknown_assembly(const gemmi::Structure& structure, const std::string& id, const assembly_listing& listing) {
+  const std::string asked = "assembly " + quoted_assembly(id);
+  const std::string deposited = std::string(deposited_assembly) + " (the file's own coordinates)";
+  if (std::find(listing.listed_ids.begin(), listing.listed_ids.end(), id) != listing.listed_ids.end()) {
+    return {errc::invalid_input, asked + " is in " + listing.records + " but was not read: the loop needs the "
+                                     "columns id, details, method_details, oligomeric_details and oligomeric_count, "
+                                     "details an author or software defined assembly"};
+  }
+  if (structure.assemblies.empty()) {
+    return {errc::invalid_input, asked + ": the file lists no assembly (" + listing.records + "); only " + deposited +
+                                     " can be meshed"};
+  }
+  return {errc::invalid_input, asked + " is not in the file: its assemblies are " + assembly_ids(structure) +
+                                   ", or " + deposited};
+}
+
+/// A rotation's matrix is orthonormal: MᵀM = I. Rounded to the 5 or 6 decimals files give, it is within 1e-5;
+/// a damaged digit moves an entry by 0.1 or more.
+constexpr double max_rotation_error = 0.01;
+
+status check_operator(const gemmi::Assembly::Operator& op, std::size_t index, const std::string& id) {
+  const gemmi::Transform& t = op.transform;
+  const std::string name = "assembly " + quoted_assembly(id) + ", operator " + std::to_string(index + 1) +
+                           (op.name.empty() ? "" : " ('" + detail::quote_bytes(op.name, 24) + "')");
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(t.vec.at(i))) return {errc::invalid_input, name + ": its translation is not a number"};
+    for (int j = 0; j < 3; ++j) {
+      if (!std::isfinite(t.mat[i][j])) return {errc::invalid_input, name + ": its matrix is not all numbers"};
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      double dot = 0;
+      for (int k = 0; k < 3; ++k) dot += t.mat[k][i] * t.mat[k][j];
+      if (std::fabs(dot - (i == j ? 1.0 : 0.0)) > max_rotation_error) {
+        return {errc::invalid_input, name + ": its matrix is not a rotation (its columns are not orthonormal)"};
+      }
+    }
+  }
+  return status::success();
+}
+
+/// Atoms of `model` that `gen` copies (every atom of its chains or subchains, before the options drop any), as
+/// gemmi::make_assembly selects them.
+std::size_t generator_atoms(const gemmi::Model& model, const gemmi::Assembly::Gen& gen) {
+  const bool all_chains = !gen.chains.empty() && gen.chains.front() == "(all)";
+  std::size_t atoms = 0;
+  for (const gemmi::Chain& chain : model.chains) {
+    const bool whole_chain = all_chains || gemmi::in_vector(chain.name, gen.chains);
+    for (const gemmi::Residue& residue : chain.residues) {
+      if (whole_chain || gemmi::in_vector(residue.subchain, gen.subchains)) atoms += residue.atoms.size();
+    }
+  }
+  return atoms;
+}
+
+std::string generator_targets(const gemmi::Assembly::Gen& gen) {
+  const bool by_chain = !gen.chains.empty();
+  std::string names;
+  for (const std::string& name : by_chain ? gen.chains : gen.subchains) {
+    names += (names.empty() ? "" : ", ") + detail::quote_bytes(name, 8);
+  }
+  return (by_chain ? "chains " : "label_asym_id subchains ") + names;
+}
+
+struct built_assembly {
+  gemmi::Model model;
+  std::size_t operators = 0;
+  std::size_t merged_atoms = 0;
+};
+
+std::size_t atom_count(const gemmi::Model& model) {
+  std::size_t atoms = 0;
+  for (const gemmi::Chain& chain : model.chains) {
+    for (const gemmi::Residue& residue : chain.residues) atoms += residue.atoms.size();
+  }
+  return atoms;
+}
+
+/// The assembly `id` of `structure`, once its operators and generators are checked on the first model as the
+/// file gives it (pdb_mmcif_reader.hpp).
+result<const gemmi::Assembly*> checked_assembly(const gemmi::Structure& structure, const std::string& id,
+                                                const assembly_listing& listing) {
+  const auto found = std::find_if(structure.assemblies.begin(), structure.assemblies.end(),
+                                  [&](const gemmi::Assembly& a) { return a.name == id; });
+  if (found == structure.assemblies.end()) return unknown_assembly(structure, id, listing);
+  std::size_t operators = 0;
+  for (const gemmi::Assembly::Gen& gen : found->generators) {
+    for (const gemmi::Assembly::Operator& op : gen.operators) {
+      if (status checked = check_operator(op, operators, id); !checked) return checked;
+      ++operators;
+    }
+    if (generator_atoms(structure.models.front(), gen) == 0) {
+      return status{errc::invalid_input, "assembly " + quoted_assembly(id) + " applies its operators to " +
+                                             generator_targets(gen) + ", which have no atom in the file's first model"};
+    }
+  }
+  if (operators == 0) return status{errc::invalid_input, "assembly " + quoted_assembly(id) + " has no symmetry operator"};
+  return &*found;
+}
+
+std::size_t operator_count(const gemmi::Assembly& assembly) {
+  std::size_t operators = 0;
+  for (const gemmi::Assembly::Gen& gen : assembly.generators) operators += gen.operators.size();
+  return operators;
+}
+
+/// `assembly` built from `model` (the atoms the options keep), its size checked against limits.max_atoms first.
+result<built_assembly> build_assembly(const gemmi::Assembly& assembly, const gemmi::Model& model,
+                                      const mesh_limits& limits) {
+  std::size_t atoms = 0;
+  for (const gemmi::Assembly::Gen& gen : assembly.generators) atoms += generator_atoms(model, gen) * gen.operators.size();
+  const std::size_t operators = operator_count(assembly);
+  if (atoms > limits.max_atoms) {
+    return status{errc::limit_exceeded, "assembly " + quoted_assembly(assembly.name) + " has " +
+                                            std::to_string(atoms) + " atoms (" + std::to_string(operators) +
+                                            " operators), more than " + std::to_string(limits.max_atoms) +
+                                            " (limits.max_atoms)"};
+  }
+  // AddNumber: every copy of chain A is a chain of its own (A1, A2, ...), whatever the count; Short runs out of
+  // names after 3,906 chains.
+  built_assembly built{gemmi::make_assembly(assembly, model, gemmi::HowToNameCopiedChain::AddNumber, nullptr),
+                       operators, 0};
+  // An atom on a symmetry axis (an ion on a 5-fold axis) is placed by several operators at one position: kept
+  // once, as gemmi's transform_to_assembly does, or the Gaussian density would count it once per copy.
+  const std::size_t copied = atom_count(built.model);
+  gemmi::merge_atoms_in_expanded_model(built.model, gemmi::UnitCell());
+  built.merged_atoms = copied - atom_count(built.model);
+  return built;
+}
+
+/// Drops from `model` the atoms the options do not keep: waters, ligands and hydrogens as asked, and the
+/// alternate locations not chosen (chosen_conformers, alternative_residues).
+void keep_chosen_atoms(gemmi::Model& model, const structure_options& options) {
+  for (gemmi::Chain& chain : model.chains) {
     const std::vector<bool> alternative = alternative_residues(chain);
     for (std::size_t r = 0; r < chain.residues.size(); ++r) {
-      const gemmi::Residue& residue = chain.residues[r];
-      if (is_water(residue) ? !options.keep_waters : is_ligand(residue) && !options.keep_ligands) continue;
+      gemmi::Residue& residue = chain.residues[r];
+      if (is_water(residue) ? !options.keep_waters : is_ligand(residue) && !options.keep_ligands) {
+        residue.atoms.clear();
+        continue;
+      }
       const std::vector<bool> keep = chosen_conformers(residue);
+      std::vector<gemmi::Atom> kept;
+      kept.reserve(residue.atoms.size());
       for (std::size_t i = 0; i < residue.atoms.size(); ++i) {
         const gemmi::Atom& a = residue.atoms[i];
         if (!keep[i] || (alternative[r] && a.altloc != '\0')) continue;
         if (a.is_hydrogen() && !options.keep_hydrogens) continue;
+        kept.push_back(a);
+      }
+      residue.atoms = std::move(kept);
+    }
+  }
+}
+
+/// Appends every atom of `model` to `mol` with its radius from the table, each checked (element, radius,
+/// occupancy, coordinate range) and named as the model names it when it fails.
+status append_atoms(const gemmi::Model& model, const structure_options& options, const mesh_limits& limits,
+                    molecule& mol) {
+  for (const gemmi::Chain& chain : model.chains) {
+    for (const gemmi::Residue& residue : chain.residues) {
+      for (const gemmi::Atom& a : residue.atoms) {
         if (a.element == gemmi::El::X) {
-          return status{errc::invalid_input, atom_label(chain, residue, a) + ": no element (no element symbol, "
-                                                                              "and none follows from the atom name)"};
+          return {errc::invalid_input, atom_label(chain, residue, a) + ": no element (no element symbol, and none "
+                                                                         "follows from the atom name)"};
         }
         const std::optional<double> radius = vdw_radius(options.radii, a.element.name());
         if (!radius) {
-          return status{errc::invalid_input,
-                        atom_label(chain, residue, a) + ": element " + a.element.name() + " has no radius in the " +
-                            std::string(radii_set_name(options.radii)) +
-                            " set (choose another radii set, drop ligands, or give radii in a PQR file)"};
+          return {errc::invalid_input, atom_label(chain, residue, a) + ": element " + a.element.name() +
+                                           " has no radius in the " + std::string(radii_set_name(options.radii)) +
+                                           " set (choose another radii set, drop ligands, or give radii in a PQR "
+                                           "file)"};
         }
         atom parsed;
         parsed.center = {a.pos.x, a.pos.y, a.pos.z};
         parsed.radius = *radius;
-        if (std::isnan(a.occ)) {
-          return status{errc::invalid_input, atom_label(chain, residue, a) + ": occupancy is not a number"};
-        }
+        if (std::isnan(a.occ)) return {errc::invalid_input, atom_label(chain, residue, a) + ": occupancy is not a number"};
         if (std::string problem = detail::atom_range_problem(parsed, limits); !problem.empty()) {
-          return status{errc::invalid_input, atom_label(chain, residue, a) + ": " + problem};
+          return {errc::invalid_input, atom_label(chain, residue, a) + ": " + problem};
         }
         detail::add_atom(mol, parsed);
       }
     }
   }
-  if (status usable = detail::check_something_to_mesh(mol, records); !usable) {
-    if (mol.atoms.empty() && structure_has_atoms(structure)) {
-      return status{errc::nothing_to_mesh, "no atoms with radius > 0: the options dropped every atom (waters " +
-                                               std::string(options.keep_waters ? "kept" : "dropped") +
-                                               ", ligands " + (options.keep_ligands ? "kept" : "dropped") +
-                                               ", hydrogens " + (options.keep_hydrogens ? "kept" : "dropped") +
-                                               ")"};
-    }
-    return usable;
+  return status::success();
+}
+
+/// The atoms of the first model, or of the assembly the options ask for, that the options keep, with radii from
+/// the table. The deposited atoms are checked first, so that an error names an atom as the file does.
+result<structure_read> atoms_of(gemmi::Structure& structure, const structure_options& options,
+                                const mesh_limits& limits, std::string_view records,
+                                const assembly_listing& listing) {
+  structure_read read;
+  if (structure.models.empty()) return detail::check_something_to_mesh(read.mol, records);
+  gemmi::add_entity_types(structure, /*overwrite=*/false);
+  const gemmi::Assembly* assembly = nullptr;
+  if (options.assembly != deposited_assembly) {
+    result<const gemmi::Assembly*> checked = checked_assembly(structure, options.assembly, listing);
+    if (!checked) return checked.error();
+    assembly = *checked;
   }
-  return mol;
+  const bool had_atoms = structure_has_atoms(structure);
+  const auto check_usable = [&](const molecule& mol) -> status {
+    status usable = detail::check_something_to_mesh(mol, records);
+    if (usable || !mol.atoms.empty() || !had_atoms) return usable;
+    return {errc::nothing_to_mesh, "no atoms with radius > 0: the options dropped every atom (waters " +
+                                       std::string(options.keep_waters ? "kept" : "dropped") + ", ligands " +
+                                       (options.keep_ligands ? "kept" : "dropped") + ", hydrogens " +
+                                       (options.keep_hydrogens ? "kept" : "dropped") + ")"};
+  };
+  gemmi::Model& deposited = structure.models.front();
+  keep_chosen_atoms(deposited, options);
+  if (status appended = append_atoms(deposited, options, limits, read.mol); !appended) return appended;
+  if (status usable = check_usable(read.mol); !usable) return usable;
+  if (!assembly) return read;
+
+  result<built_assembly> built = build_assembly(*assembly, deposited, limits);
+  if (!built) return built.error();
+  read.mol = molecule{};
+  read.assembly_operators = built->operators;
+  read.assembly_merged_atoms = built->merged_atoms;
+  if (status appended = append_atoms(built->model, options, limits, read.mol); !appended) return appended;
+  if (status usable = check_usable(read.mol); !usable) return usable;
+  return read;
 }
 
 /// quote_bytes of as many leading bytes of `bytes` as fit in `max_chars` characters once escaped (an escaped byte
@@ -504,15 +698,73 @@ status check_gemmi_integers(const gemmi::cif::Block& block) {
   return status::success();
 }
 
+
+
+/// What the mmCIF generator rows of the requested assembly name.
+struct requested_generators {
+  std::size_t operators = 0;            ///< operator ids named over its rows (0 for deposited_assembly)
+  std::vector<std::string> listed_ids;  ///< _pdbx_struct_assembly.id values, for unknown_assembly
+};
+
+/// The checks of the generator rows before gemmi reads them (assembly_records.hpp): every oper_expression is
+/// bounded for gemmi's parser (its ids over all rows at most limits.max_atoms); those of the requested assembly
+/// are parsed strictly and each id must be in _pdbx_struct_oper_list.
+result<requested_generators> check_assembly_generators(gemmi::cif::Block& block, const std::string& assembly,
+                                                       const mesh_limits& limits) {
+  requested_generators requested;
+  for (const std::string& raw : block.find_values("_pdbx_struct_assembly.id")) {
+    requested.listed_ids.push_back(gemmi::cif::as_string(raw));
+  }
+  std::vector<std::string> operator_list;
+  for (const std::string& raw : block.find_values("_pdbx_struct_oper_list.id")) {
+    operator_list.push_back(gemmi::cif::as_string(raw));
+  }
+  std::size_t budget = limits.max_atoms;  // ids gemmi may still make
+  for (const auto row : block.find("_pdbx_struct_assembly_gen.", {"assembly_id", "oper_expression"})) {
+    const std::string expression = row.str(1);
+    result<std::size_t> made = detail::gemmi_operator_id_count(expression, budget);
+    if (!made) return made.error();
+    budget -= *made;
+    if (assembly == deposited_assembly || row.str(0) != assembly) continue;
+    result<std::vector<std::string>> ids = detail::operator_ids(expression, limits.max_atoms);
+    if (!ids) return ids.error();
+    for (const std::string& id : *ids) {
+      if (std::find(operator_list.begin(), operator_list.end(), id) == operator_list.end()) {
+        return status{errc::invalid_input, "mmCIF assembly " + quoted_assembly(assembly) + ": operator '" +
+                                               detail::quote_bytes(id, 24) + "' of oper_expression '" +
+                                               detail::quote_bytes(expression, 40) +
+                                               "' is not in _pdbx_struct_oper_list"};
+      }
+    }
+    requested.operators += ids->size();
+  }
+  return requested;
+}
+
 }  // namespace
 
-result<molecule> parse_pdb(std::string_view text, const structure_options& options, const mesh_limits& limits) {
+result<structure_read> read_pdb_structure(std::string_view text, const structure_options& options,
+                                          const mesh_limits& limits) {
   if (status checked = check_pdb_text(text, limits); !checked) return checked;
+  const bool wants_assembly = options.assembly != deposited_assembly;
+  std::size_t biomt_operators = 0;
+  if (wants_assembly) {
+    result<std::size_t> operators = detail::check_biomt_records(text, options.assembly, limits.max_line_bytes);
+    if (!operators) return operators.error();
+    biomt_operators = *operators;
+  }
   const std::string prepared = text_for_gemmi(text);
   const std::string_view input = prepared.empty() ? text : std::string_view(prepared);
   try {
     gemmi::Structure structure = gemmi::read_pdb_from_memory(input.data(), input.size(), "input");
-    return atoms_of(structure, options, limits, "ATOM or HETATM record");
+    if (const gemmi::Assembly* assembly = wants_assembly ? structure.find_assembly(options.assembly) : nullptr;
+        assembly && operator_count(*assembly) != biomt_operators) {
+      // check_biomt_records follows gemmi's rules; a difference means they drifted apart.
+      return status{errc::invalid_input, "REMARK 350 biomolecule " + quoted_assembly(options.assembly) + ": " +
+                                             std::to_string(biomt_operators) + " BIOMT operators, of which gemmi read " +
+                                             std::to_string(operator_count(*assembly))};
+    }
+    return atoms_of(structure, options, limits, "ATOM or HETATM record", {"REMARK 350 BIOMOLECULE", {}});
   } catch (const std::runtime_error& error) {
     return gemmi_error("PDB", error);
   } catch (const std::logic_error& error) {  // gemmi's number parsers throw std::invalid_argument
@@ -520,7 +772,8 @@ result<molecule> parse_pdb(std::string_view text, const structure_options& optio
   }
 }
 
-result<molecule> parse_mmcif(std::string_view text, const structure_options& options, const mesh_limits& limits) {
+result<structure_read> read_mmcif_structure(std::string_view text, const structure_options& options,
+                                            const mesh_limits& limits) {
   if (text.find('\0') != std::string_view::npos) {
     return status{errc::invalid_input, "NUL byte (binary data, not mmCIF text)"};
   }
@@ -533,7 +786,7 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
   try {
     if (document.blocks.empty()) return status{errc::nothing_to_mesh, "no atoms with radius > 0: no mmCIF data block"};
     // The coordinates are the first block's; later blocks (restraints, other entries) are not read.
-    const gemmi::cif::Block& first = document.blocks.front();
+    gemmi::cif::Block& first = document.blocks.front();
     if (!has_atom_site(first)) {
       for (std::size_t b = 1; b < document.blocks.size(); ++b) {
         if (has_atom_site(document.blocks[b])) {
@@ -543,17 +796,42 @@ result<molecule> parse_mmcif(std::string_view text, const structure_options& opt
         }
       }
     }
-    if (status checked = check_atom_site(document.blocks.front(), limits); !checked) return checked;
-    if (has_atom_site(first)) fill_atom_site_columns(document.blocks.front());
-    if (status checked = check_gemmi_integers(document.blocks.front()); !checked) return checked;
+    if (status checked = check_atom_site(first, limits); !checked) return checked;
+    if (has_atom_site(first)) fill_atom_site_columns(first);
+    if (status checked = check_gemmi_integers(first); !checked) return checked;
+    result<requested_generators> generators = check_assembly_generators(first, options.assembly, limits);
+    if (!generators) return generators.error();
     gemmi::Structure structure = gemmi::make_structure_from_block(first);
     document = gemmi::cif::Document();  // free the text's copy before the atoms are made
-    return atoms_of(structure, options, limits, "_atom_site row");
+    if (const gemmi::Assembly* assembly =
+            options.assembly != deposited_assembly ? structure.find_assembly(options.assembly) : nullptr;
+        assembly && operator_count(*assembly) != generators->operators) {
+      return status{errc::invalid_input,
+                    "mmCIF assembly " + quoted_assembly(options.assembly) + ": _pdbx_struct_assembly_gen names " +
+                        std::to_string(generators->operators) + " operators, of which " +
+                        std::to_string(operator_count(*assembly)) +
+                        " were read (the loops need _pdbx_struct_assembly_gen.asym_id_list and "
+                        "_pdbx_struct_oper_list.id, type, matrix[i][j] and vector[i])"};
+    }
+    return atoms_of(structure, options, limits, "_atom_site row",
+                    {"_pdbx_struct_assembly", std::move(generators->listed_ids)});
   } catch (const std::runtime_error& error) {
     return gemmi_error("mmCIF", error);
   } catch (const std::logic_error& error) {  // gemmi's as_int throws std::invalid_argument (a fuzz find: it
     return gemmi_error("mmCIF", error);      // terminated tracemeshd on an upload with auth_seq_id ';')
   }
+}
+
+result<molecule> parse_pdb(std::string_view text, const structure_options& options, const mesh_limits& limits) {
+  result<structure_read> read = read_pdb_structure(text, options, limits);
+  if (!read) return read.error();
+  return std::move(read->mol);
+}
+
+result<molecule> parse_mmcif(std::string_view text, const structure_options& options, const mesh_limits& limits) {
+  result<structure_read> read = read_mmcif_structure(text, options, limits);
+  if (!read) return read.error();
+  return std::move(read->mol);
 }
 
 }  // namespace tracemesh
