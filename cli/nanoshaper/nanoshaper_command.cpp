@@ -42,19 +42,23 @@ result<std::string> read_configuration(const fs::path& path) {
   return text;
 }
 
-/// The job of the configuration file, its warnings printed.
-result<nanoshaper_job> read_configured_job(const fs::path& configuration, std::FILE* diagnostics) {
+/// The job of the configuration file.
+result<nanoshaper_job> read_configured_job(const fs::path& configuration) {
   const result<std::string> text = read_configuration(configuration);
   if (!text) return text.error();
   const result<prm_file> file = parse_prm(*text);
   if (!file) return status(file.error().code(), configuration.string() + ": " + file.error().message());
   result<nanoshaper_job> job = read_job(*file);
   if (!job) return status(job.error().code(), configuration.string() + ": " + job.error().message());
-  for (const std::string& warning : job->warnings) {
+  return job;
+}
+
+/// The job's warnings and substitution, one line each.
+void print_diagnostics(const nanoshaper_job& job, const fs::path& configuration, std::FILE* diagnostics) {
+  for (const std::string& warning : job.warnings) {
     std::fprintf(diagnostics, "tracemesh: warning: %s: %s\n", configuration.string().c_str(), warning.c_str());
   }
-  if (!job->substitution.empty()) std::fprintf(diagnostics, "tracemesh: %s\n", job->substitution.c_str());
-  return job;
+  if (!job.substitution.empty()) std::fprintf(diagnostics, "tracemesh: %s\n", job.substitution.c_str());
 }
 
 /// The files' bytes, in the order of mesh_files(job).
@@ -96,13 +100,17 @@ fs::path in_output_folder(const nanoshaper_job& job, const fs::path& path) {
   return job.output_folder.empty() || path.is_absolute() ? path : job.output_folder / path;
 }
 
-result<mesh_output> mesh_xyzr_file(const nanoshaper_job& job, progress_token& progress, std::FILE* diagnostics) {
+/// Reads and meshes the job's xyzr file. The job's diagnostics are printed once the file is read: a configuration
+/// or xyzr file that cannot be used fails with its one error line alone.
+result<mesh_output> mesh_xyzr_file(const nanoshaper_job& job, const fs::path& configuration, progress_token& progress,
+                                   std::FILE* diagnostics) {
   const mesh_limits limits;
   structure_options input;
   input.format = declared_format{input_format::xyzr, "XYZR_FileName"};
   const fs::path xyzr = in_output_folder(job, job.xyzr);
   const result<read_molecule_result> read = read_molecule_file(xyzr, input, limits);
   if (!read) return status(read.error().code(), "XYZR_FileName " + xyzr.string() + ": " + read.error().message());
+  print_diagnostics(job, configuration, diagnostics);
   result<mesh_output> meshed = mesh_molecule(read->mol, job.params, limits, progress);
   if (meshed && !meshed->fallback_reason.empty()) {
     std::fprintf(diagnostics, "tracemesh: warning: the trace path failed (%s); the lattice path made this mesh\n",
@@ -135,13 +143,13 @@ nanoshaper_command_line parse_nanoshaper_command_line(const std::vector<std::str
 
 status run_nanoshaper(const fs::path& configuration, progress_token& progress, std::FILE* diagnostics,
                       std::FILE* summary) {
-  const result<nanoshaper_job> job = read_configured_job(configuration, diagnostics);
+  const result<nanoshaper_job> job = read_configured_job(configuration);
   if (!job) return job.error();
   std::vector<fs::path> outputs;
   for (const fs::path& name : mesh_files(*job)) outputs.push_back(in_output_folder(*job, name));
   if (status prepared = prepare_output_folder(*job, outputs); !prepared) return prepared;
 
-  const result<mesh_output> meshed = mesh_xyzr_file(*job, progress, diagnostics);
+  const result<mesh_output> meshed = mesh_xyzr_file(*job, configuration, progress, diagnostics);
   if (!meshed) return meshed.error();
   const result<std::vector<std::string>> encoded = encode(*job, meshed->mesh);
   if (!encoded) return encoded.error();

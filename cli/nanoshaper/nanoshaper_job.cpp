@@ -98,16 +98,18 @@ std::map<std::string, const prm_entry*, std::less<>> last_entries(const prm_file
   return last;
 }
 
-/// The keys read_job does not use: unknown ones, and switches asking for what tracemesh does not compute.
-status warn_about_other_keys(const std::map<std::string, const prm_entry*, std::less<>>& entries,
+/// The keys read_job does not use, in file order: unknown ones, and switches asking for what tracemesh does not
+/// compute. `last` holds the entry of each key that counts.
+status warn_about_other_keys(const prm_file& file, const std::map<std::string, const prm_entry*, std::less<>>& last,
                              std::vector<std::string>& warnings) {
-  for (const auto& [key, entry] : entries) {
-    const std::string where = "line " + std::to_string(entry->line) + ": ";
-    if (contains(honoured_keys, key) || contains(tuning_keys, key)) continue;
+  for (const prm_entry& entry : file.entries) {
+    const std::string& key = entry.key;
+    if (last.at(key) != &entry || contains(honoured_keys, key) || contains(tuning_keys, key)) continue;
+    const std::string where = "line " + std::to_string(entry.line) + ": ";
     if (contains(unsupported_when_true, key)) {
-      const result<bool> on = parse_bool(*entry);
+      const result<bool> on = parse_bool(entry);
       if (!on) return on.error();
-      if (*on) warnings.push_back(where + key + " = " + entry->value + " is not supported (ignored)");
+      if (*on) warnings.push_back(where + key + " = " + entry.value + " is not supported (ignored)");
       continue;
     }
     warnings.push_back(where + "unknown key " + key + " (ignored)");
@@ -117,10 +119,11 @@ status warn_about_other_keys(const std::map<std::string, const prm_entry*, std::
 
 class job_reader {
  public:
-  job_reader(const prm_file& file, nanoshaper_job& job) : job_(job), entries_(last_entries(file, job.warnings)) {}
+  job_reader(const prm_file& file, nanoshaper_job& job)
+      : file_(file), job_(job), entries_(last_entries(file, job.warnings)) {}
 
   status read() {
-    if (status checked = warn_about_other_keys(entries_, job_.warnings); !checked) return checked;
+    if (status checked = warn_about_other_keys(file_, entries_, job_.warnings); !checked) return checked;
     for (status step : {read_mode(), read_surface(), read_grid_scale(), read_threads(), read_outputs(),
                         read_limits()}) {
       if (!step) return step;
@@ -186,9 +189,9 @@ class job_reader {
     const gaussian_surface substitute = name == "ses" ? ses_substitute : skin_substitute;
     job_.params.d = substitute.d;
     job_.params.t0 = substitute.t0;
-    job_.substitution = "Surface = " + name + ": tracemesh meshes the Gaussian surface d = " +
+    job_.substitution = "Surface = " + name + ": meshing the Gaussian surface d = " +
                         proto::canonical_number(substitute.d) + ", t0 = " + proto::canonical_number(substitute.t0) +
-                        " instead (see docs/nanoshaper.md for how close it comes to NanoShaper's " +
+                        " in its place (docs/nanoshaper.md: how close it comes to NanoShaper's " +
                         (name == "ses" ? "SES" : "skin surface") + ")";
     const bool ses = name == "ses";
     const char* parameter = ses ? "Probe_Radius" : "Skin_Surface_Parameter";
@@ -265,6 +268,7 @@ class job_reader {
     return status::success();
   }
 
+  const prm_file& file_;
   nanoshaper_job& job_;
   std::map<std::string, const prm_entry*, std::less<>> entries_;
 };

@@ -37,8 +37,8 @@ inline constexpr const char* mesh_file_stem = "triangulatedSurf";
 /// The Gaussian surfaces meshed for Surface = ses and skin: the (d, t0) whose area and volume come closest to
 /// NanoShaper's SES (probe 1.4 Å) and skin (s = 0.45) on the test molecules (bench/nanoshaper_equivalence.py fit;
 /// the table is in docs/nanoshaper.md). Neither is the SES: a Gaussian surface has no probe and no concave arcs.
-inline constexpr gaussian_surface ses_substitute{-1.5, 1.0};
-inline constexpr gaussian_surface skin_substitute{-1.5, 1.0};
+inline constexpr gaussian_surface ses_substitute{-1.1, 2.0};
+inline constexpr gaussian_surface skin_substitute{-1.25, 2.0};
 /// The probe radius and skin parameter the substitutes were measured at (TABI-PB's values); other values are
 /// warned about, since they do not change the Gaussian surface.
 inline constexpr double substitute_probe_radius = 1.4;
