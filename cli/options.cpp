@@ -114,6 +114,10 @@ void describe_options(CLI::App& app, cli_options& options, parameter_texts& text
   app.add_option("--hydrogens", texts["hydrogens"], "PDB/mmCIF: keep (default) | drop hydrogen atoms");
   app.add_option("--waters", texts["waters"], "PDB/mmCIF: keep | drop (default) water molecules");
   app.add_option("--ligands", texts["ligands"], "PDB/mmCIF: keep (default) | drop ligands, ions, cofactors");
+  app.add_option("--assembly", texts["assembly"],
+                 "PDB/mmCIF: asu (default: the file's own coordinates) | the id of a biological assembly the file "
+                 "lists (REMARK 350 BIOMOLECULE, _pdbx_struct_assembly), built from its symmetry operators")
+      ->type_name("ID|asu");
   app.add_option("--threads", options.params.threads, "Worker threads, 0 = all cores (never changes the output)")
       ->check(CLI::Range(0U, max_threads));
   app.add_option("--format", format_text,

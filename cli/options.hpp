@@ -2,8 +2,8 @@
 /// @file options.hpp
 /// The `tracemesh` command line:
 ///   tracemesh INPUT[.gz] -o OUT.{off,drc,glb,ply,vert} [--radii bondi|mantina] [--hydrogens keep|drop]
-///             [--waters keep|drop] [--ligands keep|drop] [--density 1] [--d -1] [--t0 1] [--method trace|lattice]
-///             [--refine none|full] [--cavities keep|drop] [--trace-degree N] [--trace-step F] [--trace-cos-bound F]
+///             [--waters keep|drop] [--ligands keep|drop] [--assembly ID|asu] [--density 1] [--d -1] [--t0 1]
+///             [--method trace|lattice] [--refine none|full] [--cavities keep|drop] [--trace-degree N] [--trace-step F] [--trace-cos-bound F]
 ///             [--trace-extreme-tolerance F] [--threads N] [--format off|draco|glb|glb-raw|ply|msms] [--report FILE|-] [--verbose]
 /// Parameters are parsed exactly as the HTTP service parses them (proto::parse_mesh_params; option --x-y is the
 /// service's field x_y), with the same defaults (mesh_params{}); an error names the option ("trace-step must be

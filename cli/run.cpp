@@ -116,7 +116,7 @@ status run(const cli_options& options, progress_token& progress) {
   if (status written = write_outputs(options, *encoded); !written) return written;
   if (options.report) {
     nlohmann::json report =
-        proto::report_to_json(output, options.params, proto::input_summary{read->format, std::string(read->radii)});
+        proto::report_to_json(output, options.params, proto::summarize_input(*read));
     if (!options.format.msms) {
       const proto::mesh_format format = options.format.mesh;
       report["encodings"] = {{std::string(proto::format_name(format)),

@@ -16,7 +16,23 @@ nlohmann::json parameters_to_json(const mesh_params& params) {
 }
 
 nlohmann::json input_to_json(const input_summary& input) {
-  return {{"format", std::string(input_format_name(input.format))}, {"radii", input.radii}};
+  nlohmann::json json = {{"format", std::string(input_format_name(input.format))}, {"radii", input.radii}};
+  if (input.assembly) {
+    json["assembly"] = {{"id", input.assembly->id},
+                        {"operators", input.assembly->operators},
+                        {"atoms", input.assembly->atoms},
+                        {"merged_atoms", input.assembly->merged_atoms}};
+  }
+  return json;
+}
+
+input_summary summarize_input(const read_molecule_result& read) {
+  input_summary summary(read.format, std::string(read.radii));
+  if (read.assembly != deposited_assembly) {
+    summary.assembly =
+        assembly_summary{read.assembly, read.assembly_operators, read.mol.atoms.size(), read.assembly_merged_atoms};
+  }
+  return summary;
 }
 
 nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& stats) {

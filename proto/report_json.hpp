@@ -4,25 +4,46 @@
 /// Schema: the MeshReport component of proto/openapi.json. Field names are snake_case; lengths in Å, areas Å²,
 /// volumes Å³, angles degrees, timings seconds. Non-finite numbers are written as null.
 
+#include <cstddef>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
 #include "core/io/input_format.hpp"
+#include "core/io/structure/molecule_reader.hpp"
 #include "core/mesher.hpp"
 #include "proto/mesh_encoders.hpp"
 
 namespace tracemesh::proto {
 
-/// What was read: the input's format and where its radii came from (read_molecule_result, radii_source).
+/// The biological assembly meshed, when one was built from the file's symmetry operators.
+struct assembly_summary {
+  std::string id;              ///< the assembly id asked for (structure_options::assembly)
+  std::size_t operators = 0;   ///< symmetry operators applied, over all its generators
+  std::size_t atoms = 0;       ///< atoms of the assembly read (every copy, after the reader's options)
+  std::size_t merged_atoms = 0;  ///< copies of an atom on a symmetry axis merged into one (pdb_mmcif_reader.hpp)
+};
+
+/// What was read: the input's format, where its radii came from (read_molecule_result, radii_source) and the
+/// assembly built (none: the file's own atoms, deposited_assembly).
 struct input_summary {
   input_format format = input_format::pqr;
   std::string radii = "file";  ///< "file" (PQR, xyzr) or the radii table's name ("bondi", "mantina")
+  std::optional<assembly_summary> assembly;  ///< nullopt: the file's own atoms (deposited_assembly)
+
+  input_summary() = default;
+  // A constructor, not an aggregate: callers that name the format and radii only need not name the assembly.
+  input_summary(input_format format_read, std::string radii_source, std::optional<assembly_summary> built = {})
+      : format(format_read), radii(std::move(radii_source)), assembly(std::move(built)) {}
 };
 
-/// Report of one meshing run: engine_version, parameters {density, d, t0}, input {format, radii} (when `input` is
-/// given: the caller read the molecule), method ("trace" | "lattice"),
+/// The summary of what read_molecule read (its assembly only when one was built).
+input_summary summarize_input(const read_molecule_result& read);
+
+/// Report of one meshing run: engine_version, parameters {density, d, t0}, input {format, radii, assembly?} (when
+/// `input` is given: the caller read the molecule), method ("trace" | "lattice"),
 /// method_used (method_used(): lattice when a trace job fell back), fallback (output.fallback_reason, null
 /// when empty), refine ("none" | "full"), cavity_mode ("keep" | "drop", params.cavities), dropped_components
 /// (enclosed components removed by cavities=drop), trace (trace_to_json when the trace path made the mesh, else
@@ -38,7 +59,8 @@ nlohmann::json report_to_json(const mesh_output& output, const mesh_params& para
 
 /// The parts of report_to_json, for callers that assemble their own documents.
 nlohmann::json parameters_to_json(const mesh_params& params);
-/// {"format": "pqr" | "pdb" | "mmcif" | "xyzr", "radii": "file" | "bondi" | "mantina"}.
+/// {"format": "pqr" | "pdb" | "mmcif" | "xyzr", "radii": "file" | "bondi" | "mantina"} and, when an assembly was
+/// built, "assembly": {"id", "operators", "atoms", "merged_atoms"}.
 nlohmann::json input_to_json(const input_summary& input);
 /// The trace path's section: {parameters: {legendre_degree, step_fraction, step (Å, stats.step), line_spacing (Å,
 /// stats.line_spacing), cos_bound, extreme_tolerance}, line_offset ([y, z] in units of h̃), grid_retries, lines,

@@ -246,6 +246,33 @@ TEST_F(TracemeshCli, ReadsPdbWithTheInputOptions) {
                           "--waters must be keep or drop");
 }
 
+// The deposited 2BUK entry (one coat protein, three calcium ions) meshed as its 60-copy capsid (issue 35): the report
+// names the assembly, and the mesh is certified. Mantina's radii: the Bondi set has none for calcium. The lattice
+// path at 0.3 v/Å² keeps the run short (85,712 atoms).
+TEST_F(TracemeshCli, MeshesTheBiologicalAssemblyOfADepositedEntry) {
+  const std::string entry = tracemesh::testing::test_data_path("molecules/2buk.pdb.gz").string();
+  const fs::path glb = path("capsid.glb");
+  const run_result meshed = run({entry, "--assembly", "1", "--radii", "mantina", "-o", glb.string(), "--method",
+                                 "lattice", "--density", "0.3", "--report", "-"});
+  ASSERT_EQ(meshed.exit_code, 0) << meshed.err;
+  const nlohmann::json report = nlohmann::json::parse(meshed.out);
+  EXPECT_EQ(report.at("input").at("assembly"),
+            nlohmann::json({{"id", "1"}, {"operators", 60}, {"atoms", 85712}, {"merged_atoms", 88}}));
+  EXPECT_EQ(report.at("atoms_meshed"), 85712) << "60 × 1,430 atoms, the 88 copies of ions on symmetry axes merged";
+  EXPECT_EQ(report.at("certificate").at("certified"), true) << report.at("certificate");
+  EXPECT_GT(fs::file_size(glb), 0U);
+
+  expect_one_line_failure(run({entry, "--assembly", "9", "-o", path("x.glb").string()}), 1,
+                          "assembly '9' is not in the file: its assemblies are 1, or asu");
+  expect_one_line_failure(run({entry, "--assembly", "1 2", "-o", path("x.glb").string()}), 2,
+                          "--assembly must be asu or an assembly id");
+  expect_one_line_failure(run({tracemesh::testing::molecule_path("gly.pqr").string(), "--assembly", "1", "-o",
+                               path("x.off").string()}),
+                          1, "assembly '1': a PQR file has no symmetry operators");
+  EXPECT_FALSE(fs::exists(path("x.glb")));
+  EXPECT_FALSE(fs::exists(path("x.off")));
+}
+
 TEST_F(TracemeshCli, BinaryInput) {
   std::string bytes(4096, '\0');
   for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<char>(i * 7919 % 256);

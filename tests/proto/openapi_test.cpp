@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <regex>
 #include <set>
 #include <string>
 
@@ -190,6 +191,20 @@ TEST(OpenApi, EnumerationsMatchTheCode) {
                                                std::string(radii_set_name(radii_set::mantina))};
   EXPECT_EQ(strings_of(schema(doc, "InputSummary").at("properties").at("radii").at("enum")), radii_sources);
 
+  // The assembly id's pattern accepts what parse_structure_options accepts.
+  const nlohmann::json& assembly = schema(doc, "AssemblyId");
+  EXPECT_EQ(assembly.at("default"), deposited_assembly);
+  EXPECT_EQ(assembly.at("pattern"), "^[A-Za-z0-9_.-]{1," + std::to_string(max_assembly_id_chars) + "}$");
+  const std::regex pattern(assembly.at("pattern").get<std::string>());
+  for (const std::string& id : {std::string("asu"), std::string("1"), std::string("PAU"), std::string("a_b-c.d"),
+                                std::string(), std::string("1 2"), std::string("1,2"), std::string("(1)"),
+                                std::string(32, '9'), std::string(33, '9')}) {
+    const result<structure_options> parsed = parse_structure_options([&](std::string_view name) {
+      return name == "assembly" ? std::optional<std::string>(id) : std::nullopt;
+    });
+    EXPECT_EQ(parsed.ok(), std::regex_match(id, pattern)) << "'" << id << "'";
+  }
+
   std::set<std::string> stages;
   for (int s = 0; s <= static_cast<int>(mesh_stage::done); ++s) stages.insert(stage_name(static_cast<mesh_stage>(s)));
   EXPECT_EQ(strings_of(schema(doc, "Stage").at("enum")), stages);
@@ -212,7 +227,12 @@ TEST(OpenApi, ReportSchemaMatchesReportToJson) {
   const nlohmann::json with_input = report_to_json(output, lattice, input_summary{input_format::pdb, "mantina"});
   EXPECT_EQ(with_input.at("input"), nlohmann::json({{"format", "pdb"}, {"radii", "mantina"}}));
   EXPECT_EQ(strings_of(schema(doc, "InputSummary").at("required")), keys_of(with_input.at("input")));
-  EXPECT_EQ(keys_of(schema(doc, "InputSummary").at("properties")), keys_of(with_input.at("input")));
+  input_summary capsid{input_format::pdb, "bondi", assembly_summary{"1", 60, 85712, 88}};
+  const nlohmann::json with_assembly = report_to_json(output, lattice, capsid).at("input");
+  EXPECT_EQ(keys_of(schema(doc, "InputSummary").at("properties")), keys_of(with_assembly))
+      << "assembly: present when one was built";
+  EXPECT_EQ(strings_of(schema(doc, "AssemblySummary").at("required")), keys_of(with_assembly.at("assembly")));
+  EXPECT_EQ(keys_of(schema(doc, "AssemblySummary").at("properties")), keys_of(with_assembly.at("assembly")));
   EXPECT_EQ(keys_of(report_to_json(output, trace)), keys_of(report)) << "trace is null or an object, never absent";
   const nlohmann::json trace_section = report_to_json(output, trace).at("trace");
   EXPECT_EQ(strings_of(schema(doc, "TraceReport").at("required")), keys_of(trace_section));

@@ -337,5 +337,22 @@ TEST(ReportJson, EmptyOutput) {
   EXPECT_EQ(json["quality"]["edge_ratio_histogram"].size(), 10U);
 }
 
+TEST(ReportJson, TheInputNamesTheAssemblyBuiltAndOnlyThen) {
+  read_molecule_result read;
+  read.mol.atoms.resize(120);
+  read.format = input_format::mmcif;
+  read.radii = "mantina";
+  EXPECT_EQ(input_to_json(summarize_input(read)), nlohmann::json({{"format", "mmcif"}, {"radii", "mantina"}}))
+      << "asu: the file's own atoms, no assembly section";
+  read.assembly = "2";
+  read.assembly_operators = 60;
+  read.assembly_merged_atoms = 5;
+  EXPECT_EQ(input_to_json(summarize_input(read)),
+            nlohmann::json({{"format", "mmcif"},
+                            {"radii", "mantina"},
+                            {"assembly", {{"id", "2"}, {"operators", 60}, {"atoms", 120}, {"merged_atoms", 5}}}}));
+  EXPECT_EQ(report_to_json(mesh_output{}, mesh_params{}, summarize_input(read))["input"]["assembly"]["atoms"], 120);
+}
+
 }  // namespace
 }  // namespace tracemesh::proto
