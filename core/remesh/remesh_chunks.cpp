@@ -135,6 +135,7 @@ class chunked_mesh {
   /// Input triangles with an edge longer than half a cell are long: they stay out of every patch (see make_grid).
   chunked_mesh(surface_mesh& mesh, const cell_grid& grid) : mesh_(mesh), grid_(grid), long_edge_(grid.size() / 2) {
     alive_.assign(mesh.triangles.size(), 0);
+    cell_keys_.assign(mesh.triangles.size(), 0);
     incident_.assign(mesh.positions.size(), 0);
     done_.assign(mesh.positions.size(), 0);
     live_triangles_ = mesh.triangles.size();
@@ -182,7 +183,7 @@ class chunked_mesh {
           if (it == cells_.end()) continue;
           // Entries are not removed when their triangle is (see leave): skip the stale ones.
           for (const std::uint32_t t : it->second) {
-            if (alive_[t] && cell_key_of(t) == key) out.push_back(t);
+            if (alive_[t] && cell_keys_[t] == key) out.push_back(t);
           }
         }
       }
@@ -319,6 +320,7 @@ class chunked_mesh {
     mesh_.triangles.shrink_to_fit();
     alive_.assign(kept_triangles, 1);
     cells_.clear();
+    cell_keys_.clear();
     long_triangles_.clear();
   }
 
@@ -336,7 +338,8 @@ class chunked_mesh {
   void enter(std::uint32_t t) {
     alive_[t] = 1;
     for (const std::uint32_t v : mesh_.triangles[t]) ++incident_[v];
-    cells_[cell_key_of(t)].push_back(t);
+    cell_keys_[t] = cell_key_of(t);
+    cells_[cell_keys_[t]].push_back(t);
   }
   bool is_long(std::uint32_t t) const {
     const auto& tri = mesh_.triangles[t];
@@ -376,12 +379,16 @@ class chunked_mesh {
     }
     mesh_.triangles.emplace_back();
     alive_.push_back(0);
+    cell_keys_.push_back(0);
     return static_cast<std::uint32_t>(mesh_.triangles.size() - 1);
   }
 
   surface_mesh& mesh_;
   cell_grid grid_;
   std::vector<std::uint8_t> alive_;
+  /// Per triangle slot: the cell its triangle entered (a slot reused by a triangle of another cell leaves a stale
+  /// entry in the first cell, which this tells apart without recomputing the centroid).
+  std::vector<std::uint64_t> cell_keys_;
   std::vector<std::uint32_t> incident_;
   std::vector<std::uint8_t> done_;
   std::vector<std::uint32_t> free_vertices_, free_triangles_;
