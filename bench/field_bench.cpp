@@ -1,6 +1,7 @@
 // Micro-benchmarks of the mesher's front end on one real molecule, single-threaded so that numbers are per core:
 // field construction, culling, block sampling, marching tetrahedra, edge roots, and the point evaluations the
-// remesher calls (value_and_gradient, probe, project_to_surface) at points near the surface.
+// remesher calls (value_and_gradient, probe, project_to_surface) at points near the surface, and the trace path's
+// line roots (with and without the bounds that prove spans root-free).
 //
 // Usage: field_bench [--molecule=FILE.pqr[.gz]] [--density=1] [benchmark flags...]
 // Default molecule: ../shared/molecules/mache.pqr next to the source tree.
@@ -22,6 +23,8 @@
 #include "core/lattice/lattice_sampler.hpp"
 #include "core/lattice/marching_tetrahedra.hpp"
 #include "core/io/pqr_reader.hpp"
+#include "core/trace/line_roots.hpp"
+#include "core/trace/trace_mesher.hpp"
 
 namespace tracemesh {
 namespace {
@@ -84,6 +87,31 @@ const front_end& shared_front_end() {
     }
     std::fprintf(stderr, "field_bench: %s, %zu atoms, %zu blocks, %zu surface points\n", molecule_file.c_str(),
                  out->field->atom_count(), out->blocks.size(), out->surface_points.size());
+    return out;
+  }();
+  return *fe;
+}
+
+/// The trace path's lattice (spacing h̃ for the density) and its culled blocks, built once.
+struct trace_front_end {
+  std::unique_ptr<lattice> lat;
+  std::vector<lattice_index> blocks;
+};
+
+const trace_front_end& shared_trace_front_end() {
+  static const std::unique_ptr<trace_front_end> fe = [] {
+    const front_end& base = shared_front_end();
+    auto out = std::make_unique<trace_front_end>();
+    const double h = trace_line_spacing(density);
+    const box3& b = base.field->atom_bounds();
+    const double margin = base.field->max_cutoff() + 2 * h * lattice::block_cells;
+    const auto index_floor = [&](double v) {
+      return static_cast<std::int64_t>(std::floor(v / (h * lattice::block_cells))) * lattice::block_cells;
+    };
+    out->lat = std::make_unique<lattice>(
+        h, lattice_index{index_floor(b.lo.x - margin), index_floor(b.lo.y - margin), index_floor(b.lo.z - margin)});
+    progress_token progress;
+    out->blocks = std::move(*cull_blocks(*base.field, *out->lat, progress));
     return out;
   }();
   return *fe;
@@ -177,6 +205,30 @@ void per_surface_point(benchmark::State& state, Evaluate&& evaluate) {
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * fe.surface_points.size()));
 }
 
+/// The roots of every culled block's 64 lines (line_root_finder); state.range(0): whether spans are first bounded
+/// and the root-free ones skipped. Counters: field evaluations and spans proven root-free per block.
+void trace_line_roots(benchmark::State& state) {
+  const front_end& base = shared_front_end();
+  const trace_front_end& fe = shared_trace_front_end();
+  line_root_settings settings;
+  settings.prove_root_free = state.range(0) != 0;
+  line_root_finder finder(settings);
+  std::vector<std::uint32_t> atoms;
+  block_line_roots roots;
+  line_root_stats stats;
+  for (auto _ : state) {
+    for (const lattice_index& block : fe.blocks) {
+      base.field->atoms_near_box(fe.lat->block_box(block), atoms);
+      finder.find(*base.field, *fe.lat, block, atoms, roots, stats);
+      benchmark::DoNotOptimize(roots.roots.data());
+    }
+  }
+  const auto blocks = static_cast<double>(state.iterations() * fe.blocks.size());
+  state.counters["evaluations_per_block"] = static_cast<double>(stats.field_evaluations) / blocks;
+  state.counters["proven_lines_per_block"] = static_cast<double>(stats.proven_lines) / blocks;
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * fe.blocks.size()));
+}
+
 void point_value(benchmark::State& state) {
   per_surface_point(state, [](const gaussian_field& f, const vec3& p) { benchmark::DoNotOptimize(f.value(p)); });
 }
@@ -230,6 +282,7 @@ int main(int argc, char** argv) {
   benchmark::RegisterBenchmark("sampling", sampling)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("triangulation", triangulation)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("edge_roots", edge_roots)->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("trace_line_roots", trace_line_roots)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("point_value", point_value)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("point_value_and_gradient", point_value_and_gradient)->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("point_probe", point_probe)->Unit(benchmark::kMillisecond);

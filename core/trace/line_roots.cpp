@@ -20,6 +20,13 @@ constexpr int max_bracket_iterations = 100;
 constexpr double series_root_tolerance = 1e-9;
 /// Lines per block edge.
 constexpr int block_lines = lattice::block_cells;
+/// Pieces of a block line bounded separately (bound_lines): two cells each, an upper and a lower bound per piece
+/// filling one vector of simd::max_lanes.
+constexpr int bound_pieces = simd::max_lanes / 2;
+static_assert(lattice::block_cells % bound_pieces == 0);
+/// Relative margin between a bound and t0 for it to prove a line one-sided: far above the rounding of sums of a few
+/// hundred terms (~1e-13), far below any distance at which a root could be.
+constexpr double bound_margin = 1e-9;
 
 /// Node groups of a line at most: fits_per_line·(legendre_max_degree + 1) + 2 samples padded to max_lanes, in groups of
 /// 2 lanes.
@@ -83,10 +90,106 @@ template <int W>
   }
 }
 
-/// φ at every quadrature node of the 64 lines (ws.sums[line·P + m]) from the separable kernel: per atom, 8 y and
-/// 8 z factors and one x factor per node; an atom adds to the nodes of a line within its cutoff
-/// (δx² + ρ² < cutoff², ρ² = δy² + δz²). Also keeps each atom's y and z factors per line (ws.ey[j·stride + a], …)
-/// for the lines' atom lists.
+using atom_line_factors = line_root_finder::workspace::atom_factors;
+
+/// Each atom's y and z factors and squared offsets per line (ws.factors[a], and by line ws.ey[j·stride + a], …, for
+/// the lines' atom lists), for the bounds and the node samples: per atom, 8 y and 8 z exponentials.
+template <int W>
+[[gnu::always_inline]] inline void line_factors(const gaussian_field& field, line_root_finder::workspace& ws,
+                                                std::size_t count, std::size_t stride,
+                                                const std::array<double, simd::max_lanes>& line_y,
+                                                const std::array<double, simd::max_lanes>& line_z) {
+  const double d = field.d();
+  if (ws.factors.size() < count) ws.factors.resize(count);
+  for (std::size_t a = 0; a < count; ++a) {
+    atom_line_factors& f = ws.factors[a];
+    axis_factors<W>(line_y.data(), simd::max_lanes, ws.y[a], d, ws.inv_r2[a], f.dy2.data(), f.ey.data());
+    axis_factors<W>(line_z.data(), simd::max_lanes, ws.z[a], d, ws.inv_r2[a], f.dz2.data(), f.ez.data());
+    range_below(f.dy2.data(), block_lines, ws.cutoff2[a], f.j_lo, f.j_hi);
+    range_below(f.dz2.data(), block_lines, ws.cutoff2[a], f.k_lo, f.k_hi);
+    for (int n = 0; n < block_lines; ++n) {
+      const auto nn = static_cast<std::size_t>(n);
+      ws.ey[nn * stride + a] = f.ey[nn];
+      ws.dy2[nn * stride + a] = f.dy2[nn];
+      ws.ez[nn * stride + a] = f.ez[nn];
+      ws.dz2[nn * stride + a] = f.dz2[nn];
+    }
+  }
+}
+
+/// Bounds of φ over each piece of each line of the block (the paper's eqs. 3–5 on a line: the y and z factors of an
+/// atom are constants of the line, and its x factor e^(d·δx²/r²) is monotone in |δx|, so over a piece it lies
+/// between its values at the piece's nearest and farthest points from the centre). Per line, lanes 0..3 of
+/// ws.bounds hold upper bounds on the four pieces, lanes 4..7 lower bounds. An atom adds to an upper bound where its
+/// cutoff reaches some point of the piece (near δx² + ρ² < cutoff²), to a lower bound where it covers the whole
+/// piece (far δx² + ρ² < cutoff²), so the bounds hold for the cut-off field itself.
+template <int W>
+[[gnu::always_inline]] inline void bound_lines(const gaussian_field& field, line_root_finder::workspace& ws,
+                                               std::size_t count, const std::array<double, bound_pieces + 1>& edges) {
+  using F = typename simd::pack<W>::f64;
+  const double d = field.d();
+  const double scale = kernel_exp(-d);
+  ws.bounds.assign(static_cast<std::size_t>(lines_per_block) * simd::max_lanes, 0.0);
+  alignas(64) std::array<double, simd::max_lanes> offset2{}, factor{};
+  for (std::size_t a = 0; a < count; ++a) {
+    const atom_line_factors& f = ws.factors[a];
+    if (!f.reaches_a_line()) continue;
+    const double c = ws.x[a], cutoff2 = ws.cutoff2[a];
+    for (int p = 0; p < bound_pieces; ++p) {
+      const double lo = edges[static_cast<std::size_t>(p)] - c, hi = edges[static_cast<std::size_t>(p + 1)] - c;
+      const double nearest = lo > 0 ? lo : hi < 0 ? -hi : 0.0;
+      offset2[static_cast<std::size_t>(p)] = nearest * nearest;
+      offset2[static_cast<std::size_t>(bound_pieces + p)] = std::max(lo * lo, hi * hi);
+    }
+    for (int m = 0; m < simd::max_lanes; m += W) {
+      F e;
+      simd::load(e, offset2.data() + m);
+      e *= d * ws.inv_r2[a];
+      simd::exp_in_place(e);
+      simd::store(factor.data() + m, e);
+    }
+    for (int k = f.k_lo; k < f.k_hi; ++k) {
+      for (int j = f.j_lo; j < f.j_hi; ++j) {
+        const double rho2 = f.dy2[static_cast<std::size_t>(j)] + f.dz2[static_cast<std::size_t>(k)];
+        const double weight = scale * f.ey[static_cast<std::size_t>(j)] * f.ez[static_cast<std::size_t>(k)];
+        double* row = ws.bounds.data() + static_cast<std::size_t>(j + block_lines * k) * simd::max_lanes;
+        for (int m = 0; m < simd::max_lanes; m += W) {
+          F sum, e, q2;
+          simd::load(sum, row + m);
+          simd::load(e, factor.data() + m);
+          simd::load(q2, offset2.data() + m);
+          F term = e * weight;
+          simd::keep_lanes(term, q2 + rho2 < cutoff2);
+          sum += term;
+          simd::store(row + m, sum);
+        }
+      }
+    }
+  }
+}
+
+/// Whether each line's bounds prove it free of roots and dips (ws.sampled[line] = 0) or not (1): φ below t0 on
+/// every piece, or above `inside_level` (t0, or the dips' ceiling when dips are asked for) on every piece. The
+/// bounds and the samples are sums of the same terms, rounded differently; `bound_margin` keeps the proof clear of
+/// that rounding. Returns the lines to sample.
+int choose_sampled_lines(line_root_finder::workspace& ws, double t0, double inside_level) {
+  int sampled = 0;
+  for (int line = 0; line < lines_per_block; ++line) {
+    const double* b = ws.bounds.data() + static_cast<std::size_t>(line) * simd::max_lanes;
+    bool outside = true, inside = true;
+    for (int p = 0; p < bound_pieces; ++p) {
+      outside = outside && b[p] < t0 * (1 - bound_margin);
+      inside = inside && b[bound_pieces + p] > inside_level * (1 + bound_margin);
+    }
+    ws.sampled[static_cast<std::size_t>(line)] = !(outside || inside);
+    sampled += ws.sampled[static_cast<std::size_t>(line)];
+  }
+  return sampled;
+}
+
+/// φ at every quadrature node of the lines to sample (ws.sums[line·P + m], ws.sampled) from the separable kernel:
+/// per atom its y and z factors (line_factors) and one x factor per node; an atom adds to the nodes of a line within
+/// its cutoff (δx² + ρ² < cutoff², ρ² = δy² + δz²).
 ///
 /// The loops have no data-dependent branch inside an atom (mispredicted branches cost more than the arithmetic they
 /// skip): each atom works on the rectangle of lines j ∈ [j_lo, j_hi), k ∈ [k_lo, k_hi) with δy² < cutoff² and
@@ -95,32 +198,23 @@ template <int W>
 /// over the atoms within its cutoff, in atom order.
 template <int W>
 [[gnu::always_inline]] inline void sample_nodes(const gaussian_field& field, line_root_finder::workspace& ws,
-                                                std::size_t count, std::size_t stride, int node_stride,
-                                                const std::array<double, simd::max_lanes>& line_y,
-                                                const std::array<double, simd::max_lanes>& line_z) {
+                                                std::size_t count, int node_stride) {
   using F = typename simd::pack<W>::f64;
   const double d = field.d();
   const double scale = kernel_exp(-d);  // e^(−d): the "− 1" of eq. 2
-  alignas(64) std::array<double, simd::max_lanes> ey{}, dy2{}, ez{}, dz2{};
   std::array<double, max_node_groups> group_min{};
   double* const ex = ws.node_factor.data();
   double* const dx2 = ws.node_dx2.data();
   const int groups = node_stride / W;
   for (std::size_t a = 0; a < count; ++a) {
     const double inv_r2 = ws.inv_r2[a], cutoff2 = ws.cutoff2[a];
-    axis_factors<W>(line_y.data(), simd::max_lanes, ws.y[a], d, inv_r2, dy2.data(), ey.data());
-    axis_factors<W>(line_z.data(), simd::max_lanes, ws.z[a], d, inv_r2, dz2.data(), ez.data());
-    for (int n = 0; n < block_lines; ++n) {
-      const auto nn = static_cast<std::size_t>(n);
-      ws.ey[nn * stride + a] = ey[nn];
-      ws.dy2[nn * stride + a] = dy2[nn];
-      ws.ez[nn * stride + a] = ez[nn];
-      ws.dz2[nn * stride + a] = dz2[nn];
-    }
-    int j_lo, j_hi, k_lo, k_hi;
-    range_below(dy2.data(), block_lines, cutoff2, j_lo, j_hi);
-    range_below(dz2.data(), block_lines, cutoff2, k_lo, k_hi);
-    if (j_lo >= j_hi || k_lo >= k_hi) continue;  // reaches no line
+    const atom_line_factors& f = ws.factors[a];
+    if (!f.reaches_a_line()) continue;
+    const auto& ey = f.ey;
+    const auto& dy2 = f.dy2;
+    const auto& ez = f.ez;
+    const auto& dz2 = f.dz2;
+    const int j_lo = f.j_lo, j_hi = f.j_hi, k_lo = f.k_lo, k_hi = f.k_hi;
     const double nearest_rho2 = *std::min_element(dy2.begin(), dy2.begin() + block_lines) +
                                 *std::min_element(dz2.begin(), dz2.begin() + block_lines);
     for (int m = 0; m < node_stride; m += W) {
@@ -138,6 +232,7 @@ template <int W>
     axis_factors<W>(ws.node_x.data() + g_lo * W, (g_hi - g_lo) * W, ws.x[a], d, inv_r2, dx2 + g_lo * W, ex + g_lo * W);
     for (int k = k_lo; k < k_hi; ++k) {
       for (int j = j_lo; j < j_hi; ++j) {
+        if (!ws.sampled[static_cast<std::size_t>(j + block_lines * k)]) continue;
         const double rho2 = dy2[static_cast<std::size_t>(j)] + dz2[static_cast<std::size_t>(k)];
         const double weight = scale * ey[static_cast<std::size_t>(j)] * ez[static_cast<std::size_t>(k)];
         double* row =
@@ -322,6 +417,7 @@ line_root_stats& line_root_stats::operator+=(const line_root_stats& other) {
   rejected_roots += other.rejected_roots;
   sign_walk_roots += other.sign_walk_roots;
   probes += other.probes;
+  proven_lines += other.proven_lines;
   quiet_fits += other.quiet_fits;
   fits += other.fits;
   return *this;
@@ -631,12 +727,32 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
   out.dips.clear();
   out.first[0] = 0;
 
+  std::array<double, bound_pieces + 1> piece_edges{};
+  for (int p = 0; p <= bound_pieces; ++p) {
+    piece_edges[static_cast<std::size_t>(p)] =
+        static_cast<double>(block.i * lattice::block_cells + p * (lattice::block_cells / bound_pieces)) * h;
+  }
+  const double inside_level = std::max(t0, settings_.dip_ratio * t0);
+
   simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
     constexpr int W = decltype(lanes)::value;
-    sample_nodes<W>(field, ws, count, stride, node_stride, line_y, line_z);
+    line_factors<W>(field, ws, count, stride, line_y, line_z);
+    int sampled_lines = lines_per_block;
+    if (settings_.prove_root_free) {
+      bound_lines<W>(field, ws, count, piece_edges);
+      sampled_lines = choose_sampled_lines(ws, t0, inside_level);
+    } else {
+      ws.sampled.fill(1);
+    }
+    sample_nodes<W>(field, ws, count, node_stride);
     stats.lines += lines_per_block;
-    stats.field_evaluations += static_cast<std::size_t>(lines_per_block) * static_cast<std::size_t>(samples);
+    stats.proven_lines += static_cast<std::size_t>(lines_per_block - sampled_lines);
+    stats.field_evaluations += static_cast<std::size_t>(sampled_lines) * static_cast<std::size_t>(samples);
     for (int line = 0; line < lines_per_block; ++line) {
+      if (!ws.sampled[static_cast<std::size_t>(line)]) {  // no root and no dip (bound_lines)
+        out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
+        continue;
+      }
       const double* values = ws.sums.data() + static_cast<std::size_t>(line) * static_cast<std::size_t>(node_stride);
       if (settings_.dip_ratio > 0) find_dips(line, node_x, values, t0, settings_.dip_ratio, out.dips);
       ws.candidates.clear();

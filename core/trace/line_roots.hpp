@@ -3,7 +3,10 @@
 /// Surface points on lines parallel to x (TMSmesh stage one, paper §3 and eq. 6): the roots of φ(x, y, z) = t0 on
 /// the 64 lines of a lattice block.
 ///
-/// Per block and line, the span x ∈ [8·i·h̃, 8·(i+1)·h̃) is cut into fits of cells_per_fit cells; φ is sampled at the
+/// First, φ is bounded over four pieces of each line span from the same separable kernel (per atom, its factor's
+/// extremes over a piece; the paper's eqs. 3–5 along a line): a span below t0, or above it, on every piece holds no
+/// root and is skipped. Per remaining block line, the span x ∈ [8·i·h̃, 8·(i+1)·h̃) is cut into fits of
+/// cells_per_fit cells; φ is sampled at the
 /// M + 1 Gauss–Legendre nodes of each fit from the separable kernel (per atom: 8 + 8 + nodes exponentials for all 64
 /// lines, instead of one per atom and point), and the degree-M Legendre series of eq. 6 interpolating those samples is
 /// searched for roots of series = t0 (legendre.hpp: Bernstein subdivision, which also proves most fits root-free).
@@ -45,7 +48,10 @@ struct line_root {
 
 struct line_root_stats {
   std::size_t lines = 0;              ///< line spans searched
-  std::size_t field_evaluations = 0;  ///< φ values computed (quadrature nodes, span ends, Newton steps), one per point
+  /// line spans proven free of roots (and dips) by the bounds of φ over their pieces, and neither sampled nor fitted
+  std::size_t proven_lines = 0;
+  /// φ values computed (quadrature nodes and span ends of the lines sampled, Newton steps), one per point
+  std::size_t field_evaluations = 0;
   std::size_t polynomial_roots = 0;   ///< distinct roots found from the Legendre series (its roots, kinds 1 and 2)
   std::size_t rejected_roots = 0;     ///< series candidates that Newton did not confirm inside the span
   std::size_t sign_walk_roots = 0;    ///< roots the series missed, found by the sign walk (kind 3)
@@ -89,6 +95,10 @@ struct line_root_settings {
   /// (t0, dip_ratio·t0]. The line passes near a pocket of φ < t0 that may touch no line (a cavity between lines,
   /// untouched_cavities.hpp). 0: none reported.
   double dip_ratio = 0;
+  /// Bound φ over each line span first (per atom, its factor's extremes over each piece of the span; the paper's
+  /// eqs. 3–5 along a line) and skip the spans that lie wholly on one side of t0: they hold no root, and the roots
+  /// of the others are the same bits either way. Off: every span is sampled and fitted.
+  bool prove_root_free = true;
 };
 
 /// The stateful form: tables for one degree and scratch reused from block to block (no allocation once warm).
@@ -122,6 +132,15 @@ class line_root_finder {
     std::vector<double> x, y, z, inv_r2, cutoff2;  ///< the block's atoms, padded
     std::vector<double> ey, dy2, ez, dz2;          ///< per line y (z) and atom: 1-D factor and squared offset
     std::vector<double> sums;                      ///< φ at the nodes, per line
+    /// One atom's factors on the 8 y and 8 z lines of the block, and the rectangle of lines its cutoff reaches.
+    struct atom_factors {
+      alignas(64) std::array<double, simd::max_lanes> ey, dy2, ez, dz2;
+      int j_lo, j_hi, k_lo, k_hi;  ///< the lines with δy² < cutoff² (δz² < cutoff²): [j_lo, j_hi) × [k_lo, k_hi)
+      bool reaches_a_line() const { return j_lo < j_hi && k_lo < k_hi; }
+    };
+    std::vector<atom_factors> factors;             ///< per atom
+    std::vector<double> bounds;                    ///< per line: upper, then lower bounds of φ on its pieces
+    std::array<char, lines_per_block> sampled{};   ///< per line: 1 when its nodes are sampled
     std::vector<double> line_x, line_d_inv_r2, line_weight, line_dy2, line_dz2, line_cutoff2;  ///< one line's atoms
     std::size_t line_count = 0;                           ///< atoms in the line arrays
     std::vector<line_root> accepted;                      ///< roots of the current line

@@ -137,6 +137,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
   std::vector<trace_lines::entry> entries;
   for (std::size_t n = 0; n < blocks.size(); ++n) {
     stats.lines += block_stats[n].lines;
+    stats.proven_lines += block_stats[n].proven_lines;
     stats.polynomial_roots += block_stats[n].polynomial_roots;
     stats.bracketed_roots += block_stats[n].sign_walk_roots;
     stats.field_evaluations += block_stats[n].field_evaluations;

@@ -31,6 +31,8 @@ struct trace_stats {
   double line_spacing = 0;              ///< h̃, Å
   double step = 0;                      ///< h₁, Å
   std::size_t lines = 0;                ///< line spans (one per surviving block and line) searched for roots
+  /// of those, spans whose bounds of φ prove them on one side of t0: neither sampled nor fitted (line_roots.hpp)
+  std::size_t proven_lines = 0;
   std::size_t polynomial_roots = 0;     ///< roots found by the Legendre polynomial and accepted by Newton
   std::size_t bracketed_roots = 0;      ///< roots the polynomial missed, found between line samples of opposite sign
   std::size_t late_roots = 0;           ///< roots the polynomial missed, found where a trace crossed a line

@@ -55,6 +55,8 @@ void expect_consistent_stats(const mesh_output& out, double density) {
   EXPECT_DOUBLE_EQ(t.line_spacing, trace_line_spacing(density));
   EXPECT_DOUBLE_EQ(t.step, trace_parameters{}.step_fraction * t.line_spacing);
   EXPECT_GT(t.lines, 0u);
+  EXPECT_GT(t.proven_lines, 0u) << "culled blocks hold spans far from the surface";
+  EXPECT_LT(t.proven_lines, t.lines);
   EXPECT_GT(t.polynomial_roots, 0u);
   EXPECT_GT(t.arcs, 0u);
   EXPECT_GT(t.polygons, 0u);
