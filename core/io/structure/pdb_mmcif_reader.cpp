@@ -287,7 +287,9 @@ bool structure_has_atoms(const gemmi::Structure& structure) {
 }
 
 /// The assembly id as messages quote it (ids from the options are plain; others are escaped).
-std::string quoted_assembly(const std::string& id) { return "'" + detail::quote_bytes(id, max_assembly_id_chars) + "'"; }
+std::string quoted_assembly(const std::string& id) {
+  return "'" + detail::quote_bytes(id, max_assembly_id_chars) + "'";
+}
 
 /// Where a format lists its assemblies, as messages name it.
 struct assembly_listing {
@@ -401,7 +403,9 @@ result<const gemmi::Assembly*> checked_assembly(const gemmi::Structure& structur
                                              generator_targets(gen) + ", which have no atom in the file's first model"};
     }
   }
-  if (operators == 0) return status{errc::invalid_input, "assembly " + quoted_assembly(id) + " has no symmetry operator"};
+  if (operators == 0) {
+    return status{errc::invalid_input, "assembly " + quoted_assembly(id) + " has no symmetry operator"};
+  }
   return &*found;
 }
 
@@ -415,7 +419,9 @@ std::size_t operator_count(const gemmi::Assembly& assembly) {
 result<built_assembly> build_assembly(const gemmi::Assembly& assembly, const gemmi::Model& model,
                                       const mesh_limits& limits) {
   std::size_t atoms = 0;
-  for (const gemmi::Assembly::Gen& gen : assembly.generators) atoms += generator_atoms(model, gen) * gen.operators.size();
+  for (const gemmi::Assembly::Gen& gen : assembly.generators) {
+    atoms += generator_atoms(model, gen) * gen.operators.size();
+  }
   const std::size_t operators = operator_count(assembly);
   if (atoms > limits.max_atoms) {
     return status{errc::limit_exceeded, "assembly " + quoted_assembly(assembly.name) + " has " +
@@ -481,7 +487,9 @@ status append_atoms(const gemmi::Model& model, const structure_options& options,
         atom parsed;
         parsed.center = {a.pos.x, a.pos.y, a.pos.z};
         parsed.radius = *radius;
-        if (std::isnan(a.occ)) return {errc::invalid_input, atom_label(chain, residue, a) + ": occupancy is not a number"};
+        if (std::isnan(a.occ)) {
+          return {errc::invalid_input, atom_label(chain, residue, a) + ": occupancy is not a number"};
+        }
         if (std::string problem = detail::atom_range_problem(parsed, limits); !problem.empty()) {
           return {errc::invalid_input, atom_label(chain, residue, a) + ": " + problem};
         }
@@ -761,7 +769,8 @@ result<structure_read> read_pdb_structure(std::string_view text, const structure
         assembly && operator_count(*assembly) != biomt_operators) {
       // check_biomt_records follows gemmi's rules; a difference means they drifted apart.
       return status{errc::invalid_input, "REMARK 350 biomolecule " + quoted_assembly(options.assembly) + ": " +
-                                             std::to_string(biomt_operators) + " BIOMT operators, of which gemmi read " +
+                                             std::to_string(biomt_operators) +
+                                             " BIOMT operators, of which gemmi read " +
                                              std::to_string(operator_count(*assembly))};
     }
     return atoms_of(structure, options, limits, "ATOM or HETATM record", {"REMARK 350 BIOMOLECULE", {}});
