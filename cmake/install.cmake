@@ -28,3 +28,22 @@ install(CODE "
   set(TRACEMESH_BINDIR \"${CMAKE_INSTALL_BINDIR}\")
   set(TRACEMESH_STAGING_DIR \"${PROJECT_BINARY_DIR}/packaging\")")
 install(SCRIPT ${CMAKE_CURRENT_LIST_DIR}/install_service.cmake)
+# The Python package (python/), when this build tree has built it: `make build` does, `make run` (the two programs
+# only) does not, and then nothing is installed for it. Its folder goes where Debian's python3 imports packages
+# from: <prefix>/lib/python3/dist-packages for /usr (the .deb), <prefix>/lib/python3.X/dist-packages for any
+# other prefix (Debian's python3 looks in /usr/local/lib/python3.X/dist-packages, not in .../python3/...).
+if(TARGET tracemesh_python)
+  install(CODE "
+    set(_tm_package \"${TRACEMESH_PYTHON_DIR}/tracemesh\")
+    if(NOT EXISTS \"\${_tm_package}/$<TARGET_FILE_NAME:tracemesh_python>\")
+      message(STATUS \"Not installing the Python package: not built (cmake --build ${PROJECT_BINARY_DIR} --target tracemesh_python)\")
+    else()
+      if(CMAKE_INSTALL_PREFIX STREQUAL \"/usr\")
+        set(_tm_site lib/python3/dist-packages)
+      else()
+        set(_tm_site lib/python${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}/dist-packages)
+      endif()
+      file(INSTALL \"\${_tm_package}\" DESTINATION \"\${CMAKE_INSTALL_PREFIX}/\${_tm_site}\"
+           PATTERN __pycache__ EXCLUDE)
+    endif()")
+endif()

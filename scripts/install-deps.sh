@@ -23,6 +23,8 @@ test_packages=(
   redis-server  # the suite starts its own redis-server on a free loopback port (tests/support/redis_process.hpp)
   chromium  # the web viewer's browser test (tests/node/web_viewer_test.mjs): headless, WebGL on SwiftShader
   debootstrap systemd man-db  # the package tests: a clean Debian root, systemd-analyze verify, the man pages
+  # The Python package (python/, built by `make build`, not by `make run`) and its tests (tests/python/).
+  python3-dev python3-numpy pybind11-dev python3-pytest
 )
 needs_node=true  # node, npm and `npm ci`: the viewer's bundle (every build) and the suite's checkers
 packages=("${build_packages[@]}" "${test_packages[@]}")
