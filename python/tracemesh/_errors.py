@@ -35,6 +35,11 @@ class ServiceError(Error):
         self.job_id = job_id
 
 
+# Shown as tracemesh.Error (the package exports them), not as the private module's.
+for _exception in (Error, ParameterError, ServiceError):
+    _exception.__module__ = "tracemesh"
+
+
 def raise_status(code: str, message: str) -> NoReturn:
     """Raises the exception of an engine error code (called by the extension module)."""
     if code == "invalid_argument":
