@@ -99,3 +99,43 @@ def test_a_bearer_token_is_sent(start_tracemeshd, molecules, tmp_path):
     assert (unauthorized.value.status, unauthorized.value.code) == (401, "unauthorized")
     mesh = tracemesh.Client(url, token="python-client-test-token").mesh(molecules / "fas2.pqr")
     assert mesh.report["vertices"] == len(mesh.vertices) > 0
+
+
+INTERRUPTED_CLIENT = """
+import sys
+import tracemesh
+
+def progress(document):
+    print(document["id"], flush=True)  # the job is accepted and queued behind the blocker
+
+try:
+    tracemesh.Client(sys.argv[1]).mesh(sys.argv[2], progress=progress)
+except KeyboardInterrupt:
+    print("interrupted", flush=True)
+    sys.exit(0)
+sys.exit(1)
+"""
+
+
+def test_ctrl_c_in_client_mesh_withdraws_the_job(start_tracemeshd, molecules, tmp_path):
+    import signal
+    import subprocess
+    import sys
+
+    server = start_tracemeshd("--workers", "1", "--small-job-workers", "0")
+    client = tracemesh.Client(server.url)
+    blocker = client.submit(molecules / "2buk_12asu.pqr")
+    script = tmp_path / "interrupted_client.py"
+    script.write_text(INTERRUPTED_CLIENT)
+    child = subprocess.Popen([sys.executable, str(script), server.url, str(molecules / "fas2.pqr")],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        job_id = child.stdout.readline().strip()
+        assert client.job(job_id)["status"] == "queued"
+        child.send_signal(signal.SIGINT)
+        out, err = child.communicate(timeout=300)  # bounds only a failing run
+    finally:
+        child.kill()
+    assert (child.returncode, out) == (0, "interrupted\n"), err
+    assert client.job(job_id)["status"] == "cancelled"
+    client.cancel(blocker["id"], blocker["token"])
