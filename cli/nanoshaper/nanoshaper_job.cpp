@@ -2,13 +2,14 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
+#include <cctype>
 #include <cmath>
 #include <map>
 #include <optional>
 #include <string_view>
 
 #include "cli/options.hpp"
+#include "core/io/pqr_text.hpp"
 #include "core/limits.hpp"
 #include "proto/api_types.hpp"
 
@@ -55,9 +56,21 @@ status value_error(const prm_entry& entry, const std::string& what) {
   return {errc::invalid_input, "line " + std::to_string(entry.line) + ": " + entry.key + ": " + what};
 }
 
+/// `text` as a message quotes it: at most detail::max_quoted_bytes, in quotes. (Appended piece by piece: g++ 12
+/// raises a false -Wrestrict on `"'" + std::string`.)
+std::string in_quotes(std::string_view text) {
+  std::string out = "'";
+  out += detail::quote_bytes(text);
+  out += '\'';
+  return out;
+}
+
+std::string quoted_value(const prm_entry& entry) { return in_quotes(entry.value); }
+
 std::string uppercase(std::string_view text) {
   std::string out(text);
-  std::transform(out.begin(), out.end(), out.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  std::transform(out.begin(), out.end(), out.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
   return out;
 }
 
@@ -70,17 +83,16 @@ result<bool> parse_bool(const prm_entry& entry) {
   for (const char* yes : {"TRUE", "T", "YES", "Y", "1", "-1"}) {
     if (value == yes) return true;
   }
-  return value_error(entry, "expected true or false, got '" + entry.value + "'");
+  return value_error(entry, "expected true or false, got " + quoted_value(entry));
 }
 
+/// A finite decimal number, read as the molecule readers read theirs.
 result<double> parse_number(const prm_entry& entry) {
-  double value = 0;
-  const char* end = entry.value.data() + entry.value.size();
-  const auto [stop, error] = std::from_chars(entry.value.data(), end, value);
-  if (entry.value.empty() || error != std::errc{} || stop != end || !std::isfinite(value)) {
-    return value_error(entry, "expected a number, got '" + entry.value + "'");
+  const detail::parsed_number number = detail::parse_number(entry.value);
+  if (number.error != detail::number_error::none) {
+    return value_error(entry, "expected a number, got " + quoted_value(entry));
   }
-  return value;
+  return number.value;
 }
 
 /// The last entry of each key (NanoShaper keeps the last of a repeated key); a warning for each repetition.
@@ -124,9 +136,11 @@ class job_reader {
 
   status read() {
     if (status checked = warn_about_other_keys(file_, entries_, job_.warnings); !checked) return checked;
-    for (status step : {read_mode(), read_surface(), read_grid_scale(), read_threads(), read_outputs(),
-                        read_limits()}) {
-      if (!step) return step;
+    using part_reader = status (job_reader::*)();
+    for (const part_reader read_part :
+         {&job_reader::read_mode, &job_reader::read_surface, &job_reader::read_grid_scale, &job_reader::read_threads,
+          &job_reader::read_outputs, &job_reader::read_limits}) {
+      if (status part = (this->*read_part)(); !part) return part;
     }
     job_.xyzr = text("XYZR_FileName").value_or(default_xyzr_file);
     if (job_.xyzr.empty()) return value_error(*entries_.at("XYZR_FileName"), "expected a file name");
@@ -166,7 +180,7 @@ class job_reader {
 
   status read_mode() {
     if (const prm_entry* mode = find("Operative_Mode"); mode && mode->value != "normal") {
-      return value_error(*mode, "only normal is supported (tracemesh meshes the surface; got '" + mode->value + "')");
+      return value_error(*mode, "only normal is supported (tracemesh meshes the surface), got " + quoted_value(*mode));
     }
     bool triangulate = true;
     if (status read = read_bool("Triangulation", true, triangulate); !read) return read;
@@ -182,7 +196,7 @@ class job_reader {
     const std::string name = entry ? entry->value : "ses";  // NanoShaper's default
     if (name == "blobby") return read_blobby();
     if (name != "ses" && name != "skin") {
-      const std::string what = "'" + name + "' is not a molecular surface tracemesh meshes (ses, skin or blobby)";
+      const std::string what = in_quotes(name) + " is not a molecular surface tracemesh meshes (ses, skin or blobby)";
       return entry ? value_error(*entry, what) : status(errc::invalid_input, "Surface: " + what);
     }
     job_.surface = name == "ses" ? surface_kind::ses : surface_kind::skin;
@@ -228,7 +242,9 @@ class job_reader {
 
   status read_grid_scale() {
     if (status read = read_number("Grid_scale", default_grid_scale, job_.grid_scale); !read) return read;
-    if (!(job_.grid_scale > 0)) return value_error(*find("Grid_scale"), "must be > 0, got " + find("Grid_scale")->value);
+    if (!(job_.grid_scale > 0)) {
+      return value_error(*find("Grid_scale"), "must be > 0, got " + find("Grid_scale")->value);
+    }
     const double wanted = density_per_grid_scale_squared * job_.grid_scale * job_.grid_scale;
     job_.params.density = std::clamp(wanted, parameter_ranges::min_density, parameter_ranges::max_density);
     if (job_.params.density != wanted) {

@@ -241,7 +241,8 @@ TEST_F(NanoShaperCommand, GridScaleSetsTheVertexDensityAsTheSquare) {
     vertices[i] = read_msms_pair(path("triangulatedSurf.vert"), path("triangulatedSurf.face")).vertex_count();
   }
   const double ratio = static_cast<double>(vertices[1]) / static_cast<double>(vertices[0]);
-  EXPECT_GT(ratio, 3.0) << vertices[0] << " → " << vertices[1] << ": twice the Grid_scale, about four times the vertices";
+  EXPECT_GT(ratio, 3.0) << vertices[0] << " → " << vertices[1]
+                        << ": twice the Grid_scale, about four times the vertices";
   EXPECT_LT(ratio, 5.0) << vertices[0] << " → " << vertices[1];
 }
 
