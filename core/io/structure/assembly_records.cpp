@@ -162,21 +162,16 @@ result<std::size_t> check_biomt_records(std::string_view text, std::string_view 
   return operators;
 }
 
-result<std::vector<std::string>> operator_ids(std::string_view expression, std::size_t max_names) {
-  std::string_view body = trimmed(expression);
-  if (!body.empty() && body.front() == '(') {
-    const std::size_t close = body.find(')');
-    if (close == std::string_view::npos) return expression_error(expression, "no closing parenthesis");
-    if (!trimmed(body.substr(close + 1)).empty()) {
-      return expression_error(expression, "a product of operator groups, which this reader does not expand");
-    }
-    body = body.substr(1, close - 1);
-  }
-  std::vector<std::string> ids;
+namespace {
+
+/// The ids of one group's text (between its parentheses, or the whole expression without them), appended to `ids`
+/// while fewer than `max_names`.
+status append_group_ids(std::string_view expression, std::string_view group, std::size_t max_names,
+                        std::vector<std::string>& ids) {
   std::size_t begin = 0;
   for (;;) {
-    const std::size_t end = std::min(body.find(',', begin), body.size());
-    const std::string_view element = trimmed(body.substr(begin, end - begin));
+    const std::size_t end = std::min(group.find(',', begin), group.size());
+    const std::string_view element = trimmed(group.substr(begin, end - begin));
     if (element.empty() || element.find_first_of("()") != std::string_view::npos) {
       return expression_error(expression, "an empty or bracketed element");
     }
@@ -195,9 +190,35 @@ result<std::vector<std::string>> operator_ids(std::string_view expression, std::
       if (ids.size() == max_names) return too_many_ids(expression, max_names);
       ids.emplace_back(element);
     }
-    if (end == body.size()) return ids;
+    if (end == group.size()) return status::success();
     begin = end + 1;
   }
+}
+
+}  // namespace
+
+result<std::vector<std::vector<std::string>>> operator_groups(std::string_view expression, std::size_t max_names) {
+  std::vector<std::vector<std::string>> groups;
+  std::string_view rest = trimmed(expression);
+  if (rest.empty() || rest.front() != '(') {
+    groups.emplace_back();
+    if (status read = append_group_ids(expression, rest, max_names, groups.back()); !read) return read;
+    return groups;
+  }
+  std::size_t product = 1;  // operators the groups make so far
+  while (!rest.empty()) {
+    if (rest.front() != '(') return expression_error(expression, "text between or after the parenthesised groups");
+    const std::size_t close = rest.find(')');
+    if (close == std::string_view::npos) return expression_error(expression, "no closing parenthesis");
+    groups.emplace_back();
+    if (status read = append_group_ids(expression, rest.substr(1, close - 1), max_names, groups.back()); !read) {
+      return read;
+    }
+    if (groups.back().size() > max_names / product) return too_many_ids(expression, max_names);
+    product *= groups.back().size();
+    rest = trimmed(rest.substr(close + 1));
+  }
+  return groups;
 }
 
 result<std::size_t> gemmi_operator_id_count(std::string_view expression, std::size_t max_names) {

@@ -710,41 +710,89 @@ status check_gemmi_integers(const gemmi::cif::Block& block) {
 
 /// What the mmCIF generator rows of the requested assembly name.
 struct requested_generators {
-  std::size_t operators = 0;            ///< operator ids named over its rows (0 for deposited_assembly)
+  /// Per _pdbx_struct_assembly_gen row of the requested assembly, in file order, its operators (groups composed);
+  /// empty for deposited_assembly.
+  std::vector<std::vector<gemmi::Assembly::Operator>> rows;
   std::vector<std::string> listed_ids;  ///< _pdbx_struct_assembly.id values, for unknown_assembly
 };
 
+/// The operators of _pdbx_struct_oper_list by id (rows with an id, the 9 matrix and the 3 vector columns).
+std::unordered_map<std::string, gemmi::Transform> operator_list(gemmi::cif::Block& block) {
+  std::vector<std::string> tags = {"id"};  // then matrix[i][1..3] and vector[i], row by row: column 1 + 4 i + j
+  for (int i = 1; i <= 3; ++i) {
+    for (int j = 1; j <= 3; ++j) tags.push_back("matrix[" + std::to_string(i) + "][" + std::to_string(j) + "]");
+    tags.push_back("vector[" + std::to_string(i) + "]");
+  }
+  std::unordered_map<std::string, gemmi::Transform> operators;
+  for (const auto row : block.find("_pdbx_struct_oper_list.", tags)) {
+    gemmi::Transform transform;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) transform.mat[i][j] = gemmi::cif::as_number(row[1 + 4 * i + j]);
+      transform.vec.at(i) = gemmi::cif::as_number(row[1 + 4 * i + 3]);
+    }
+    operators.emplace(row.str(0), transform);
+  }
+  return operators;
+}
+
+/// The Cartesian product of operator groups, applied from right to left (mmCIF's oper_expression "(X0)(1-60)":
+/// each of 1 to 60, then X0), the first group varying slowest; named "X0x1", ...
+std::vector<gemmi::Assembly::Operator> composed_operators(
+    const std::vector<std::vector<std::string>>& groups,
+    const std::unordered_map<std::string, gemmi::Transform>& transforms) {
+  std::vector<gemmi::Assembly::Operator> composed(1);  // the identity, named ""
+  for (const std::vector<std::string>& group : groups) {
+    std::vector<gemmi::Assembly::Operator> next;
+    next.reserve(composed.size() * group.size());
+    for (const gemmi::Assembly::Operator& left : composed) {
+      for (const std::string& id : group) {
+        gemmi::Assembly::Operator op;
+        op.name = left.name.empty() ? id : left.name + "x" + id;
+        op.transform = left.transform.combine(transforms.at(id));
+        next.push_back(std::move(op));
+      }
+    }
+    composed = std::move(next);
+  }
+  return composed;
+}
+
 /// The checks of the generator rows before gemmi reads them (assembly_records.hpp): every oper_expression is
 /// bounded for gemmi's parser (its ids over all rows at most limits.max_atoms); those of the requested assembly
-/// are parsed strictly and each id must be in _pdbx_struct_oper_list.
+/// are parsed strictly, each id must be in _pdbx_struct_oper_list, and their operators are composed here (gemmi
+/// reads only the first group of a product).
 result<requested_generators> check_assembly_generators(gemmi::cif::Block& block, const std::string& assembly,
                                                        const mesh_limits& limits) {
   requested_generators requested;
   for (const std::string& raw : block.find_values("_pdbx_struct_assembly.id")) {
     requested.listed_ids.push_back(gemmi::cif::as_string(raw));
   }
-  std::vector<std::string> operator_list;
-  for (const std::string& raw : block.find_values("_pdbx_struct_oper_list.id")) {
-    operator_list.push_back(gemmi::cif::as_string(raw));
-  }
-  std::size_t budget = limits.max_atoms;  // ids gemmi may still make
+  const bool wants_assembly = assembly != deposited_assembly;
+  const std::unordered_map<std::string, gemmi::Transform> transforms =
+      wants_assembly ? operator_list(block) : std::unordered_map<std::string, gemmi::Transform>();
+  std::size_t budget = limits.max_atoms;            // ids gemmi may still make
+  std::size_t requested_budget = limits.max_atoms;  // operators the requested assembly may still have
   for (const auto row : block.find("_pdbx_struct_assembly_gen.", {"assembly_id", "oper_expression"})) {
     const std::string expression = row.str(1);
     result<std::size_t> made = detail::gemmi_operator_id_count(expression, budget);
     if (!made) return made.error();
     budget -= *made;
-    if (assembly == deposited_assembly || row.str(0) != assembly) continue;
-    result<std::vector<std::string>> ids = detail::operator_ids(expression, limits.max_atoms);
-    if (!ids) return ids.error();
-    for (const std::string& id : *ids) {
-      if (std::find(operator_list.begin(), operator_list.end(), id) == operator_list.end()) {
-        return status{errc::invalid_input, "mmCIF assembly " + quoted_assembly(assembly) + ": operator '" +
-                                               detail::quote_bytes(id, 24) + "' of oper_expression '" +
-                                               detail::quote_bytes(expression, 40) +
-                                               "' is not in _pdbx_struct_oper_list"};
+    if (!wants_assembly || row.str(0) != assembly) continue;
+    result<std::vector<std::vector<std::string>>> groups = detail::operator_groups(expression, requested_budget);
+    if (!groups) return groups.error();
+    for (const std::vector<std::string>& group : *groups) {
+      for (const std::string& id : group) {
+        if (transforms.count(id) == 0) {
+          return status{errc::invalid_input, "mmCIF assembly " + quoted_assembly(assembly) + ": operator '" +
+                                                 detail::quote_bytes(id, 24) + "' of oper_expression '" +
+                                                 detail::quote_bytes(expression, 40) +
+                                                 "' is not in _pdbx_struct_oper_list (with id, matrix[i][j] and "
+                                                 "vector[i])"};
+        }
       }
     }
-    requested.operators += ids->size();
+    requested.rows.push_back(composed_operators(*groups, transforms));
+    requested_budget -= requested.rows.back().size();
   }
   return requested;
 }
@@ -768,10 +816,9 @@ result<structure_read> read_pdb_structure(std::string_view text, const structure
     if (const gemmi::Assembly* assembly = wants_assembly ? structure.find_assembly(options.assembly) : nullptr;
         assembly && operator_count(*assembly) != biomt_operators) {
       // check_biomt_records follows gemmi's rules; a difference means they drifted apart.
-      return status{errc::invalid_input, "REMARK 350 biomolecule " + quoted_assembly(options.assembly) + ": " +
-                                             std::to_string(biomt_operators) +
-                                             " BIOMT operators, of which gemmi read " +
-                                             std::to_string(operator_count(*assembly))};
+      return status{errc::invalid_input, "REMARK 350 biomolecule " + quoted_assembly(options.assembly) +
+                                             ": the BIOMT check found " + std::to_string(biomt_operators) +
+                                             " operators, gemmi read " + std::to_string(operator_count(*assembly))};
     }
     return atoms_of(structure, options, limits, "ATOM or HETATM record", {"REMARK 350 BIOMOLECULE", {}});
   } catch (const std::runtime_error& error) {
@@ -812,15 +859,21 @@ result<structure_read> read_mmcif_structure(std::string_view text, const structu
     if (!generators) return generators.error();
     gemmi::Structure structure = gemmi::make_structure_from_block(first);
     document = gemmi::cif::Document();  // free the text's copy before the atoms are made
-    if (const gemmi::Assembly* assembly =
-            options.assembly != deposited_assembly ? structure.find_assembly(options.assembly) : nullptr;
-        assembly && operator_count(*assembly) != generators->operators) {
-      return status{errc::invalid_input,
-                    "mmCIF assembly " + quoted_assembly(options.assembly) + ": _pdbx_struct_assembly_gen names " +
-                        std::to_string(generators->operators) + " operators, of which " +
-                        std::to_string(operator_count(*assembly)) +
-                        " were read (the loops need _pdbx_struct_assembly_gen.asym_id_list and "
-                        "_pdbx_struct_oper_list.id, type, matrix[i][j] and vector[i])"};
+    if (gemmi::Assembly* assembly =
+            options.assembly != deposited_assembly ? structure.find_assembly(options.assembly) : nullptr) {
+      // gemmi made one generator per row of the assembly (when the loop has assembly_id, oper_expression and
+      // asym_id_list); their operators are those composed from the rows.
+      if (assembly->generators.size() != generators->rows.size()) {
+        return status{errc::invalid_input, "mmCIF assembly " + quoted_assembly(options.assembly) + ": " +
+                                               std::to_string(generators->rows.size()) +
+                                               " _pdbx_struct_assembly_gen rows, of which " +
+                                               std::to_string(assembly->generators.size()) +
+                                               " were read (the loop needs assembly_id, oper_expression and "
+                                               "asym_id_list)"};
+      }
+      for (std::size_t g = 0; g < generators->rows.size(); ++g) {
+        assembly->generators[g].operators = std::move(generators->rows[g]);
+      }
     }
     return atoms_of(structure, options, limits, "_atom_site row",
                     {"_pdbx_struct_assembly", std::move(generators->listed_ids)});

@@ -18,9 +18,10 @@
 ///   assemblies (PDB REMARK 350 BIOMOLECULE / BIOMT, mmCIF _pdbx_struct_assembly, _pdbx_struct_assembly_gen and
 ///   _pdbx_struct_oper_list) and builds the one asked for from the first model (gemmi::make_assembly): each
 ///   generator's operators applied in turn to its chains (PDB) or label_asym_id subchains (mmCIF), every copy a
-///   chain of its own (A → A1, A2, ...), so the choices above (alternate locations, waters, ligands, hydrogens)
-///   are made per copy as in the deposited model. The atoms come generator by generator, operator by operator,
-///   then in file order. Copies of one atom that the operators place within 0.2 Å of each other (an ion on a
+///   chain of its own (A → A1, A2, ...); an mmCIF product of operator groups "(X0)(1-60)" is composed here, right
+///   to left as the mmCIF dictionary defines it (gemmi reads its first group only). The choices above (alternate
+///   locations, waters, ligands, hydrogens) are made on the deposited model, so they are the same in every copy.
+///   The atoms come generator by generator, operator by operator, then in file order. Copies of one atom that the operators place within 0.2 Å of each other (an ion on a
 ///   symmetry axis) are merged into one at their mean position, the first copy's place in the order
 ///   (gemmi::merge_atoms_in_expanded_model, as gemmi's own assembly tool does): the Gaussian density counts each
 ///   atom once.

@@ -246,7 +246,8 @@ TEST(Assembly, DamagedBiomtRecordsAreRefusedNamingTheLine) {
 // ---- mmCIF ----------------------------------------------------------------------------------------------------
 
 /// Three atoms in subchains A (two) and B (one), assembly 1 of both under operators 1 and 2 (a half turn about z
-/// moved 10 Å along x), assembly 2 of B under operator 1; `expression` replaces assembly 1's "(1,2)".
+/// moved 10 Å along x), assembly 2 of B under operator 1; operator 3 moves 100 Å along z; `expression` replaces
+/// assembly 1's "(1,2)".
 std::string mmcif(const std::string& expression = "(1,2)", const std::string& operator_2 = "-1 0 0 10 0 -1 0 0") {
   return "data_test\n"
          "loop_\n_atom_site.group_PDB\n_atom_site.id\n_atom_site.type_symbol\n_atom_site.label_atom_id\n"
@@ -267,7 +268,8 @@ std::string mmcif(const std::string& expression = "(1,2)", const std::string& op
          "_pdbx_struct_oper_list.matrix[3][1]\n_pdbx_struct_oper_list.matrix[3][2]\n"
          "_pdbx_struct_oper_list.matrix[3][3]\n_pdbx_struct_oper_list.vector[3]\n"
          "1 'identity operation' 1 0 0 0 0 1 0 0 0 0 1 0\n"
-         "2 'point symmetry operation' " + operator_2 + " 0 0 1 0\n";
+         "2 'point symmetry operation' " + operator_2 + " 0 0 1 0\n"
+         "3 'transform to point frame' 1 0 0 0 0 1 0 0 0 0 1 100\n";
 }
 
 TEST(Assembly, MmcifGeneratorsApplyTheirOperatorsToTheirSubchains) {
@@ -283,6 +285,15 @@ TEST(Assembly, MmcifGeneratorsApplyTheirOperatorsToTheirSubchains) {
   EXPECT_EQ(two->mol.atoms[0].center.x, 3.0);
   // A range names the same operators.
   EXPECT_EQ(read_mmcif_structure(mmcif("(1-2)"), assembly("1"))->mol.atoms.size(), 6u);
+  // A product applies its groups from right to left: (3)(1,2) is 1 then 3, and 2 then 3 (gemmi alone read (3)).
+  const result<structure_read> product = read_mmcif_structure(mmcif("(3)(1,2)"), assembly("1"));
+  ASSERT_TRUE(product.ok()) << product.error().message();
+  EXPECT_EQ(product->assembly_operators, 2u);
+  ASSERT_EQ(product->mol.atoms.size(), 6u);
+  for (std::size_t i = 0; i < 6; ++i) {
+    EXPECT_DOUBLE_EQ(product->mol.atoms[i].center.x, xs[i]) << i;
+    EXPECT_DOUBLE_EQ(product->mol.atoms[i].center.z, 100.0) << i;
+  }
   // Through read_molecule: detected as mmCIF, the assembly reported.
   const result<read_molecule_result> read = read_molecule(mmcif(), assembly("1"), {}, 1 << 20);
   ASSERT_TRUE(read.ok()) << read.error().message();
@@ -297,10 +308,11 @@ TEST(Assembly, MmcifExpressionsThatWouldBuildAWrongAssemblyAreRefused) {
   const struct {
     std::string text, message;
   } cases[] = {
-      {mmcif("(1)(2)"),
-       "mmCIF _pdbx_struct_assembly_gen.oper_expression '(1)(2)': a product of operator groups, which this reader "
-       "does not expand"},
-      {mmcif("(1,3)"), "mmCIF assembly '1': operator '3' of oper_expression '(1,3)' is not in _pdbx_struct_oper_list"},
+      {mmcif("(1)2"),
+       "mmCIF _pdbx_struct_assembly_gen.oper_expression '(1)2': text between or after the parenthesised groups"},
+      {mmcif("(1,4)"),
+       "mmCIF assembly '1': operator '4' of oper_expression '(1,4)' is not in _pdbx_struct_oper_list (with id, "
+       "matrix[i][j] and vector[i])"},
       {mmcif("(2-1)"),
        "mmCIF _pdbx_struct_assembly_gen.oper_expression '(2-1)': the range '2-1' is not two numbers, the first not "
        "above the second"},
@@ -332,19 +344,25 @@ TEST(Assembly, MmcifExpressionsThatWouldBuildAWrongAssemblyAreRefused) {
   }
 }
 
-TEST(AssemblyRecords, OperatorIdsOfAnExpression) {
-  const auto ids = [](std::string_view expression) {
-    result<std::vector<std::string>> parsed = detail::operator_ids(expression, 100);
+TEST(AssemblyRecords, OperatorGroupsOfAnExpression) {
+  using groups = std::vector<std::vector<std::string>>;
+  const auto parse = [](std::string_view expression) {
+    result<groups> parsed = detail::operator_groups(expression, 100);
     EXPECT_TRUE(parsed.ok()) << expression << ": " << parsed.error().message();
-    return parsed.ok() ? *parsed : std::vector<std::string>{};
+    return parsed.ok() ? *parsed : groups{};
   };
-  EXPECT_EQ(ids("1"), (std::vector<std::string>{"1"}));
-  EXPECT_EQ(ids("(1)"), (std::vector<std::string>{"1"}));
-  EXPECT_EQ(ids("(1-3)"), (std::vector<std::string>{"1", "2", "3"}));
-  EXPECT_EQ(ids("(1, 3-4,X0)"), (std::vector<std::string>{"1", "3", "4", "X0"}));
-  EXPECT_EQ(detail::operator_ids("(1-101)", 100).error().code(), errc::limit_exceeded);
-  EXPECT_EQ(detail::operator_ids("(1,,2)", 100).error().code(), errc::invalid_input);
-  EXPECT_EQ(detail::operator_ids("(1-2", 100).error().code(), errc::invalid_input);
+  EXPECT_EQ(parse("1"), (groups{{"1"}}));
+  EXPECT_EQ(parse("(1)"), (groups{{"1"}}));
+  EXPECT_EQ(parse("(1-3)"), (groups{{"1", "2", "3"}}));
+  EXPECT_EQ(parse("(1, 3-4,X0)"), (groups{{"1", "3", "4", "X0"}}));
+  EXPECT_EQ(parse("(X0)(1-3)"), (groups{{"X0"}, {"1", "2", "3"}}));
+  EXPECT_EQ(parse(" (1,2) (3) "), (groups{{"1", "2"}, {"3"}}));
+  EXPECT_EQ(detail::operator_groups("(1-101)", 100).error().code(), errc::limit_exceeded);
+  EXPECT_EQ(detail::operator_groups("(1-10)(1-11)", 100).error().code(), errc::limit_exceeded) << "110 operators";
+  EXPECT_TRUE(detail::operator_groups("(1-10)(1-10)", 100).ok());
+  EXPECT_EQ(detail::operator_groups("(1,,2)", 100).error().code(), errc::invalid_input);
+  EXPECT_EQ(detail::operator_groups("(1-2", 100).error().code(), errc::invalid_input);
+  EXPECT_EQ(detail::operator_groups("(1)x(2)", 100).error().code(), errc::invalid_input);
   EXPECT_EQ(*detail::gemmi_operator_id_count("(1-60)(61-88)", 100), 60u) << "gemmi reads the first factor";
   EXPECT_EQ(*detail::gemmi_operator_id_count("1,2,5-9", 100), 7u);
   EXPECT_EQ(detail::gemmi_operator_id_count("(2147483646-2147483647)", 100).error().code(), errc::invalid_input)
