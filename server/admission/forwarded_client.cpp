@@ -90,11 +90,13 @@ std::optional<std::string> for_node(std::string_view element) {
   return std::nullopt;
 }
 
-/// RFC 7239 §6: node-port is 1–5 digits or an obfuscated "_name".
+/// RFC 7239 §6: node-port is a port number (at most 5 digits; here also at most 65535) or an obfuscated "_name".
 bool valid_port(std::string_view port) {
-  if (port.empty()) return false;
-  if (port.front() == '_') return port.size() > 1;
-  return port.size() <= 5 && std::all_of(port.begin(), port.end(), [](char c) { return c >= '0' && c <= '9'; });
+  if (!port.empty() && port.front() == '_') return port.size() > 1;
+  unsigned number = 0;
+  const auto [end, error] = std::from_chars(port.data(), port.data() + port.size(), number);
+  return !port.empty() && port.size() <= 5 && error == std::errc{} && end == port.data() + port.size() &&
+         number <= 65535;
 }
 
 /// The address of a node: "192.0.2.1", "192.0.2.1:4711", "[2001:db8::1]", "[2001:db8::1]:4711", or a bare IPv6

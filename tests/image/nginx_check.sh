@@ -3,7 +3,9 @@
 # and then tracemesh-tls.conf (with a throw-away self-signed certificate), with only the upstream address, the ports
 # and the file paths made local, in front of a running tracemeshd. Through each: /healthz 200 and POST /mesh of fas2
 # byte for byte as tracemeshd answers it directly (so the body limit, request streaming and proxying work); the TLS
-# configuration's plain-HTTP server answers 301.
+# configuration's plain-HTTP server answers 301. With --tracemeshd (run with --trusted-proxy 127.0.0.1), a request
+# from 127.0.0.2 carrying a forged Forwarded and X-Forwarded-For is logged by tracemeshd as client 127.0.0.2: nginx
+# appends the real client and drops the client's Forwarded.
 # Usage: tests/image/nginx_check.sh --port PORT          (a tracemeshd already listening on 127.0.0.1:PORT)
 #        tests/image/nginx_check.sh --tracemeshd BINARY  (starts BINARY --no-disk-store on a free port: ctest)
 # Exit 77 (ctest: skipped) when nginx or openssl is not installed.
@@ -27,7 +29,8 @@ trap cleanup EXIT
 case ${1:-} in
   --port) port=${2:?--port needs a port} ;;
   --tracemeshd)
-    "${2:?--tracemeshd needs the binary}" --listen 127.0.0.1:0 --no-disk-store --workers 1 >"$work/tracemeshd.log" 2>&1 &
+    "${2:?--tracemeshd needs the binary}" --listen 127.0.0.1:0 --no-disk-store --workers 1 --trusted-proxy 127.0.0.1 \
+      >"$work/tracemeshd.log" 2>&1 &
     server_pid=$!
     port=""
     for _ in $(seq 100); do
@@ -93,6 +96,14 @@ through_nginx() {
     || fail "POST $url/mesh: no answer"
   [[ $code == 200 ]] || fail "POST /mesh fas2 through nginx ($url) answered $code"
   cmp -s "$work/direct.off" "$work/via-nginx.off" || fail "the mesh through nginx ($url) differs from tracemeshd's"
+  [[ -n $server_pid ]] || return 0  # a server started elsewhere: its log and trust are not ours to check
+  local id=nginx-check-$RANDOM$RANDOM
+  code=$(curl -sk --interface 127.0.0.2 -o /dev/null -w '%{http_code}' -H "X-Request-Id: $id" \
+    -H 'Forwarded: for=192.0.2.1' -H 'X-Forwarded-For: 192.0.2.2' "$url/healthz") || fail "GET $url/healthz from 127.0.0.2: no answer"
+  [[ $code == 200 ]] || fail "GET /healthz from 127.0.0.2 through nginx ($url) answered $code"
+  for _ in $(seq 50); do grep -q "\"request_id\":\"$id\"" "$work/tracemeshd.log" && break; sleep 0.1; done
+  grep "\"request_id\":\"$id\"" "$work/tracemeshd.log" | grep -q '"client":"127.0.0.2"' \
+    || fail "tracemeshd did not log the client nginx forwarded ($url): $(grep "$id" "$work/tracemeshd.log")"
 }
 
 start_nginx plain "$repo/docker/nginx/tracemesh.conf"
