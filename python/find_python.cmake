@@ -1,5 +1,5 @@
 # What the Python package (python/) is built with: Debian's python3 with its numpy (python3-numpy, python3-dev) and
-# pybind11 (pybind11-dev). Sets TRACEMESH_PYTHON_FOUND, the default of TRACEMESH_BUILD_PYTHON.
+# pybind11 (pybind11-dev). Sets TRACEMESH_PYTHON_FOUND, which TRACEMESH_BUILD_PYTHON=AUTO follows.
 #
 # Debian's interpreter is preferred over a python3 earlier on PATH (pyenv, conda): Debian's numpy and pybind11 are
 # installed for it alone, and the module must be built for the interpreter that imports it.
