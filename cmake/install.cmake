@@ -30,8 +30,9 @@ install(CODE "
 install(SCRIPT ${CMAKE_CURRENT_LIST_DIR}/install_service.cmake)
 # The Python package (python/), when this build tree has built it: `make build` does, `make run` (the two programs
 # only) does not, and then nothing is installed for it. Its folder goes where Debian's python3 imports packages
-# from: <prefix>/lib/python3/dist-packages for /usr (the .deb), <prefix>/lib/python3.X/dist-packages for any
+# from: <prefix>/lib/python3/dist-packages for /usr (as Debian packages), <prefix>/lib/python3.X/dist-packages for any
 # other prefix (Debian's python3 looks in /usr/local/lib/python3.X/dist-packages, not in .../python3/...).
+# `cmake --install` installs every component; `cmake --install --component python` the package alone.
 if(TARGET tracemesh_python)
   install(CODE "
     set(_tm_package \"${TRACEMESH_PYTHON_DIR}/tracemesh\")
@@ -45,5 +46,5 @@ if(TARGET tracemesh_python)
       endif()
       file(INSTALL \"\${_tm_package}\" DESTINATION \"\${CMAKE_INSTALL_PREFIX}/\${_tm_site}\"
            PATTERN __pycache__ EXCLUDE)
-    endif()")
+    endif()" COMPONENT python)  # its own component: the .deb of the two programs need not carry it (nor numpy)
 endif()
