@@ -6,7 +6,7 @@
 ///
 /// Each outer iteration splits long edges, collapses short ones, flips edges towards valence 6 and moves every
 /// vertex towards the centre of its 1-ring in the tangent plane; new and moved vertices are put back onto the
-/// surface. Every operation is checked locally (link condition, normals against the field normal, shape). Local
+/// surface. The iterations stop early where the triangles already meet the quality targets (done_edge_ratio_mean). Every operation is checked locally (link condition, normals against the field normal, shape). Local
 /// checks cannot see two sheets of surface that come close, so validity rests on the certificate's own tests
 /// (exact self-intersection, degeneracy), run on every result before it is kept:
 /// - the mesh is cut into patches with a fixed boundary, remeshed in parallel and each checked against the fixed
@@ -38,6 +38,12 @@ struct remesh_options {
   /// Outer iterations of split / collapse / flip / relax. 3: the 1k4r_5asu ladder row at 5 took 27% longer for an
   /// edge-ratio mean of 0.861 instead of 0.851 (docs/method.md).
   int iterations = 3;
+  /// The iterations end early, in each patch, once the triangles it may still change (a corner not frozen) have an
+  /// edge-ratio mean of at least done_edge_ratio_mean and at most a share done_poor_share of them below 0.2; measured
+  /// before each iteration, so that a patch already that good only has its final relaxation. 0.8: the floor
+  /// for the refined mean, which the final relaxation then raises (above 1: never end early).
+  double done_edge_ratio_mean = 0.8;
+  double done_poor_share = 0.001;
   double split_above = 4.0 / 3.0;  ///< split edges longer than this × L
   double collapse_below = 4.0 / 5.0;  ///< collapse edges shorter than this × L (never creating one > split_above × L)
   double tiny_edge_below = 0.2;       ///< edges shorter than this × L are collapsed in a first, separate sweep

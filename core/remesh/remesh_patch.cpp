@@ -7,6 +7,7 @@
 #include <tuple>
 #include <utility>
 
+#include "core/remesh/remesh_geometry.hpp"
 #include "core/remesh/remesh_intersections.hpp"
 #include "core/remesh/remesh_operations.hpp"
 #include "core/remesh/remesh_stages.hpp"
@@ -19,6 +20,8 @@ constexpr int max_iterations = 100;
 /// Tries of a stage with a growing frozen region, after its first, before it is skipped (when every stage is
 /// checked; otherwise a failure redoes the round).
 constexpr int max_stage_retries = 4;
+/// The quality report's threshold of a poor triangle (quality_report::fraction_below_0_2).
+constexpr double poor_edge_ratio = 0.2;
 
 status invalid(const std::string& what) { return {errc::invalid_argument, "remesh: " + what}; }
 
@@ -164,6 +167,24 @@ offending_finder finder_with(const remesh_patch_context& context, std::uint32_t 
   };
 }
 
+/// Whether the triangles of `mesh` that the pass may still change (a corner not frozen) meet the targets that end
+/// the iterations (remesh_options::done_edge_ratio_mean and done_poor_share); true when there are none.
+bool meets_done_targets(const remesh_mesh& mesh, const remesh_options& options) {
+  double ratio_sum = 0;
+  std::size_t count = 0, poor = 0;
+  for (std::uint32_t f = 0; f < mesh.face_slots(); ++f) {
+    if (mesh.face_removed(f)) continue;
+    const auto t = mesh.face(f);
+    if (all_frozen(mesh, t)) continue;
+    const double ratio = edge_ratio(mesh.position(t[0]), mesh.position(t[1]), mesh.position(t[2]));
+    ratio_sum += ratio;
+    poor += ratio < poor_edge_ratio;
+    ++count;
+  }
+  const auto n = static_cast<double>(count);
+  return ratio_sum >= options.done_edge_ratio_mean * n && static_cast<double>(poor) <= options.done_poor_share * n;
+}
+
 /// One round (see remesh.hpp): the tiny-edge sweep, the iterations and the final relaxation. Returns whether
 /// `state` ended clean and settled on the surface (else `stages.last_failure()` says where not).
 result<bool> run_round(remesh_mesh& state, verified_stages& stages, const remesh_options& options,
@@ -189,6 +210,7 @@ result<bool> run_round(remesh_mesh& state, verified_stages& stages, const remesh
            ops.relax_vertices();
   };
   for (int k = 0; k < options.iterations; ++k) {
+    if (meets_done_targets(state, options)) break;
     if (result<bool> done = stages.run(state, iteration, false); !done) return done;
     if (!report(k + 2)) return cancelled;
   }
@@ -253,6 +275,10 @@ status check_remesh_options(const remesh_options& o) {
   }
   if (!(o.freeze_radius > 0) || !std::isfinite(o.freeze_radius)) return invalid("freeze_radius must be positive");
   if (o.max_rounds < 1) return invalid("max_rounds must be at least 1");
+  if (!(o.done_edge_ratio_mean >= 0) || !std::isfinite(o.done_edge_ratio_mean) ||
+      !(o.done_poor_share >= 0 && o.done_poor_share <= 1)) {
+    return invalid("done_edge_ratio_mean must be finite and at least 0, done_poor_share in [0, 1]");
+  }
   if (!(o.final_collapse_below >= 0 && o.final_collapse_below < 0.5)) {
     return invalid("final_collapse_below must be in [0, 0.5)");
   }

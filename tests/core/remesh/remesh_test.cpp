@@ -638,6 +638,30 @@ TEST(RemeshSurface, IsDeterministicWhateverTheThreadCount) {
   EXPECT_EQ(one.stats.field_evaluations, two.stats.field_evaluations);
 }
 
+TEST(RemeshSurface, AMeshAlreadyMeetingTheTargetsOnlyHasItsFinalRelaxation) {
+  const gaussian_field field(make_molecule({{{0, 0, 0}, 1.6}, {{2.1, 0.4, 0}, 1.3}, {{0.9, 1.8, 0.6}, 1.1}}), -1.0,
+                             1.0);
+  const remesh_run first = remesh_ok(marching_tetrahedra(field, 0.35), field, options_for(0.4));
+  const mesh_report refined = analyze_mesh(first.mesh);
+  ASSERT_GE(refined.quality.edge_ratio_mean, 0.8);  // meets the default targets
+  ASSERT_EQ(refined.quality.fraction_below_0_2, 0.0);
+
+  // Passed again, it ends its iterations before the first: no split, collapse or flip, a fraction of the work.
+  const remesh_run again = remesh_ok(first.mesh, field, options_for(0.4));
+  EXPECT_EQ(again.stats.splits + again.stats.collapses + again.stats.flips, 0U);
+  EXPECT_GT(again.stats.relaxations, 0U);
+  EXPECT_LT(2 * again.stats.field_evaluations, first.stats.field_evaluations);
+  expect_valid(again.mesh, field, refined);
+  EXPECT_GE(analyze_mesh(again.mesh).quality.edge_ratio_mean, refined.quality.edge_ratio_mean - 0.01);
+
+  // Told never to end early, the same pass iterates.
+  remesh_options always = options_for(0.4);
+  always.done_edge_ratio_mean = 2;
+  const remesh_run iterated = remesh_ok(first.mesh, field, always);
+  EXPECT_GT(iterated.stats.splits + iterated.stats.collapses + iterated.stats.flips, 0U);
+  EXPECT_GT(iterated.stats.field_evaluations, again.stats.field_evaluations);
+}
+
 /// A protein-like chain: 24 overlapping atoms wound along x over ~55 Å, with crevices between them.
 gaussian_field chain_field() {
   std::vector<std::pair<vec3, double>> atoms;
@@ -827,6 +851,9 @@ TEST(RemeshSurface, RefusesBadArgumentsAndLeavesTheMesh) {
   remesh_options negative_iterations = options_for(0.5);
   negative_iterations.iterations = -1;
   expect_refused(input, negative_iterations, errc::invalid_argument);
+  remesh_options negative_done = options_for(0.5);
+  negative_done.done_edge_ratio_mean = -0.1;
+  expect_refused(input, negative_done, errc::invalid_argument);
 
   surface_mesh open = input;
   open.triangles.pop_back();
