@@ -11,7 +11,7 @@ CMAKE_FLAGS      ?=
 TRACEMESH_MOLECULES_DIR ?= $(if $(wildcard $(CURDIR)/../shared/molecules),$(abspath $(CURDIR)/../shared/molecules),$(CURDIR)/tests/data/molecules)
 export TRACEMESH_MOLECULES_DIR
 
-.PHONY: deps deps-run build-run install package test-package deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-chaos bench-replicas bench-sharp bench-nanoshaper bench-stages fuzz fuzz-campaign image test-image clean
+.PHONY: deps deps-run build-run install package test-package deps build test test-sanitize test-tsan run bench bench-paper bench-load bench-soak bench-chaos bench-replicas bench-sharp bench-nanoshaper bench-stages fuzz fuzz-campaign image test-image clean
 
 # What building and running tracemesh and tracemeshd needs (`make run`), and what the suite adds (`make test`).
 deps-run:
@@ -59,6 +59,10 @@ run: build-run
 # Installs the programs, man pages, docs and the systemd unit under PREFIX (default /usr/local), as `cmake --install`.
 PREFIX           ?= /usr/local
 install: build-run
+	@# The Python package too when this tree can build it (make build installed its packages): install.cmake
+	@# installs it only if it was built.
+	if cmake --build $(BUILD_DIR) --target help | grep -qw tracemesh_python; then \
+	  cmake --build $(BUILD_DIR) -j $(JOBS) --target tracemesh_python; fi
 	cmake --install $(BUILD_DIR) --prefix $(PREFIX)
 
 # The Debian package (CPack) in $(BUILD_DIR): tracemesh_<version>_<arch>.deb.

@@ -187,6 +187,8 @@ parsed_command_line parse_command_line(int argc, const char* const* argv) {
   parameter_texts texts;
   std::string format_text, report_text;
   describe_options(app, options, texts, format_text, report_text);
+  app.footer("Also: tracemesh nanoshaper [CONF.prm] runs a NanoShaper configuration (as does tracemesh invoked as "
+             "NanoShaper); see docs/nanoshaper.md");
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& success) {  // --help or --version

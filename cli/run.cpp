@@ -73,24 +73,15 @@ void print_summary(const mesh_output& output) {
                output.certified ? "certified" : "NOT certified");
 }
 
-/// The input options with the format the file's extension declares (.pqr, .pdb, .cif, .xyzr, each also .gz);
-/// a name without one of them leaves the format to detection.
-structure_options declared_by_extension(const cli_options& options) {
-  structure_options input = options.input_options;
-  if (input.format) return input;
-  if (const std::optional<input_format> format = input_format_of_file_name(options.input.filename().string())) {
-    input.format = declared_format{*format, "the file name '" + options.input.filename().string() + "'"};
-  }
-  return input;
-}
-
 }  // namespace
 
 status run(const cli_options& options, progress_token& progress) {
   const mesh_limits limits;
   auto start = clock_type::now();
   progress.report(mesh_stage::reading, 0);
-  result<read_molecule_result> read = read_molecule_file(options.input, declared_by_extension(options), limits);
+  const structure_options input_options =
+      declared_by_file_name(options.input.filename().string(), options.input_options);
+  result<read_molecule_result> read = read_molecule_file(options.input, input_options, limits);
   if (!read) return read.error();
   const molecule* mol = &read->mol;
   const double reading_seconds = seconds_since(start);

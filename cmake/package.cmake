@@ -9,6 +9,9 @@ set(CPACK_PACKAGE_DESCRIPTION
     "tracemesh meshes the Gaussian surface of a molecule (PQR, PDB, mmCIF or xyzr) with the trace technique of \
 TMSmesh into a closed, certified triangle mesh (OFF, PLY, GLB, Draco or MSMS): the command-line mesher tracemesh \
 and the HTTP meshing service tracemeshd with its systemd unit.")
+# The default component only: the Python package (component python) is not part of the .deb of the two programs,
+# whose Depends would otherwise miss python3-numpy.
+set(CPACK_INSTALL_CMAKE_PROJECTS "${CMAKE_BINARY_DIR};tracemesh;Unspecified;/")
 set(CPACK_STRIP_FILES ON)  # the programs without their symbol tables: a third of the package
 set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
 # Installed under /usr with DESTDIR, so the absolute /etc/default/tracemeshd of cmake/install_service.cmake lands

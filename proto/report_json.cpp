@@ -50,6 +50,7 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
       {"line_offset", stats.line_offset},
       {"grid_retries", stats.grid_retries},
       {"lines", stats.lines},
+      {"proven_lines", stats.proven_lines},
       {"polynomial_roots", stats.polynomial_roots},
       {"late_roots", stats.late_roots},
       {"arcs", stats.arcs},

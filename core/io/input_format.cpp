@@ -119,6 +119,14 @@ std::optional<input_format> input_format_of_file_name(std::string_view file_name
   return std::nullopt;
 }
 
+structure_options declared_by_file_name(std::string_view file_name, structure_options options) {
+  if (options.format) return options;
+  if (const std::optional<input_format> format = input_format_of_file_name(file_name)) {
+    options.format = declared_format{*format, "the file name '" + std::string(file_name) + "'"};
+  }
+  return options;
+}
+
 format_evidence examine_input_format(std::string_view text, std::size_t max_line_bytes) {
   if (starts_with(text, "\xEF\xBB\xBF")) text.remove_prefix(3);
   format_evidence evidence;

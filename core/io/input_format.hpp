@@ -107,6 +107,10 @@ struct structure_options {
   std::string assembly = std::string(deposited_assembly);
 };
 
+/// `options` with the format its file name declares (.pqr, .pdb, .ent, .cif, .mmcif, .xyzr, each also .gz), unless
+/// a format is declared already; a name without one of them leaves the format to detection.
+structure_options declared_by_file_name(std::string_view file_name, structure_options options);
+
 /// The names of the options, as service fields and query parameters (the CLI's are --radii, --hydrogens, ...).
 inline constexpr std::array<std::string_view, 6> structure_option_names = {"format_in", "radii",  "hydrogens",
                                                                            "waters",    "ligands", "assembly"};

@@ -59,15 +59,6 @@ proto::field_lookup lookup_in(const field_texts& texts) {
   };
 }
 
-/// The input options with the format the file's extension declares, as the CLI reads its input (cli/run.cpp).
-structure_options declared_by_extension(const std::filesystem::path& path, structure_options input) {
-  if (input.format) return input;
-  if (const std::optional<input_format> format = input_format_of_file_name(path.filename().string())) {
-    input.format = declared_format{*format, "the file name '" + path.filename().string() + "'"};
-  }
-  return input;
-}
-
 /// A (rows × columns) float64 array holding `values` row by row.
 float_array rows_of(std::vector<double> values, py::ssize_t columns) {
   const py::ssize_t rows = columns == 0 ? 0 : static_cast<py::ssize_t>(values.size()) / columns;
@@ -92,7 +83,7 @@ py::dict read_molecule(const std::string& path, const field_texts& options) {
   std::optional<result<read_molecule_result>> read;
   {
     py::gil_scoped_release unlocked;
-    read.emplace(read_molecule_file(path, declared_by_extension(path, input), mesh_limits{}));
+    read.emplace(read_molecule_file(path, declared_by_file_name(path.filename().string(), input), mesh_limits{}));
   }
   const read_molecule_result molecule_read = value_or_raise(std::move(*read));
   std::vector<double> positions, radii, charges;

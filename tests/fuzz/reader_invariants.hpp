@@ -77,7 +77,8 @@ void check(const char* reader, const Parsed& parsed, const mesh_limits& limits) 
 }
 
 /// Runs `parse(text, options, limits)` of a structure reader (PDB, mmCIF) under every combination of its options
-/// that matters (both radii sets, waters, ligands and hydrogens kept or dropped) and checks each result.
+/// that matters (both radii sets, waters, ligands and hydrogens kept or dropped, the deposited coordinates and
+/// assembly 1 built from the file's operators) and checks each result.
 template <class Parse>
 void check_every_structure_option(const char* reader, std::string_view text, Parse parse) {
   const mesh_limits limits = small_limits();
@@ -89,6 +90,10 @@ void check_every_structure_option(const char* reader, std::string_view text, Par
     options.keep_hydrogens = variant != 1;
     check(reader, parse(text, options, limits), limits);
   }
+  structure_options assembled;
+  assembled.radii = radii_set::mantina;
+  assembled.assembly = "1";
+  check(reader, parse(text, assembled, limits), limits);
 }
 
 }  // namespace tracemesh::fuzz
