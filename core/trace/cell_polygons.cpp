@@ -142,6 +142,10 @@ enum class loop_strategy {
   /// kernel), whose every other triangulation folds over itself. It makes no fold either.
   in_its_plane,
   none,                ///< nothing worked: the mesh cannot close here
+  /// Not a disk: the loop and a partner loop bound one tube of surface inside the cell, meshed by the band between
+  /// them (pair_tube_loops). Set only after every strategy above failed; never moved on by resolve_intersections.
+  tube_band,
+  tube_partner,        ///< the other loop of a tube_band: its edges are in that band, it has no triangles of its own
 };
 constexpr loop_strategy next(loop_strategy s) { return static_cast<loop_strategy>(static_cast<int>(s) + 1); }
 
@@ -446,6 +450,58 @@ void resolve_intersections(const gaussian_field& field, const std::vector<std::v
   out.intersecting = !hit.empty();
 }
 
+/// The band between loops l and m (triangulate_annulus) as a mesh of loop l, its vertices numbered in the mesh.
+bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
+                  loop_mesh& out, double& worst_quality) {
+  std::vector<loop_vertex> a(outer.size()), b(inner.size());
+  for (std::size_t n = 0; n < outer.size(); ++n) a[n] = outer[n].vertex;
+  for (std::size_t n = 0; n < inner.size(); ++n) b[n] = inner[n].vertex;
+  std::vector<std::array<std::uint32_t, 3>> local;
+  loop_triangulation_stats stats;
+  if (!triangulate_annulus(a, b, local, stats)) return false;
+  const auto id = [&](std::uint32_t v) { return v < outer.size() ? outer[v].id : inner[v - outer.size()].id; };
+  out = loop_mesh{};
+  out.strategy = loop_strategy::tube_band;
+  for (const auto& t : local) out.triangles.push_back({id(t[0]), id(t[1]), id(t[2])});
+  worst_quality = stats.last_min_quality;
+  return true;
+}
+
+/// A loop no strategy can triangulate as a disk does not bound a disk: every spanning surface of its vertices faces
+/// against the field's normals, because the surface it bounds is the wall of a tube crossing the cell (the tunnel's
+/// φ < t0 enters through two walls and leaves through two others), whose other end is another loop of the cell
+/// (docs/method.md#tubes-inside-a-cell). Such a loop is meshed with that partner by the band between them
+/// (triangulate_annulus, under the same wall, orientation and degeneracy rules), which keeps the tunnel open and uses
+/// each loop edge once; the partner gives up its own disk. Among the loops whose band is valid and meets none of
+/// the cell's other triangles, the band of best worst shape is taken (ties: the lower loop index).
+void pair_tube_loops(const std::vector<std::vector<numbered_vertex>>& loops, std::vector<loop_mesh>& meshes) {
+  for (std::size_t l = 0; l < loops.size(); ++l) {
+    if (meshes[l].strategy != loop_strategy::none) continue;
+    std::size_t best_partner = loops.size();
+    double best_quality = -1;
+    loop_mesh best_band;
+    for (std::size_t m = 0; m < loops.size(); ++m) {
+      if (m == l || meshes[m].strategy >= loop_strategy::none) continue;
+      loop_mesh band;
+      double quality = 0;
+      if (!band_between(loops[l], loops[m], band, quality) || !(quality > best_quality)) continue;
+      const loop_mesh partner = meshes[m];
+      meshes[l] = band;
+      meshes[m] = loop_mesh{loop_strategy::tube_partner, {}, {}};
+      const bool meets_others = !intersecting_loops(loops, meshes).empty();
+      meshes[l] = loop_mesh{};
+      meshes[m] = partner;
+      if (meets_others) continue;
+      best_partner = m;
+      best_quality = quality;
+      best_band = std::move(band);
+    }
+    if (best_partner == loops.size()) continue;
+    meshes[l] = std::move(best_band);
+    meshes[best_partner] = loop_mesh{loop_strategy::tube_partner, {}, {}};
+  }
+}
+
 }  // namespace
 
 std::size_t traced_surface::find_strip(const strip_id& strip) const {
@@ -468,13 +524,14 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
     triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, meshes[l], out.evaluations);
   }
   resolve_intersections(field, loops, cell, h, meshes, out);
+  if (!out.intersecting) pair_tube_loops(loops, meshes);
   for (std::size_t l = 0; l < loops.size(); ++l) {
     const loop_mesh& m = meshes[l];
     if (m.strategy == loop_strategy::none) {
       out.closed = false;
       continue;
     }
-    if (m.strategy != loop_strategy::admissible) ++out.fallback_loops;
+    if (m.strategy != loop_strategy::admissible && m.strategy < loop_strategy::none) ++out.fallback_loops;
     const auto first_steiner = static_cast<std::uint32_t>(out.steiner.size());
     out.steiner.insert(out.steiner.end(), m.steiner.begin(), m.steiner.end());
     for (auto t : m.triangles) {

@@ -425,6 +425,30 @@ TEST(trace_mesher, a_real_void_no_line_meets_is_meshed_the_same_on_any_thread_co
   EXPECT_EQ(one->mesh.triangles, two->mesh.triangles);
 }
 
+// 2buk_12asu holds a dead-end pocket of φ < t0 that crosses the cell between the lines (29, 4) and (30, 5) at 1 v/Å²
+// diagonally: it enters through the walls y = 26.97 and z = 4.65 Å and leaves through y = 27.9 and z = 3.72 Å,
+// ending in the neighbouring cells. The surface inside that cell is a tube with a loop at each end, not two disks:
+// the end loop of five vertices (cut by line (30, 4) at x = 15.63 and 17.41 Å) faces against the field's normals
+// whatever triangles span it, so the cell closes only by the band between the two loops
+// (docs/method.md#tubes-inside-a-cell). Without it the first line grid failed and the job was meshed again. The
+// atoms within 12 Å of the pocket give the same field there and the same lines (the grid is fixed in space).
+TEST(trace_mesher, a_pocket_crossing_a_cell_as_a_tube_is_meshed_on_the_first_line_grid) {
+  const auto whole = read_pqr_file(testing::molecule_path("2buk_12asu.pqr.gz"));
+  ASSERT_TRUE(whole.ok()) << whole.error().message();
+  const vec3 pocket{16.5, 27.4, 4.2};
+  molecule near_the_pocket;
+  for (const atom& a : whole->atoms) {
+    if (a.radius > 0 && distance(a.center, pocket) < 12) near_the_pocket.atoms.push_back(a);
+  }
+  for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
+    const auto out = mesh_trace(near_the_pocket, 1.0, refine);
+    expect_certified(out);
+    ASSERT_TRUE(out.ok());
+    EXPECT_EQ(out->trace.grid_retries, 0u);
+    EXPECT_EQ(out->trace.line_offset, (line_grid_offset{0, 0}));
+  }
+}
+
 molecule chain(int count) {
   molecule mol;
   for (int n = 0; n < count; ++n) mol.atoms.push_back({{n * 0.9 + 0.05, 0.1 * std::sin(n), 0.13}, 1.5, 0});
