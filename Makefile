@@ -82,6 +82,11 @@ bench: build
 bench-load: build
 	python3 bench/load_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(TRACEMESH_MOLECULES_DIR) $(LOAD_ARGS)
 
+# Soak: the load benchmark's mix for 30 min against one tracemeshd, its RSS, fds and threads sampled every 10 s
+# (bench/soak_bench.py: SOAK_ARGS="--duration 600" ...). Not in CI.
+bench-soak: build
+	python3 bench/soak_bench.py --daemon $(BUILD_DIR)/bin/tracemeshd --molecules $(TRACEMESH_MOLECULES_DIR) $(SOAK_ARGS)
+
 # Scaling out: a mixed job stream through nginx to 1 and 2 replicas (Redis, one core each) and cache-hit GETs through
 # nginx vs one replica (bench/replicas_bench.py: REPLICAS_ARGS="--ladder fas2.pqr,mache.pqr --densities 1" ...).
 bench-replicas: build

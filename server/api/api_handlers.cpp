@@ -927,7 +927,7 @@ void api_handlers::prepare_upload(std::shared_ptr<upload_request> upload) {
         read_molecule(upload->pqr, upload->options, deps_.config.limits.mesh, deps_.config.limits.max_pqr_bytes);
     std::string().swap(upload->pqr);
     if (!read.ok()) return read.error();
-    input_read = proto::input_summary{read->format, std::string(read->radii)};
+    input_read = proto::summarize_input(*read);
     // Refused here (422) rather than by the job: the client learns at once which atom is too small.
     if (status resolvable = check_atom_resolution(read->mol, upload->request.params); !resolvable) return resolvable;
     return std::move(read->mol);

@@ -58,6 +58,9 @@ TEST_F(AssemblyTest, AssemblyOneOf2bukIsItsSixtyCopies) {
   ASSERT_EQ(capsid.value("status", ""), "done") << capsid;
   EXPECT_EQ(capsid.at("report").at("atoms_meshed"), 60 * 1430 - 88) << "the ions on symmetry axes merged";
   EXPECT_NE(capsid.at("id"), unit.at("id")) << "the job id hashes the atoms read";
+  EXPECT_EQ(capsid.at("report").at("input").at("assembly"),
+            nlohmann::json({{"id", "1"}, {"operators", 60}, {"atoms", 60 * 1430 - 88}, {"merged_atoms", 88}}));
+  EXPECT_FALSE(unit.at("report").at("input").contains("assembly")) << "only a built assembly is reported";
   // The same request with the parameter in the form is the same job.
   const http_reply meshed = send("/mesh?radii=mantina", entry_, {{"assembly", "1"}});
   ASSERT_EQ(meshed.status, 200) << meshed.body;
