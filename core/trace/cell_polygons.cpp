@@ -467,13 +467,14 @@ bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<n
   return true;
 }
 
-/// A loop no strategy can triangulate as a disk does not bound a disk: every spanning surface of its vertices faces
-/// against the field's normals, because the surface it bounds is the wall of a tube crossing the cell (the tunnel's
-/// φ < t0 enters through two walls and leaves through two others), whose other end is another loop of the cell
-/// (docs/method.md#tubes-inside-a-cell). Such a loop is meshed with that partner by the band between them
-/// (triangulate_annulus, under the same wall, orientation and degeneracy rules), which keeps the tunnel open and uses
-/// each loop edge once; the partner gives up its own disk. Among the loops whose band is valid and meets none of
-/// the cell's other triangles, the band of best worst shape is taken (ties: the lower loop index).
+/// A loop that no strategy can triangulate bounds no disk the field's normals allow: every spanning surface of its
+/// vertices folds against them. That is the short end of a tube crossing the cell (a pocket or tunnel of φ < t0
+/// entering through two walls and leaving through the two others), whose surface is an annulus with another loop of
+/// the cell at its other end (docs/method.md#tubes-inside-a-cell). Such a loop is meshed with that partner by the
+/// band between them (triangulate_annulus, under the same wall, orientation and degeneracy rules), which keeps the
+/// tube open and uses each loop edge once; the partner gives up its own disk (or had none). Among the loops whose
+/// band is valid and meets none of the cell's other triangles, the band of best worst shape is taken (ties: the
+/// lower loop index).
 void pair_tube_loops(const std::vector<std::vector<numbered_vertex>>& loops, std::vector<loop_mesh>& meshes) {
   for (std::size_t l = 0; l < loops.size(); ++l) {
     if (meshes[l].strategy != loop_strategy::none) continue;
@@ -481,7 +482,7 @@ void pair_tube_loops(const std::vector<std::vector<numbered_vertex>>& loops, std
     double best_quality = -1;
     loop_mesh best_band;
     for (std::size_t m = 0; m < loops.size(); ++m) {
-      if (m == l || meshes[m].strategy >= loop_strategy::none) continue;
+      if (m == l || meshes[m].strategy > loop_strategy::none) continue;  // both ends of a tube may have failed
       loop_mesh band;
       double quality = 0;
       if (!band_between(loops[l], loops[m], band, quality) || !(quality > best_quality)) continue;
