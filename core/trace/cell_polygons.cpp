@@ -450,7 +450,7 @@ void resolve_intersections(const gaussian_field& field, const std::vector<std::v
   out.intersecting = !hit.empty();
 }
 
-/// The band between loops l and m (triangulate_annulus) as a mesh of loop l, its vertices numbered in the mesh.
+/// The band between two loops of a cell (triangulate_annulus), its vertices numbered in the mesh, and its worst q.
 bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
                   loop_mesh& out, double& worst_quality) {
   std::vector<loop_vertex> a(outer.size()), b(inner.size());
