@@ -83,7 +83,8 @@ py::dict read_molecule(const std::string& path, const field_texts& options) {
   std::optional<result<read_molecule_result>> read;
   {
     py::gil_scoped_release unlocked;
-    read.emplace(read_molecule_file(path, declared_by_file_name(path.filename().string(), input), mesh_limits{}));
+    const std::string file_name = std::filesystem::path(path).filename().string();
+    read.emplace(read_molecule_file(path, declared_by_file_name(file_name, input), mesh_limits{}));
   }
   const read_molecule_result molecule_read = value_or_raise(std::move(*read));
   std::vector<double> positions, radii, charges;
