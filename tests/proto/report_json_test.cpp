@@ -81,6 +81,7 @@ trace_stats sample_trace_stats() {
   t.line_spacing = 0.75;
   t.step = 0.375;
   t.lines = 101;
+  t.proven_lines = 61;
   t.polynomial_roots = 102;
   t.late_roots = 3;
   t.arcs = 104;
@@ -162,6 +163,7 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"line_offset", {0.5, 0.25}},
                                    {"grid_retries", 2},
                                    {"lines", 101},
+                                   {"proven_lines", 61},
                                    {"polynomial_roots", 102},
                                    {"late_roots", 3},
                                    {"arcs", 104},
