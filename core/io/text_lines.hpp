@@ -17,6 +17,13 @@
 
 namespace tracemesh::detail {
 
+/// `text` without its leading and trailing blanks (spaces and tabs).
+std::string_view trimmed(std::string_view text);
+
+/// Whether `line` starts with the upper-case record name `prefix` in any case ("ATOM", "atom", "REMA"): gemmi's
+/// test of a PDB record, which the PDB readers and checks use alike.
+bool has_record_prefix(std::string_view line, std::string_view prefix);
+
 /// errc::invalid_input "line N: what".
 status line_error(std::size_t line_number, const std::string& what);
 

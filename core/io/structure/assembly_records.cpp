@@ -13,27 +13,10 @@ namespace {
 bool is_blank_char(char c) { return c == ' ' || c == '\t'; }
 bool is_digit(char c) { return c >= '0' && c <= '9'; }
 
-std::string_view trimmed(std::string_view text) {
-  while (!text.empty() && is_blank_char(text.front())) text.remove_prefix(1);
-  while (!text.empty() && is_blank_char(text.back())) text.remove_suffix(1);
-  return text;
-}
-
 /// Columns `first`..`last` (1-based, inclusive) of `line`, cut at its end.
 std::string_view columns(std::string_view line, std::size_t first, std::size_t last) {
   if (line.size() < first) return {};
   return line.substr(first - 1, last - first + 1);
-}
-
-char upper(char c) { return c >= 'a' && c <= 'z' ? static_cast<char>(c - 'a' + 'A') : c; }
-
-/// gemmi's record test: the first four characters, in any case.
-bool has_record_prefix(std::string_view line, std::string_view prefix) {
-  if (line.size() < prefix.size()) return false;
-  for (std::size_t i = 0; i < prefix.size(); ++i) {
-    if (upper(line[i]) != prefix[i]) return false;
-  }
-  return true;
 }
 
 /// gemmi's REMARK 350 test: a REMARK record whose columns 8-10 read 350, longer than 11 columns.

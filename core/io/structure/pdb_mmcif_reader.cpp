@@ -24,6 +24,9 @@ namespace tracemesh {
 
 namespace {
 
+using detail::has_record_prefix;
+using detail::trimmed;
+
 /// gemmi's messages can quote whole lines: at most this many characters of one, once escaped, go into ours.
 constexpr std::size_t max_gemmi_message_chars = 160;
 /// PDB columns (1-based, inclusive) of x, y, z and occupancy.
@@ -35,16 +38,6 @@ constexpr pdb_column pdb_coordinates[] = {
     {"x coordinate", 31, 38}, {"y coordinate", 39, 46}, {"z coordinate", 47, 54}};
 constexpr pdb_column pdb_occupancy = {"occupancy", 55, 60};
 
-char upper(char c) { return c >= 'a' && c <= 'z' ? static_cast<char>(c - 'a' + 'A') : c; }
-
-/// gemmi's record test: the first four characters, in any case.
-bool has_record_prefix(std::string_view line, std::string_view prefix) {
-  if (line.size() < prefix.size()) return false;
-  for (std::size_t i = 0; i < prefix.size(); ++i) {
-    if (upper(line[i]) != prefix[i]) return false;
-  }
-  return true;
-}
 bool is_pdb_atom_record(std::string_view line) {
   return has_record_prefix(line, "ATOM") || has_record_prefix(line, "HETA");
 }
@@ -59,12 +52,6 @@ constexpr std::size_t pdb_record_name_columns = 7;
 bool has_ascii_record_name(std::string_view line) {
   const std::string_view name = line.substr(0, pdb_record_name_columns);
   return std::none_of(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) >= 0x80; });
-}
-
-std::string_view trimmed(std::string_view field) {
-  const std::size_t begin = field.find_first_not_of(" \t");
-  if (begin == std::string_view::npos) return {};
-  return field.substr(begin, field.find_last_not_of(" \t") - begin + 1);
 }
 
 /// Whether gemmi's string_to_int (blanks, a sign, then digits, into an int without an overflow check) would

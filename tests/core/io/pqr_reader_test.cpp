@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <cctype>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -431,20 +430,21 @@ TEST(PqrReader, LinesUpToMaxLineBytesAreAccepted) {
   EXPECT_EQ(error.message(), "line 2: longer than 100 bytes (limits.max_line_bytes)");
 }
 
-TEST(PqrReader, ATenMegabyteLineFailsFast) {
-  const std::string huge = glycine_line + "\n" + std::string(10'000'000, 'A');
-  const auto start = std::chrono::steady_clock::now();
+TEST(PqrReader, ATenMegabyteLineFailsAfterItsLimitIsPassed) {
+  // Only max_line_bytes + 1 bytes of the long line are looked at: a NUL byte further on, which would make the
+  // input binary if it were read, is never reached, so the error is the line's length.
+  std::string tail(10'000'000, 'A');
+  tail[5000] = '\0';
+  const std::string huge = glycine_line + "\n" + tail;
   const status error = parse_error(huge);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_EQ(error.code(), errc::invalid_input);
   EXPECT_EQ(error.message(), "line 2: longer than 4096 bytes (limits.max_line_bytes)");
-  EXPECT_LT(seconds, 0.1);  // only 4097 bytes are looked at; even a sanitized build takes microseconds
 }
 
-TEST(PqrReader, LongFieldsAreLinearAndQuotedShortly) {
+TEST(PqrReader, LongFieldsAreReadAndQuotedShortly) {
   mesh_limits limits;
   limits.max_line_bytes = 20'000'000;
-  // A 10 MB line of fused fields and a 10 MB single field: linear work, and a bounded, escaped quote.
+  // A 10 MB line of fused fields and a 10 MB single field: read whole, and quoted in a bounded, escaped form.
   std::string fused = "ATOM";
   for (int i = 0; i < 1'000'000; ++i) fused += " 9-9-9";
   const status too_many = parse_error(fused + " 0.5 1.5", limits);
@@ -454,13 +454,10 @@ TEST(PqrReader, LongFieldsAreLinearAndQuotedShortly) {
   expect_atom(mol.atoms[0], 9, -9, -9, 0.5, 1.5);
 
   const std::string long_field = record("1", "2", "3", "0", std::string(10'000'000, '7') + "\xC3\xA9");
-  const auto start = std::chrono::steady_clock::now();
   const status error = parse_error(long_field, limits);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_EQ(error.code(), errc::invalid_input);
   EXPECT_EQ(error.message(), "line 1: radius '" + std::string(40, '7') +
                                  "...' is not a decimal number (records end with x y z charge radius)");
-  EXPECT_LT(seconds, 2.0);
 
   const status escaped = parse_error(record("1", "2", "3", "0", "1\xC3\xA9\\"));
   EXPECT_EQ(escaped.message(),
