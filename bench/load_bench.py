@@ -20,6 +20,7 @@ Usage: load_bench.py --daemon build/bin/tracemeshd [--molecules DIR] [--requests
 """
 import argparse
 import asyncio
+import contextlib
 import json
 import os
 import random
@@ -142,6 +143,31 @@ def start_daemon(daemon: str, workdir: str):
     sys.exit("load_bench: tracemeshd did not start:\n" + open(log_path).read())
 
 
+@contextlib.contextmanager
+def target_server(url, daemon: str, workdir_prefix: str):
+    """The server a benchmark loads, as (host, port, process): the one at `url` (process None), else a tracemeshd
+    started in a temporary folder, whose error lines are counted and which is stopped when the block ends."""
+    workdir = tempfile.mkdtemp(prefix=workdir_prefix)
+    process = None
+    try:
+        if url:
+            match = re.match(r"http://([^:/]+):(\d+)", url)
+            if not match:
+                sys.exit("--url expects http://host:port")
+            yield match.group(1), int(match.group(2)), None
+        else:
+            process, port, log_path = start_daemon(daemon, workdir)
+            yield "127.0.0.1", port, process
+            errors = [line for line in open(log_path) if '"level":"error"' in line]
+            if errors:
+                print(f"server logged {len(errors)} error lines, first: {errors[0].strip()}", file=sys.stderr)
+    finally:
+        if process is not None:
+            process.terminate()
+            process.wait(timeout=60)
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
 async def run(args, host: str, port: int):
     plan = Plan(args.molecules, args.requests, args.seed, f"{host}:{port}")
     for head, body in plan.warm_up():
@@ -203,28 +229,9 @@ def main() -> int:
     args = parser.parse_args()
     if not 1 <= args.clients <= 250:
         parser.error("--clients must be within 1 to 250")
-    workdir = tempfile.mkdtemp(prefix="tracemesh-load-")
-    process = None
-    try:
-        if args.url:
-            match = re.match(r"http://([^:/]+):(\d+)", args.url)
-            host, port = match.group(1), int(match.group(2))
-        else:
-            process, port, log_path = start_daemon(args.daemon, workdir)
-            host = "127.0.0.1"
+    with target_server(args.url, args.daemon, "tracemesh-load-") as (host, port, _):
         results, wall = asyncio.run(run(args, host, port))
-        status = report(results, wall, args)
-        if process is not None:
-            errors = [line for line in open(log_path) if '"level":"error"' in line]
-            if errors:
-                print(f"server logged {len(errors)} error lines, first: {errors[0].strip()}", file=sys.stderr)
-        return status
-    finally:
-        if process is not None:
-            process.terminate()
-            process.wait(timeout=60)
-        shutil.rmtree(workdir, ignore_errors=True)
-
+        return report(results, wall, args)
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -18,11 +18,8 @@ import argparse
 import asyncio
 import os
 import random
-import re
-import shutil
 import statistics
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -148,30 +145,10 @@ def main() -> int:
         parser.error(f"--duration must be at least {SAMPLE_SECONDS} s")
     if bool(args.url) != bool(args.pid):
         parser.error("--url and --pid go together")
-    workdir = tempfile.mkdtemp(prefix="tracemesh-soak-")
-    process = None
-    try:
-        if args.url:
-            match = re.match(r"http://([^:/]+):(\d+)", args.url)
-            if not match:
-                parser.error("--url expects http://host:port")
-            host, port, pid = match.group(1), int(match.group(2)), args.pid
-        else:
-            process, port, log_path = load_bench.start_daemon(args.daemon, workdir)
-            host, pid = "127.0.0.1", process.pid
+    with load_bench.target_server(args.url, args.daemon, "tracemesh-soak-") as (host, port, process):
+        pid = process.pid if process is not None else args.pid
         samples, results = asyncio.run(soak(args, host, port, pid))
-        status = report(samples, results, args)
-        if process is not None:
-            errors = [line for line in open(log_path) if '"level":"error"' in line]
-            if errors:
-                print(f"server logged {len(errors)} error lines, first: {errors[0].strip()}", file=sys.stderr)
-        return status
-    finally:
-        if process is not None:
-            process.terminate()
-            process.wait(timeout=60)
-        shutil.rmtree(workdir, ignore_errors=True)
-
+        return report(samples, results, args)
 
 if __name__ == "__main__":
     sys.exit(main())
