@@ -54,7 +54,10 @@ int exit_code_for(tracemesh::errc code) {
 /// Runs `job` with a progress token that SIGINT cancels; the token's listener is `on_progress`.
 tracemesh::status run_interruptible(const tracemesh::progress_token::listener& on_progress,
                                     const std::function<tracemesh::status(tracemesh::progress_token&)>& job) {
-  tracemesh::progress_token token(on_progress);
+  tracemesh::progress_token token([&on_progress, &token](tracemesh::mesh_stage stage, double fraction) {
+    if (on_progress) on_progress(stage, fraction);
+    if (tracemesh::cli::hold_progress_for_tests != nullptr) tracemesh::cli::hold_progress_for_tests(stage, token);
+  });
   running_job.store(&token);
   std::signal(SIGINT, cancel_on_interrupt);
   const tracemesh::status outcome = job(token);

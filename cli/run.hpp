@@ -14,4 +14,10 @@ namespace tracemesh::cli {
 /// written. Nothing is written unless meshing and encoding succeeded.
 status run(const cli_options& options, progress_token& progress);
 
+/// A seam for the test program tracemesh_testable only (tests/CMakeLists.txt, tests/support/held_run_hook.cpp):
+/// called after each progress report with the run's token, it may hold the run there until the token is cancelled,
+/// so that a test of the interrupt acts on a run that is certainly still meshing, however fast the machine. Weak and
+/// left undefined in the production tracemesh, which therefore never calls it.
+[[gnu::weak]] void hold_progress_for_tests(mesh_stage stage, const progress_token& token);
+
 }  // namespace tracemesh::cli

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/mesher.hpp"
+#include "support/held_jobs.hpp"
 #include "support/pqr_edits.hpp"
 #include "support/structure_writers.hpp"
 #include "support/shell_xyzr.hpp"
@@ -574,14 +575,16 @@ TEST_F(TracemeshCli, GzipInputGivesTheSameMesh) {
 }
 
 TEST_F(TracemeshCli, InterruptCancelsCleanly) {
-  // SIGINT once the run shows it is meshing: its progress line, drawn because stderr is a terminal. 1k4r_5asu (90 k
-  // atoms) meshes for seconds after its first progress line even in Release, while the signal lands within
-  // microseconds of it: exit 130, one line, no output, no temporary file.
-  tracemesh::testing::terminal_child run(tracemesh::testing::binary_path("tracemesh"),
-                                         {tracemesh::testing::molecule_path("1k4r_5asu.pqr.gz").string(), "-o",
-                                          path("5asu.off").string()});
+  // SIGINT once the run shows it is meshing: its progress line, drawn because stderr is a terminal. The test
+  // program holds the run at its first report of the root stage until the interrupt (support/held_run_hook.cpp),
+  // so the signal lands in the middle of meshing however fast the machine: exit 130, one line, no output, no
+  // temporary file.
+  tracemesh::testing::terminal_child run(
+      tracemesh::testing::binary_path("tracemesh_testable"),
+      {tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", path("fas2.off").string()},
+      {std::string(tracemesh::testing::held_run_stage_variable) + "=roots"});
   ASSERT_TRUE(run.started());
-  ASSERT_TRUE(run.wait_for("%\033[K")) << "no progress line: " << run.output();
+  ASSERT_TRUE(run.wait_for("roots")) << "no progress line: " << run.output();
   run.signal(SIGINT);
   EXPECT_EQ(run.wait_exit(), 130) << run.output();
   // The progress line is erased ("\r\033[K") before the error is printed: what follows is the one line.

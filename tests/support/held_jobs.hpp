@@ -14,6 +14,10 @@ inline constexpr const char* held_jobs_gate_variable = "TRACEMESH_TEST_HOLD_GATE
 /// Only jobs of at least this many atoms are held (unset: every job).
 inline constexpr const char* held_jobs_min_atoms_variable = "TRACEMESH_TEST_HOLD_MIN_ATOMS";
 
+/// For tracemesh_testable (the command with tests/support/held_run_hook.cpp): the name of the stage
+/// (core/progress.cpp's stage_name) at whose first progress report the run waits until it is interrupted.
+inline constexpr const char* held_run_stage_variable = "TRACEMESH_TEST_HOLD_STAGE";
+
 /// Which jobs tracemeshd_testable holds and until when.
 struct held_jobs {
   std::filesystem::path gate;  ///< created by the test to let the held jobs mesh

@@ -21,8 +21,10 @@ namespace tracemesh::testing {
 class terminal_child {
  public:
   /// Starts `program` with `args`, stdin and stdout on /dev/null, stderr on the slave side of a new pseudo-terminal
-  /// in raw mode (bytes arrive as written: no "\n" → "\r\n"). started() is false when any step failed.
-  terminal_child(const std::filesystem::path& program, const std::vector<std::string>& args) {
+  /// in raw mode (bytes arrive as written: no "\n" → "\r\n"), and this process's environment plus `environment`
+  /// ("NAME=value" each). started() is false when any step failed.
+  terminal_child(const std::filesystem::path& program, const std::vector<std::string>& args,
+                 std::vector<std::string> environment = {}) {
     master_ = ::posix_openpt(O_RDWR | O_NOCTTY);
     if (master_ < 0 || ::grantpt(master_) != 0 || ::unlockpt(master_) != 0) return;
     const char* slave_name = ::ptsname(master_);
@@ -33,8 +35,12 @@ class terminal_child {
     std::vector<char*> argv;
     for (std::string& arg : argv_text) argv.push_back(arg.data());
     argv.push_back(nullptr);
+    std::vector<char*> envp;
+    for (char** inherited = environ; *inherited != nullptr; ++inherited) envp.push_back(*inherited);
+    for (std::string& added : environment) envp.push_back(added.data());
+    envp.push_back(nullptr);
     pid_ = ::fork();
-    if (pid_ == 0) exec_child(slave_path, argv);
+    if (pid_ == 0) exec_child(slave_path, argv, envp);
   }
   ~terminal_child() {
     if (pid_ > 0 && !exited_) {
@@ -74,7 +80,8 @@ class terminal_child {
   const std::string& output() const { return output_; }
 
  private:
-  [[noreturn]] static void exec_child(const std::string& slave_path, std::vector<char*>& argv) {
+  [[noreturn]] static void exec_child(const std::string& slave_path, std::vector<char*>& argv,
+                                      std::vector<char*>& envp) {
     const int slave = ::open(slave_path.c_str(), O_RDWR);
     const int null = ::open("/dev/null", O_RDWR);
     termios raw{};
@@ -84,7 +91,7 @@ class terminal_child {
     ::dup2(null, STDIN_FILENO);
     ::dup2(null, STDOUT_FILENO);
     ::dup2(slave, STDERR_FILENO);
-    ::execv(argv[0], argv.data());
+    ::execve(argv[0], argv.data(), envp.data());
     ::_exit(127);
   }
 
