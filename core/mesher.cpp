@@ -46,6 +46,13 @@ constexpr int trace_refine_iterations = 2;
 /// than the check saves.
 constexpr std::size_t unchecked_quality_pass_triangles = 20'000;
 
+/// Raw meshes of fewer triangles hand no freed memory back to the system before the quality pass: their front end
+/// freed a few megabytes, and malloc_trim's walk of every thread's heap, then the page faults of the pass reusing what
+/// it released, cost more than keeping them (fas2: about 200 page faults fewer, the same peak memory). Larger ones
+/// trim, for their peak (mache at 1 and 2 v/Å², 43,032 and 84,094 raw triangles: 1.3 and 2.5 MB less; a capsid's
+/// front end leaves gigabytes fragmented, release_memory.hpp), and to them the trim's milliseconds are small.
+constexpr std::size_t trimmed_from_raw_triangles = 20'000;
+
 /// The trace path's line grids, in units of h̃ (trace_stats::line_offset), attempt by attempt. A trace that cannot
 /// close a cell or whose mesh fails a check (at sharp kernels, d ≤ −8 in the README's sweep, a strip plane can pass
 /// within a hair of where the surface is tangent to it, and no walk gets past that point) is tried again on the
@@ -241,7 +248,7 @@ result<mesh_output> run_pipeline(const molecule& mol, const mesh_params& params,
   if (!raw && raw.error().code() == errc::nothing_to_mesh) return no_surface_found(mol, field, params, spacing);
   if (!raw) return raw.error();
   out.mesh = std::move(*raw);
-  release_freed_memory();
+  if (out.mesh.triangles.size() >= trimmed_from_raw_triangles) release_freed_memory();
 
   // A small mesh's quality pass leaves its final check to the certificate, which repeats it; should the certificate
   // fail, the pass runs again from the raw mesh, checked (its check then freezes what it refuses).

@@ -54,10 +54,16 @@ std::vector<double> near_duplicate_radii(const surface_mesh& mesh, const vertex_
 /// still held about one.
 constexpr double cell_in_median_radii = 3.0 / near_duplicate_fraction;
 
+/// A vertex is paired with a neighbouring cell's vertices only when it lies within this many times its radius of
+/// that cell along every axis the cell is offset in (plus vertex_grid's bound on the rounding of a cell's faces):
+/// a partner lies within the radius, so a farther vertex has none there. Most vertices of a cell 30 radii wide are
+/// paired within their own cell only.
+constexpr double neighbour_reach_in_radii = 2.0;
+
 /// A sparse grid of cubic cells over the vertices that take part, as (cell key, vertex) entries sorted by key.
 class vertex_grid {
  public:
-  vertex_grid(const surface_mesh& mesh, const std::vector<double>& radii) {
+  vertex_grid(const surface_mesh& mesh, const std::vector<double>& radii) : positions_(mesh.positions), radii_(radii) {
     vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
             std::numeric_limits<double>::infinity()};
     vec3 hi = -lo;
@@ -80,6 +86,10 @@ class vertex_grid {
     const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
     cell_size_ = std::max({largest_radius, cell_in_median_radii * *middle,
                            extent / static_cast<double>(max_cell_coordinate - 1)});
+    // cell_of's quotient and a face's position are each within a few ulps of the largest coordinate.
+    const double largest_coordinate = std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(lo.z), std::fabs(hi.x),
+                                                std::fabs(hi.y), std::fabs(hi.z)});
+    face_rounding_ = 64 * std::numeric_limits<double>::epsilon() * (largest_coordinate + extent + cell_size_);
     for (std::size_t v = 0; v < radii.size(); ++v) {
       if (radii[v] > 0) entries_.emplace_back(key(cell_of(mesh.positions[v])), static_cast<std::uint32_t>(v));
     }
@@ -92,25 +102,37 @@ class vertex_grid {
 
   std::size_t cell_count() const { return cell_starts_.empty() ? 0 : cell_starts_.size() - 1; }
 
-  /// Calls visit(a, b) once for every pair of vertices in occupied cell `c` and the cells next to it: the pairs
-  /// within c, and those with the 13 neighbours whose offset is positive in the first non-zero axis (each pair of
-  /// adjacent cells is then met once).
+  /// Calls visit(a, b) once for every pair of vertices in occupied cell `c` and the cells next to it that may lie
+  /// within a's radius of each other: the pairs within c, and with the 13 neighbours whose offset is positive in the
+  /// first non-zero axis (each pair of adjacent cells is then met once) those whose vertex a of c lies near enough to
+  /// the neighbour (neighbour_reach_in_radii). `near_sides` is scratch.
   template <class Visit>
-  void for_each_pair_from(std::size_t c, Visit&& visit) const {
+  void for_each_pair_from(std::size_t c, std::vector<std::uint8_t>& near_sides, Visit&& visit) const {
     const std::size_t begin = cell_starts_[c], end = cell_starts_[c + 1];
     for (std::size_t i = begin; i < end; ++i) {
       for (std::size_t j = i + 1; j < end; ++j) visit(entries_[i].second, entries_[j].second);
     }
     const std::array<std::int64_t, 3> at = coordinates(entries_[begin].first);
+    std::uint8_t any_near = 0;
+    near_sides.clear();
+    for (std::size_t i = begin; i < end; ++i) {
+      near_sides.push_back(sides_near(at, entries_[i].second));
+      any_near |= near_sides.back();
+    }
+    if (any_near == 0) return;
     for (std::int64_t dx = 0; dx <= 1; ++dx) {
       for (std::int64_t dy = dx == 0 ? 0 : -1; dy <= 1; ++dy) {
         for (std::int64_t dz = dx == 0 && dy == 0 ? 1 : -1; dz <= 1; ++dz) {
+          const std::uint8_t towards = sides_towards({dx, dy, dz});
+          if ((any_near & towards) != towards) continue;
           const std::array<std::int64_t, 3> n{at[0] + dx, at[1] + dy, at[2] + dz};
           if (!inside(n)) continue;
           const std::uint64_t k = key(n);
           auto it = std::lower_bound(entries_.begin(), entries_.end(), std::pair<std::uint64_t, std::uint32_t>{k, 0});
           for (; it != entries_.end() && it->first == k; ++it) {
-            for (std::size_t i = begin; i < end; ++i) visit(entries_[i].second, it->second);
+            for (std::size_t i = begin; i < end; ++i) {
+              if ((near_sides[i - begin] & towards) == towards) visit(entries_[i].second, it->second);
+            }
           }
         }
       }
@@ -126,6 +148,29 @@ class vertex_grid {
     }
     return c;
   }
+  /// Bit 2·axis (low side) or 2·axis + 1 (high side) set when vertex v, in the cell at `at`, lies within
+  /// neighbour_reach_in_radii × its radius (plus face_rounding_) of that face of the cell, or outside it (where
+  /// cell_of clamped).
+  std::uint8_t sides_near(const std::array<std::int64_t, 3>& at, std::uint32_t v) const {
+    const double reach = neighbour_reach_in_radii * radii_[v] + face_rounding_;
+    std::uint8_t sides = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double low = origin_[axis] + static_cast<double>(at[axis]) * cell_size_;
+      const double p = positions_[v][axis];
+      if (p - low < reach) sides |= std::uint8_t(1U << (2 * axis));
+      if (low + cell_size_ - p < reach) sides |= std::uint8_t(1U << (2 * axis + 1));
+    }
+    return sides;
+  }
+  /// The sides_near bits a vertex needs for the cell at `offset` (each component −1, 0 or 1) from its own.
+  static std::uint8_t sides_towards(const std::array<std::int64_t, 3>& offset) {
+    std::uint8_t sides = 0;
+    for (int axis = 0; axis < 3; ++axis) {
+      if (offset[axis] < 0) sides |= std::uint8_t(1U << (2 * axis));
+      if (offset[axis] > 0) sides |= std::uint8_t(1U << (2 * axis + 1));
+    }
+    return sides;
+  }
   static bool inside(const std::array<std::int64_t, 3>& c) {
     return std::all_of(c.begin(), c.end(), [](std::int64_t x) { return x >= 0 && x <= max_cell_coordinate; });
   }
@@ -139,8 +184,11 @@ class vertex_grid {
             static_cast<std::int64_t>(key & mask)};
   }
 
+  const std::vector<vec3>& positions_;
+  const std::vector<double>& radii_;
   vec3 origin_{};
   double cell_size_ = 1;
+  double face_rounding_ = 0;  ///< Å: bound on the rounding of where a point's cell puts it (see sides_near)
   std::vector<std::pair<std::uint64_t, std::uint32_t>> entries_;
   std::vector<std::size_t> cell_starts_;  ///< first entry of each occupied cell, then entries_.size()
 };
@@ -183,8 +231,9 @@ std::size_t count_near_duplicate_vertex_pairs(const surface_mesh& mesh, const ve
       grid.cell_count(), std::size_t{0},
       [&](std::size_t begin, std::size_t end) {
         std::size_t pairs = 0;
+        std::vector<std::uint8_t> near_sides;
         for (std::size_t c = begin; c < end; ++c) {
-          grid.for_each_pair_from(c, [&](std::uint32_t a, std::uint32_t b) {
+          grid.for_each_pair_from(c, near_sides, [&](std::uint32_t a, std::uint32_t b) {
             const double within = std::min(radii[a], radii[b]);
             if (squared_norm(mesh.positions[a] - mesh.positions[b]) < within * within &&
                 !share_an_edge(mesh, fans, a, b)) {

@@ -27,9 +27,9 @@ std::size_t count_folded_triangles(const surface_mesh& mesh, const std::vector<t
 
 /// mesh_report::near_duplicate_vertex_pairs: pairs of vertices that share no edge and lie closer than
 /// near_duplicate_fraction × the shorter of their median incident edge lengths. Candidate pairs come from a grid
-/// of cells about a median edge across (at least the largest such distance), its (cell, vertex) entries sorted so
-/// that each cell's vertices are contiguous, cell by cell with the adjacent cells. Only vertices of well-formed
-/// triangles with usable coordinates take part.
+/// of cells about three median edges across (at least the largest such distance), its (cell, vertex) entries sorted so
+/// that each cell's vertices are contiguous, cell by cell with the adjacent cells (with a vertex near enough to
+/// them). Only vertices of well-formed triangles with usable coordinates take part.
 std::size_t count_near_duplicate_vertex_pairs(const surface_mesh& mesh, const vertex_fans& fans);
 
 }  // namespace tracemesh::detail

@@ -51,6 +51,14 @@ bool ends_with_five_numbers(std::string_view record) {
   return true;
 }
 
+/// Index of the first CR or LF at or after `begin`, or text.size() (a loop: find_first_of("\r\n") calls memchr
+/// on its two-byte set for every byte of the text).
+std::size_t line_break_at_or_after(std::string_view text, std::size_t begin) {
+  std::size_t i = begin;
+  while (i < text.size() && text[i] != '\n' && text[i] != '\r') ++i;
+  return i;
+}
+
 std::string_view strip_cr(std::string_view line) {
   while (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   return line;
@@ -127,15 +135,14 @@ structure_options declared_by_file_name(std::string_view file_name, structure_op
   return options;
 }
 
-format_evidence examine_input_format(std::string_view text, std::size_t max_line_bytes) {
+format_evidence examine_input_format(std::string_view text, std::size_t max_line_bytes, record_evidence records) {
   if (starts_with(text, "\xEF\xBB\xBF")) text.remove_prefix(3);
   format_evidence evidence;
   bool first_meaningful = true;  // no non-blank, non-comment line seen yet
   bool first_non_blank = true;
   std::size_t begin = 0;
   while (begin < text.size()) {
-    std::size_t end = text.find_first_of("\r\n", begin);
-    if (end == std::string_view::npos) end = text.size();
+    const std::size_t end = line_break_at_or_after(text, begin);
     const std::string_view line = strip_cr(text.substr(begin, std::min(end - begin, max_line_bytes)));
     begin = end + 1;
     if (is_blank(line)) continue;
@@ -151,12 +158,16 @@ format_evidence examine_input_format(std::string_view text, std::size_t max_line
       return evidence;
     }
     first_meaningful = false;
-    const bool before_atoms = evidence.pqr_records + evidence.other_records == 0;
+    const bool before_atoms = evidence.atom_records == 0;
     if (before_atoms && (starts_with(line, "HEADER") || starts_with(line, "CRYST1"))) {
       evidence.pdb_header = true;
       return evidence;
     }
-    if (is_atom_record(line)) ++(ends_with_five_numbers(line) ? evidence.pqr_records : evidence.other_records);
+    if (!is_atom_record(line)) continue;
+    ++evidence.atom_records;
+    if (records == record_evidence::classified) {
+      ++(ends_with_five_numbers(line) ? evidence.pqr_records : evidence.other_records);
+    }
   }
   return evidence;
 }
@@ -165,8 +176,7 @@ input_format detected_format(const format_evidence& evidence) noexcept {
   if (evidence.mmcif_header) return input_format::mmcif;
   if (evidence.xyzr_first_line) return input_format::xyzr;
   if (evidence.pdb_header) return input_format::pdb;
-  const std::size_t records = evidence.pqr_records + evidence.other_records;
-  if (records == 0) return evidence.xyzr_like_first ? input_format::xyzr : input_format::pqr;
+  if (evidence.atom_records == 0) return evidence.xyzr_like_first ? input_format::xyzr : input_format::pqr;
   return evidence.pqr_records >= evidence.other_records ? input_format::pqr : input_format::pdb;
 }
 
@@ -179,7 +189,7 @@ status check_declared_format(const declared_format& declared, const format_evide
   const auto contradiction = [&](const std::string& content) {
     return status{errc::invalid_input, declaration + ", but " + content};
   };
-  const std::size_t records = evidence.pqr_records + evidence.other_records;
+  const std::size_t records = evidence.atom_records;
   if (evidence.mmcif_header != (declared.format == input_format::mmcif)) {
     return contradiction(evidence.mmcif_header ? "the text is mmCIF (it starts with a data_ block)"
                                                : "the text is not mmCIF (it does not start with a data_ block)");

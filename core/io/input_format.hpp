@@ -56,15 +56,24 @@ struct format_evidence {
   bool xyzr_first_line = false;    ///< rule 2: the first non-blank line is four numbers
   bool xyzr_like_first = false;    ///< the first non-blank line has four fields and starts as a number does
   bool pdb_header = false;         ///< rule 3: HEADER or CRYST1 before the first atom record
-  std::size_t pqr_records = 0;     ///< atom records ending with five numbers
-  std::size_t other_records = 0;   ///< atom records that do not (PDB records, damaged PQR records)
+  std::size_t atom_records = 0;    ///< ATOM/HETATM records, whatever they end with
+  /// Of those, the ones ending with five numbers and the others (PDB records, damaged PQR records); both stay 0
+  /// when the records were only counted (record_evidence::counted).
+  std::size_t pqr_records = 0;
+  std::size_t other_records = 0;
 };
+
+/// What examine_input_format learns from an atom record: whether it ends with five numbers (rule 4, which
+/// detected_format needs), or only that it is one (all check_declared_format needs: the reader chosen by a
+/// declaration parses every record itself, so classifying them first would parse them twice).
+enum class record_evidence { classified, counted };
 
 /// The evidence in `text` (already decompressed, a byte order mark allowed), each line looked at up to
 /// max_line_bytes. Stops at the decisive line of rules 1–3, else reads every line; linear in text.size().
-format_evidence examine_input_format(std::string_view text, std::size_t max_line_bytes);
+format_evidence examine_input_format(std::string_view text, std::size_t max_line_bytes,
+                                     record_evidence records = record_evidence::classified);
 
-/// The format the evidence decides by the rule above.
+/// The format the evidence decides by the rule above. Precondition: the records were classified.
 input_format detected_format(const format_evidence& evidence) noexcept;
 
 /// The format of `text` by the rule above (detected_format of examine_input_format). Never fails (a malformed

@@ -74,8 +74,9 @@ struct remesh_options {
   /// per round instead of one per stage; patches are small, so a redo is cheap).
   bool check_every_stage = false;
   /// A mesh of fewer triangles than this is remeshed as one patch whose round is not checked for self-intersections
-  /// and inward components at its end (remesh_stats::unchecked; vertices are still settled onto the surface, and the
-  /// result's topology is still compared with the input's). For a caller that certifies the result anyway and runs
+  /// and inward components at its end, nor its result rebuilt to confirm it is a closed oriented manifold
+  /// (remesh_stats::unchecked; vertices are still settled onto the surface, and the result's topology is still
+  /// compared with the input's). For a caller that certifies the result anyway and runs
   /// the pass again, checked, should that fail: mesh_molecule. 0: every round is checked.
   std::size_t unchecked_below_triangles = 0;
   /// Edge of the chunks the mesh is cut into, in units of L (see remesh_chunks.hpp); at least 16. Twice the edge means

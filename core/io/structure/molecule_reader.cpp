@@ -37,7 +37,8 @@ result<read_molecule_result> parse_text(std::string_view text, const structure_o
   // Dropped here, for every reader: the PDB reader took it for part of the first record, whose atom was lost
   // without a word, and the mmCIF reader refused "data_" behind it.
   if (text.starts_with(utf8_bom)) text.remove_prefix(utf8_bom.size());
-  const format_evidence evidence = examine_input_format(text, limits.max_line_bytes);
+  const format_evidence evidence = examine_input_format(
+      text, limits.max_line_bytes, options.format ? record_evidence::counted : record_evidence::classified);
   if (options.format) {
     if (status readable = check_declared_format(*options.format, evidence); !readable) return readable;
   }

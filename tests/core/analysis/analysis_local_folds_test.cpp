@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <random>
 #include <utility>
 
 #include "core/analysis/mesh_analysis.hpp"
@@ -105,6 +106,46 @@ TEST(LocalFolds, NearDuplicatesOfManyPairsAreEachCountedOnce) {
   EXPECT_EQ(one, vertices);
   EXPECT_EQ(two, one);
   EXPECT_EQ(analyze_mesh(icosphere(3, 2.0)).near_duplicate_vertex_pairs, 0u);
+}
+
+/// Separate unit triangles at scattered places, every second one a copy of the one before moved by `gap` (in a
+/// scattered direction): three close pairs per copy. The fixed seed gives the same mesh everywhere.
+surface_mesh scattered_triangle_pairs(std::size_t pairs, double gap) {
+  std::mt19937 random(20261202);
+  const auto uniform = [&](double lo, double hi) { return lo + (hi - lo) * (random() / 4294967296.0); };
+  surface_mesh mesh;
+  const auto add_triangle = [&](const vec3& corner) {
+    const auto first = static_cast<std::uint32_t>(mesh.positions.size());
+    mesh.positions.insert(mesh.positions.end(), {corner, corner + vec3{1, 0, 0}, corner + vec3{0.5, 0.8660254, 0}});
+    mesh.triangles.push_back({first, first + 1, first + 2});
+  };
+  for (std::size_t k = 0; k < pairs; ++k) {
+    const vec3 corner{uniform(0, 40), uniform(0, 40), uniform(0, 40)};
+    add_triangle(corner);
+    add_triangle(corner + gap * normalized(vec3{uniform(-1, 1), uniform(-1, 1), uniform(-1, 1)}));
+  }
+  return mesh;
+}
+
+/// Pairs of vertices of different triangles closer than near_duplicate_fraction × their (unit) edges.
+std::size_t near_pairs_by_brute_force(const surface_mesh& mesh) {
+  std::size_t pairs = 0;
+  for (std::size_t a = 0; a < mesh.positions.size(); ++a) {
+    for (std::size_t b = a + 1; b < mesh.positions.size(); ++b) {
+      if (a / 3 != b / 3 && distance(mesh.positions[a], mesh.positions[b]) < near_duplicate_fraction) ++pairs;
+    }
+  }
+  return pairs;
+}
+
+TEST(LocalFolds, NearDuplicatesAcrossTheFacesOfTheSearchGridAreFound) {
+  // About 3 Å cells over 40 Å: dozens of the 1,200 close pairs straddle a face, edge or corner of a cell.
+  for (const double gap : {0.02, 0.06, 0.099}) {
+    const surface_mesh mesh = scattered_triangle_pairs(400, gap);
+    const std::size_t expected = near_pairs_by_brute_force(mesh);
+    EXPECT_GE(expected, 1200u) << gap;
+    EXPECT_EQ(analyze_mesh(mesh).near_duplicate_vertex_pairs, expected) << gap;
+  }
 }
 
 }  // namespace

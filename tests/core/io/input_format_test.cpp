@@ -65,9 +65,32 @@ TEST(InputFormat, ADamagedFirstAtomRecordDoesNotMakeAPqrFilePdb) {
     const format_evidence evidence = examine_input_format(first + "\n" + rest, 4096);
     EXPECT_EQ(evidence.pqr_records, 2u) << first;
     EXPECT_EQ(evidence.other_records, 1u) << first;
+    EXPECT_EQ(evidence.atom_records, 3u) << first;
   }
   // The radius column missing (column-aligned pdb2pqr output): still five numbers at the end, so PQR.
   EXPECT_EQ(detect("ATOM      1  N   GLY A   1       1.000   2.000   3.000 -0.3000\n" + rest), input_format::pqr);
+}
+
+TEST(InputFormat, CountedRecordsAreNotClassifiedAndDecideADeclarationAsClassifiedOnesDo) {
+  const std::string pqr = "REMARK x\r\nATOM 1 N GLY 1 1.0 2.0 3.0 -0.3 1.5\rHETATM 2 O HOH 2 2.0 2.0 3.0 0.1 nan\n";
+  const format_evidence counted = examine_input_format(pqr, 4096, record_evidence::counted);
+  EXPECT_EQ(counted.atom_records, 2u);
+  EXPECT_EQ(counted.pqr_records + counted.other_records, 0u);
+  const format_evidence classified = examine_input_format(pqr, 4096);
+  EXPECT_EQ(classified.atom_records, 2u);
+  EXPECT_EQ(classified.pqr_records, 1u);
+  EXPECT_EQ(classified.other_records, 1u);
+  const std::string xyzr = "1 2 3 1.5\n2 2 3 1.5\n";
+  for (const input_format format : {input_format::pqr, input_format::pdb, input_format::mmcif, input_format::xyzr}) {
+    const declared_format declared{format, "the test"};
+    for (const std::string& text : {pqr, xyzr}) {
+      EXPECT_EQ(check_declared_format(declared, examine_input_format(text, 4096, record_evidence::counted)).code(),
+                check_declared_format(declared, examine_input_format(text, 4096)).code())
+          << input_format_name(format) << ": " << text;
+    }
+  }
+  EXPECT_FALSE(check_declared_format({input_format::xyzr, "the test"},
+                                     examine_input_format(pqr, 4096, record_evidence::counted)));
 }
 
 TEST(InputFormat, ReadsDeclaredFormatsByNameAndFileExtension) {
