@@ -378,19 +378,6 @@ void find_walk_gaps(std::span<const double> node_x, std::span<const double> node
 
 }  // namespace
 
-line_root_stats& line_root_stats::operator+=(const line_root_stats& other) {
-  lines += other.lines;
-  field_evaluations += other.field_evaluations;
-  polynomial_roots += other.polynomial_roots;
-  rejected_roots += other.rejected_roots;
-  sign_walk_roots += other.sign_walk_roots;
-  probes += other.probes;
-  proven_lines += other.proven_lines;
-  quiet_fits += other.quiet_fits;
-  fits += other.fits;
-  return *this;
-}
-
 line_root_finder::line_root_finder(const line_root_settings& settings) : settings_(settings), fitter_(settings.degree) {
   // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix, stored by column
   // (node), with two more rows: a_M and a_{M−1}, for the fit's error estimate.
@@ -407,17 +394,15 @@ line_root_finder::line_root_finder(const line_root_settings& settings) : setting
     column[count] = a[static_cast<std::size_t>(count - 1)];
     column[count + 1] = count >= 3 ? a[static_cast<std::size_t>(count - 2)] : 0.0;
   }
-  // Legendre → Bernstein at degree M − 1, for the derivative series (its extrema are probed).
+  // Legendre → Bernstein at degree M − 1, for the derivative series (its extrema are probed), also by column.
   const int slope_count = count - 1;
   derivative_to_bernstein_.assign(static_cast<std::size_t>(slope_count * slope_count), 0.0);
-  std::vector<double> slope_unit(static_cast<std::size_t>(slope_count)), slope_b(slope_unit.size());
+  std::vector<double> slope_unit(static_cast<std::size_t>(slope_count));
   for (int n = 0; n < slope_count; ++n) {
     std::fill(slope_unit.begin(), slope_unit.end(), 0.0);
     slope_unit[static_cast<std::size_t>(n)] = 1;
-    legendre_to_bernstein(slope_unit, slope_b);
-    for (int j = 0; j < slope_count; ++j) {
-      derivative_to_bernstein_[static_cast<std::size_t>(j * slope_count + n)] = slope_b[static_cast<std::size_t>(j)];
-    }
+    legendre_to_bernstein(slope_unit, std::span<double>(derivative_to_bernstein_).subspan(
+                                          static_cast<std::size_t>(n * slope_count), slope_unit.size()));
   }
 }
 
@@ -488,7 +473,7 @@ namespace {
 struct fit_context {
   const legendre_fitter& fitter;
   std::span<const double> values_to_bernstein;      ///< (M+1)² matrix
-  std::span<const double> derivative_to_bernstein;  ///< M² matrix: Legendre → Bernstein at degree M − 1
+  std::span<const double> derivative_to_bernstein;  ///< M² matrix, by column: Legendre → Bernstein at degree M − 1
   const block_geometry& geometry;
   double t0;
   const line_root_settings& settings;
@@ -554,13 +539,8 @@ void fit_candidates(const fit_context& c, int fit, const double* f, fit_scratch&
     if (margin > 0 && points > 2) {
       legendre_derivative(a, scratch.slope);
       const auto slope_count = static_cast<std::size_t>(points - 1);
-      for (std::size_t j = 0; j < slope_count; ++j) {
-        double sum = 0;
-        for (std::size_t n = 0; n < slope_count; ++n) {
-          sum += c.derivative_to_bernstein[j * slope_count + n] * scratch.slope[n];
-        }
-        scratch.slope_b[j] = sum;
-      }
+      multiply_columns(c.derivative_to_bernstein.data(), points - 1, points - 1, scratch.slope.data(),
+                       scratch.slope_b.data());
       scratch.extrema.clear();
       legendre_roots(std::span<const double>(scratch.slope.data(), slope_count),
                      std::span<const double>(scratch.slope_b.data(), slope_count), scratch.extrema,
@@ -738,15 +718,6 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
       out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
     }
   });
-}
-
-void find_block_line_roots(const gaussian_field& field, const lattice& lat, const lattice_index& block,
-                           std::span<const std::uint32_t> atoms, int degree, block_line_roots& out,
-                           line_root_stats& stats) {
-  line_root_settings settings;
-  settings.degree = degree;
-  line_root_finder finder(settings);
-  finder.find(field, lat, block, atoms, out, stats);
 }
 
 }  // namespace tracemesh
