@@ -18,24 +18,19 @@ namespace {
 
 /// A closed component needs 4 vertices at least.
 constexpr std::uint32_t smallest_closed_component = 4;
-/// Rounds of collapses, each after those whose triangles met others were refused: a collapse of the raw trace mesh
-/// moves a fan by up to h̃/100 and can push it through a triangle of a neighbouring cell where the surface lies
-/// almost in a wall (1k4r_capsid at 2 v/Å²: 32 self-intersections, without this check). A round that fails is
-/// undone whole, so rounds must outlast the refusals: collapsing achbp's raw edges under h̃/2 refused 22, 12, 4 and 0
-/// collapses in turn (of about 2,970), and 3 rounds collapsed none.
+/// Rounds of collapses, each after those whose triangles met others were refused: a collapse can push a fan through a
+/// triangle of a neighbouring cell where the surface lies almost in a wall. A round that fails is undone whole, so
+/// rounds must outlast the refusals, which come a few fewer each round.
 constexpr int max_collapse_rounds = 8;
 /// A pass over at least this many edges first undoes only the collapses that fail, with every later one that
 /// touched what they touched, and tests again around what it put back (up to max_undo_steps times), instead of
-/// making the whole round again: on the raw 1k4r_capsid at 1 v/Å², about a thousand of 175,579 collapses fail, and
-/// each round made again is a sweep and a test of a million moved triangles. The edges undone are tried again in
-/// the next pass, a small one, whose rounds are made again whole: a round made again tries other orders, which a
-/// cluster of close vertices may need (on 1k4r_capsid at 1 v/Å² the quality pass's last collapses left an edge of
-/// 0.039 × the median in one, with every pass undoing alone; 0.127 with rounds made again).
+/// making the whole round again (a sweep and a test of every moved triangle). The edges undone are tried again in
+/// the next pass, a small one, whose rounds are made again whole: that tries other orders, which a cluster of close
+/// vertices may need.
 constexpr std::size_t undone_alone_from_edges = 10'000;
 constexpr int max_undo_steps = 4;
 /// Passes over the edges, each over the short edges at the vertices the previous one kept: a collapse joins the kept
-/// end to the removed end's neighbours, and one of them may lie close to it (1k4r_capsid at 2 v/Å²: three close
-/// line roots and arc points left an edge of 0.031 × the median after the one pass there was).
+/// end to the removed end's neighbours, and one of them may lie close to it.
 constexpr int max_collapse_passes = 4;
 
 using triangle = std::array<std::uint32_t, 3>;
@@ -137,6 +132,14 @@ class local_incidence {
 
 bool contains(const triangle& t, std::uint32_t v) { return t[0] == v || t[1] == v || t[2] == v; }
 
+/// The corner of t that is neither a nor b (a when t has no third corner, which a triangle of an edge (a, b) has).
+std::uint32_t third_corner(const triangle& t, std::uint32_t a, std::uint32_t b) {
+  for (const std::uint32_t v : t) {
+    if (v != a && v != b) return v;
+  }
+  return a;
+}
+
 vec3 area_normal(const surface_mesh& mesh, const triangle& t) {
   const vec3& p = mesh.positions[t[0]];
   return cross(mesh.positions[t[1]] - p, mesh.positions[t[2]] - p);
@@ -157,10 +160,8 @@ bool folded(const surface_mesh& mesh, const triangle& t) {
 /// Whether moving `removed` onto `kept` turns none of `around` (triangles at `removed`) over or flat, and folds none
 /// against the vertex normals; those that also hold `kept` (the edge's two, which go) are skipped. A triangle that
 /// faces against the surface's normals at its corners may turn over when it then faces along them: the move puts
-/// it right. (On 1k4r_capsid at 1 v/Å² a raw triangle in a patch the quality pass had left frozen faced −0.998
-/// against them, and refusing to turn it kept an edge of 0.061 × the median.) A triangle that leans far from the
-/// normals may turn by less than a right angle and still end up facing against all three: no collapse makes such a
-/// fold (without this test the raw trace mesh's collapses under h̃/2 made most of its folded triangles).
+/// it right (a raw triangle left frozen by the quality pass may face so). A triangle that leans far from the normals
+/// may turn by less than a right angle and still end up facing against all three: no collapse makes such a fold.
 bool moves_without_turning(const surface_mesh& mesh, const std::vector<std::uint32_t>& around, std::uint32_t removed,
                            std::uint32_t kept) {
   for (const std::uint32_t f : around) {
@@ -233,7 +234,8 @@ class collapser {
       if (contains(mesh_.triangles[f], b)) on_edge.push_back(f);
     }
     if (on_edge.size() != 2) return false;
-    const std::uint32_t c = third_corner(on_edge[0], a, b), d = third_corner(on_edge[1], a, b);
+    const std::uint32_t c = third_corner(mesh_.triangles[on_edge[0]], a, b);
+    const std::uint32_t d = third_corner(mesh_.triangles[on_edge[1]], a, b);
     if (c == d) return false;
     if (live_count(c) <= 3 || live_count(d) <= 3) {
       // A corner of three triangles would be left with two. Such a corner is first merged into the nearer end of
@@ -445,12 +447,6 @@ class collapser {
     }
     return vertices;
   }
-  std::uint32_t third_corner(std::uint32_t f, std::uint32_t a, std::uint32_t b) const {
-    for (const std::uint32_t v : mesh_.triangles[f]) {
-      if (v != a && v != b) return v;
-    }
-    return a;  // cannot happen: a triangle has three distinct corners
-  }
 
   surface_mesh& mesh_;
   std::uint32_t first_movable_;
@@ -499,13 +495,8 @@ std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, st
   };
   if (!follows(on_edge[0], v, e)) std::swap(on_edge[0], on_edge[1]);
   if (!follows(on_edge[0], v, e) || !follows(on_edge[1], e, v)) return std::nullopt;
-  const auto third = [&](std::uint32_t f) {
-    for (const std::uint32_t w : mesh.triangles[f]) {
-      if (w != v && w != e) return w;
-    }
-    return v;
-  };
-  const std::uint32_t x = third(on_edge[0]), y = third(on_edge[1]);
+  const std::uint32_t x = third_corner(mesh.triangles[on_edge[0]], v, e);
+  const std::uint32_t y = third_corner(mesh.triangles[on_edge[1]], v, e);
   const std::vector<std::uint32_t> around_x = triangles_at(mesh, incidence, x);
   if (x == y || std::any_of(around_x.begin(), around_x.end(), [&](std::uint32_t f) {
         return contains(mesh.triangles[f], y);
@@ -535,10 +526,7 @@ bool collapsible(const surface_mesh& mesh, local_incidence& incidence, const can
   if (!moves_without_turning(mesh, around_b, edge.b, edge.a)) return false;
   std::vector<std::uint32_t> corners;
   for (const std::uint32_t f : around_b) {
-    if (!contains(mesh.triangles[f], edge.a)) continue;
-    for (const std::uint32_t w : mesh.triangles[f]) {
-      if (w != edge.a && w != edge.b) corners.push_back(w);
-    }
+    if (contains(mesh.triangles[f], edge.a)) corners.push_back(third_corner(mesh.triangles[f], edge.a, edge.b));
   }
   std::sort(corners.begin(), corners.end());
   return corners.size() == 2 && common_neighbours(mesh, around_a, around_b, edge.a, edge.b) == corners;
@@ -547,9 +535,7 @@ bool collapsible(const surface_mesh& mesh, local_incidence& incidence, const can
 /// For each of `edges` whose ends a and b have a common neighbour e besides the third corners of the edge's two
 /// triangles (the link condition fails: collapsing it would pinch the surface), flips (b, e), or else (a, e), when
 /// that edge is not short itself, no earlier flip touched the vertices involved, and the collapse then passes its
-/// local checks (collapsible). Flips some of whose triangles the certificate's tests fail are undone. The quality
-/// pass's last collapses need this: on 1k4r_capsid at 2 v/Å² an edge of 0.0999 × the median was left with a third
-/// common neighbour 0.6 Å from its ends.
+/// local checks (collapsible). Flips some of whose triangles the certificate's tests fail are undone.
 std::size_t flip_edges_blocking_links(surface_mesh& mesh, const std::vector<candidate_edge>& edges,
                                       double max_length) {
   local_incidence incidence(mesh, edges);
@@ -612,10 +598,7 @@ std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges,
     collapser w(mesh, edges, first_movable_vertex, min_component_vertices, labels);
     for (const candidate_edge& e : edges) {
       // The lower-numbered end is kept (a line root of the raw trace mesh is never removed). Where that is refused,
-      // a triangle turning over, say, the other end may be kept when both may move: with lines 0.93 Å apart at
-      // 1 v/Å² (a calibration tried, docs/method.md), 2buk_capsid at 2 v/Å² kept a lens of 0.086 × the median
-      // edge, frozen by the quality pass, that only collapsed that way; the raw trace mesh of 3j6r_asu at 1 v/Å²
-      // loses 14 more short edges (of 7,430).
+      // a triangle turning over, say, the other end may be kept when both may move.
       if (!w.try_collapse(e.a, e.b, true, e) && e.a >= first_movable_vertex) w.try_collapse(e.b, e.a, true, e);
     }
     std::vector<candidate_edge> refused;
@@ -654,9 +637,7 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
     // Nothing flagged: every round failed (kept_ends left empty), or nothing was collapsed nor undone.
     if (std::none_of(kept_ends.begin(), kept_ends.end(), [](char flag) { return flag != 0; })) break;
     // Where links may be flipped, the next pass also looks again beside a kept end: that collapse may have given a
-    // neighbouring short edge a third common neighbour (1k4r_capsid at 2 v/Å²: an edge of 0.057 Å collapsed first
-    // made its vertex common to both ends of one of 0.062 Å beside it, which stayed), and the next pass's flips
-    // free it.
+    // neighbouring short edge a third common neighbour, which the next pass's flips free.
     if (links == blocked_links::flipped) kept_ends = with_neighbours(mesh, kept_ends);
     edges = short_edges(mesh, first_movable_vertex, max_length, &kept_ends);
   }

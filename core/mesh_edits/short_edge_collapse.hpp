@@ -5,7 +5,7 @@
 ///
 /// - The raw trace mesh (not part of the paper's method): where a line grazes the surface across a thin cap, the two
 ///   return arcs through its two roots (one in each plane through the line) bound a lens whose middle points lie
-///   about the cap's height apart (1e-4 Å and less on 3j6r_asu at 1 v/Å²). Such an edge is harmless to the
+///   about the cap's height apart (1e-4 Å and less). Such an edge is harmless to the
 ///   certificate but not to what comes after: a Draco grid of 0.01 Å merges its ends, the quality pass keeps it
 ///   wherever it has to freeze the region, and a boundary-element solver stalls on it (method.md §8). Edges at an arc
 ///   point under h̃/100 are collapsed ("welded"), the arc point going; line roots are never moved or removed.
@@ -13,8 +13,7 @@
 ///   grazing angle, the first points of its xy and xz arcs leave the root in nearly the same direction and lie close
 ///   together. Edges at an arc point under h̃/2 are collapsed the same way (trace_mesher.cpp).
 /// - The quality pass: where a patch's rounds failed near two sheets of surface that come close, its vertices stay
-///   frozen and keep the raw mesh's short edges (1k4r_5asu at 2 v/Å²: 0.041 × the median edge). Edges under
-///   0.15 L are collapsed at its end.
+///   frozen and keep the raw mesh's short edges. Edges under 0.15 L are collapsed at its end.
 ///
 /// A collapse moves the removed end onto the kept one (the lower-numbered end, a vertex of the surface; or the other
 /// one, when both may move and keeping the lower one is refused), so every vertex stays where it was.
@@ -29,9 +28,8 @@ namespace tracemesh {
 /// Collapses, shortest first, every edge of `mesh` shorter than `max_length` Å with an end numbered
 /// `first_movable_vertex` or above (the vertices before it are never removed), where:
 /// - its component keeps more than `min_component_vertices` vertices: 8 by default, as a tiny cavity is the quality
-///   pass's to reshape whole (remesh_small_components.hpp; on mache at 1 v/Å² a collapse in the raw mesh turned a
-///   5-vertex cavity into a tetrahedron with an edge of 0.08 × the median, where it came out of the quality pass at
-///   0.14 × without it); the quality pass itself passes 4, after the cavities it could remake;
+///   pass's to reshape whole (remesh_small_components.hpp; a collapse in the raw mesh can leave it a tetrahedron
+///   with a short edge); the quality pass itself passes 4, after the cavities it could remake;
 /// - exactly two triangles share the edge and their third corners differ, and each of those two corners keeps at
 ///   least three triangles (no pinch). A corner of only three triangles that may move is first merged into the
 ///   nearer end of the edge, or else the farther (its three triangles become one; the same conditions apply), then

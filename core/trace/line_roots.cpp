@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "core/field/separable_kernel.hpp"
+
 namespace tracemesh {
 namespace {
 
@@ -60,23 +62,6 @@ std::array<double, simd::max_lanes> line_coordinates(std::int64_t block_index, d
   return c;
 }
 
-/// 1-D kernel factors exp(d·δ²/r²) and δ² = (coordinate − centre)² for `count` coordinates (a multiple of W).
-template <int W>
-[[gnu::always_inline]] inline void axis_factors(const double* coordinate, int count, double centre, double d,
-                                                double inv_r2, double* squared, double* factor) {
-  using F = typename simd::pack<W>::f64;
-  for (int m = 0; m < count; m += W) {
-    F delta;
-    simd::load(delta, coordinate + m);
-    delta -= centre;
-    const F delta2 = delta * delta;
-    F e = d * delta2 * inv_r2;
-    simd::exp_in_place(e);
-    simd::store(squared + m, delta2);
-    simd::store(factor + m, e);
-  }
-}
-
 /// The index range [lo, hi) of the entries of `values` (count of them) below `limit` — one range, as the values
 /// are squared distances from one point to points sorted along an axis, so the entries below any limit are
 /// contiguous. Branch-free (conditional moves): the ranges vary from atom to atom.
@@ -103,8 +88,8 @@ template <int W>
   if (ws.factors.size() < count) ws.factors.resize(count);
   for (std::size_t a = 0; a < count; ++a) {
     atom_line_factors& f = ws.factors[a];
-    axis_factors<W>(line_y.data(), simd::max_lanes, ws.y[a], d, ws.inv_r2[a], f.dy2.data(), f.ey.data());
-    axis_factors<W>(line_z.data(), simd::max_lanes, ws.z[a], d, ws.inv_r2[a], f.dz2.data(), f.ez.data());
+    simd::axis_factors<W>(line_y.data(), simd::max_lanes, ws.y[a], d, ws.inv_r2[a], f.dy2.data(), f.ey.data());
+    simd::axis_factors<W>(line_z.data(), simd::max_lanes, ws.z[a], d, ws.inv_r2[a], f.dz2.data(), f.ez.data());
     range_below(f.dy2.data(), block_lines, ws.cutoff2[a], f.j_lo, f.j_hi);
     range_below(f.dz2.data(), block_lines, ws.cutoff2[a], f.k_lo, f.k_hi);
     for (int n = 0; n < block_lines; ++n) {
@@ -153,16 +138,7 @@ template <int W>
         const double rho2 = f.dy2[static_cast<std::size_t>(j)] + f.dz2[static_cast<std::size_t>(k)];
         const double weight = scale * f.ey[static_cast<std::size_t>(j)] * f.ez[static_cast<std::size_t>(k)];
         double* row = ws.bounds.data() + static_cast<std::size_t>(j + block_lines * k) * simd::max_lanes;
-        for (int m = 0; m < simd::max_lanes; m += W) {
-          F sum, e, q2;
-          simd::load(sum, row + m);
-          simd::load(e, factor.data() + m);
-          simd::load(q2, offset2.data() + m);
-          F term = e * weight;
-          simd::keep_lanes(term, q2 + rho2 < cutoff2);
-          sum += term;
-          simd::store(row + m, sum);
-        }
+        simd::add_kernel_terms<W>(row, factor.data(), offset2.data(), weight, rho2, cutoff2, 0, simd::max_lanes);
       }
     }
   }
@@ -229,7 +205,8 @@ template <int W>
     int g_lo, g_hi;
     range_below(group_min.data(), groups, cutoff2, g_lo, g_hi);
     if (g_lo >= g_hi) continue;
-    axis_factors<W>(ws.node_x.data() + g_lo * W, (g_hi - g_lo) * W, ws.x[a], d, inv_r2, dx2 + g_lo * W, ex + g_lo * W);
+    simd::axis_factors<W>(ws.node_x.data() + g_lo * W, (g_hi - g_lo) * W, ws.x[a], d, inv_r2, dx2 + g_lo * W,
+                          ex + g_lo * W);
     for (int k = k_lo; k < k_hi; ++k) {
       for (int j = j_lo; j < j_hi; ++j) {
         if (!ws.sampled[static_cast<std::size_t>(j + block_lines * k)]) continue;
@@ -237,16 +214,7 @@ template <int W>
         const double weight = scale * ey[static_cast<std::size_t>(j)] * ez[static_cast<std::size_t>(k)];
         double* row =
             ws.sums.data() + static_cast<std::size_t>(j + block_lines * k) * static_cast<std::size_t>(node_stride);
-        for (int m = g_lo * W; m < g_hi * W; m += W) {
-          F sum, factor, distance2;
-          simd::load(sum, row + m);
-          simd::load(factor, ex + m);
-          simd::load(distance2, dx2 + m);
-          F term = factor * weight;
-          simd::keep_lanes(term, distance2 + rho2 < cutoff2);
-          sum += term;
-          simd::store(row + m, sum);
-        }
+        simd::add_kernel_terms<W>(row, ex, dx2, weight, rho2, cutoff2, g_lo * W, g_hi * W);
       }
     }
   }
@@ -410,19 +378,6 @@ void find_walk_gaps(std::span<const double> node_x, std::span<const double> node
 
 }  // namespace
 
-line_root_stats& line_root_stats::operator+=(const line_root_stats& other) {
-  lines += other.lines;
-  field_evaluations += other.field_evaluations;
-  polynomial_roots += other.polynomial_roots;
-  rejected_roots += other.rejected_roots;
-  sign_walk_roots += other.sign_walk_roots;
-  probes += other.probes;
-  proven_lines += other.proven_lines;
-  quiet_fits += other.quiet_fits;
-  fits += other.fits;
-  return *this;
-}
-
 line_root_finder::line_root_finder(const line_root_settings& settings) : settings_(settings), fitter_(settings.degree) {
   // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix, stored by column
   // (node), with two more rows: a_M and a_{M−1}, for the fit's error estimate.
@@ -439,17 +394,15 @@ line_root_finder::line_root_finder(const line_root_settings& settings) : setting
     column[count] = a[static_cast<std::size_t>(count - 1)];
     column[count + 1] = count >= 3 ? a[static_cast<std::size_t>(count - 2)] : 0.0;
   }
-  // Legendre → Bernstein at degree M − 1, for the derivative series (its extrema are probed).
+  // Legendre → Bernstein at degree M − 1, for the derivative series (its extrema are probed), also by column.
   const int slope_count = count - 1;
   derivative_to_bernstein_.assign(static_cast<std::size_t>(slope_count * slope_count), 0.0);
-  std::vector<double> slope_unit(static_cast<std::size_t>(slope_count)), slope_b(slope_unit.size());
+  std::vector<double> slope_unit(static_cast<std::size_t>(slope_count));
   for (int n = 0; n < slope_count; ++n) {
     std::fill(slope_unit.begin(), slope_unit.end(), 0.0);
     slope_unit[static_cast<std::size_t>(n)] = 1;
-    legendre_to_bernstein(slope_unit, slope_b);
-    for (int j = 0; j < slope_count; ++j) {
-      derivative_to_bernstein_[static_cast<std::size_t>(j * slope_count + n)] = slope_b[static_cast<std::size_t>(j)];
-    }
+    legendre_to_bernstein(slope_unit, std::span<double>(derivative_to_bernstein_).subspan(
+                                          static_cast<std::size_t>(n * slope_count), slope_unit.size()));
   }
 }
 
@@ -520,7 +473,7 @@ namespace {
 struct fit_context {
   const legendre_fitter& fitter;
   std::span<const double> values_to_bernstein;      ///< (M+1)² matrix
-  std::span<const double> derivative_to_bernstein;  ///< M² matrix: Legendre → Bernstein at degree M − 1
+  std::span<const double> derivative_to_bernstein;  ///< M² matrix, by column: Legendre → Bernstein at degree M − 1
   const block_geometry& geometry;
   double t0;
   const line_root_settings& settings;
@@ -586,13 +539,8 @@ void fit_candidates(const fit_context& c, int fit, const double* f, fit_scratch&
     if (margin > 0 && points > 2) {
       legendre_derivative(a, scratch.slope);
       const auto slope_count = static_cast<std::size_t>(points - 1);
-      for (std::size_t j = 0; j < slope_count; ++j) {
-        double sum = 0;
-        for (std::size_t n = 0; n < slope_count; ++n) {
-          sum += c.derivative_to_bernstein[j * slope_count + n] * scratch.slope[n];
-        }
-        scratch.slope_b[j] = sum;
-      }
+      multiply_columns(c.derivative_to_bernstein.data(), points - 1, points - 1, scratch.slope.data(),
+                       scratch.slope_b.data());
       scratch.extrema.clear();
       legendre_roots(std::span<const double>(scratch.slope.data(), slope_count),
                      std::span<const double>(scratch.slope_b.data(), slope_count), scratch.extrema,
@@ -770,15 +718,6 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
       out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
     }
   });
-}
-
-void find_block_line_roots(const gaussian_field& field, const lattice& lat, const lattice_index& block,
-                           std::span<const std::uint32_t> atoms, int degree, block_line_roots& out,
-                           line_root_stats& stats) {
-  line_root_settings settings;
-  settings.degree = degree;
-  line_root_finder finder(settings);
-  finder.find(field, lat, block, atoms, out, stats);
 }
 
 }  // namespace tracemesh

@@ -14,13 +14,13 @@
 ///  1. the series' roots in [−1, 1];
 ///  2. an end of a fit where the series, extended linearly, reaches t0 within end_reach (in units of the fit's half
 ///     width) beyond that end (a root the fit puts just outside its span, as happens at seams);
-///  3. a *sign walk* (with probes, below): the node samples are exact values of φ, so along each line the sign of φ −
-///  t0 at the nodes and
-///     on either side of every accepted root (given by the sign of φ_x) must alternate consistently. Where it does
-///     not, a root is missing in between and is solved for inside that bracket. φ is also sampled at both ends of
-///     the span (bit-identical in the two blocks that share an end), so roots between an end and the nearest node
-///     are bracketed too. Where a fit's series has an extremum within a few times its error estimate of t0
-///     (a near tangency, where φ may cross t0 and back unseen), φ is *probed* there and the sample joins the walk.
+///  3. a *sign walk* (with probes, below): the node samples are exact values of φ, so along each line the sign of
+///     φ − t0 at the nodes and on either side of every accepted root (given by the sign of φ_x) must alternate
+///     consistently. Where it does not, a root is missing in between and is solved for inside that bracket. φ is
+///     also sampled at both ends of the span (bit-identical in the two blocks that share an end), so roots between
+///     an end and the nearest node are bracketed too. Where a fit's series has an extremum within a few times its
+///     error estimate of t0 (a near tangency, where φ may cross t0 and back unseen), φ is *probed* there and the
+///     sample joins the walk.
 /// Polishing uses third-order steps on ln(φ/t0) (the quadratic Taylor model from φ, φ_x, φ_xx: exact for a single
 /// atom), safeguarded by bisection for bracketed roots. A root is accepted when the last correction is at most
 /// 1e-10 Å (root = last point + correction, φ_x from the last evaluation), which leaves |φ − t0| ≲ 1e-13·t0 for a
@@ -52,14 +52,12 @@ struct line_root_stats {
   std::size_t proven_lines = 0;
   /// φ values computed (quadrature nodes and span ends of the lines sampled, Newton steps), one per point
   std::size_t field_evaluations = 0;
-  std::size_t polynomial_roots = 0;   ///< distinct roots found from the Legendre series (its roots, kinds 1 and 2)
+  std::size_t polynomial_roots = 0;   ///< distinct roots found from the Legendre series (kinds 1 and 2)
   std::size_t rejected_roots = 0;     ///< series candidates that Newton did not confirm inside the span
   std::size_t sign_walk_roots = 0;    ///< roots the series missed, found by the sign walk (kind 3)
   std::size_t probes = 0;             ///< φ sampled at extrema of a series close to t0 (for the sign walk)
   std::size_t quiet_fits = 0;         ///< fits dismissed without a root search (Bernstein hull on one side of t0)
   std::size_t fits = 0;               ///< fits computed
-
-  line_root_stats& operator+=(const line_root_stats& other);
 };
 
 /// Lattice cells per Legendre fit along x: the paper's 4 Å cubes at h̃ = 1 Å.
@@ -83,7 +81,7 @@ struct block_line_roots {
   std::vector<dip> dips;
 };
 
-/// Tunables of line_root_finder (the defaults are what find_block_line_roots uses).
+/// Tunables of line_root_finder.
 struct line_root_settings {
   int degree = 10;          ///< M, degree of the Legendre series (paper: 10); 1..legendre_max_degree
   double end_reach = 0.05;  ///< kind-2 candidates: reach beyond a fit's end, in units of its half width
@@ -101,8 +99,9 @@ struct line_root_settings {
   bool prove_root_free = true;
 };
 
-/// The stateful form: tables for one degree and scratch reused from block to block (no allocation once warm).
-/// Not thread-safe: use one finder per thread. Results never depend on what the finder computed before.
+/// Roots of φ = t0 on the lines of a block: tables for one degree and scratch reused from block to block (no
+/// allocation once warm; building one costs a few µs). Not thread-safe: use one finder per thread. Results never
+/// depend on what the finder computed before.
 class line_root_finder {
  public:
   /// std::invalid_argument when settings.degree is outside 1..legendre_max_degree.
@@ -110,10 +109,12 @@ class line_root_finder {
 
   const line_root_settings& settings() const { return settings_; }
 
-  /// As find_block_line_roots. `atoms`: distinct field-internal indices of (at least) every atom whose cutoff
-  /// sphere may reach the block, e.g. from field.atoms_near_box(lat.block_box(block), atoms); extra atoms cost time
-  /// only; their order is the summation order (atoms_near_box's ascending order makes the bits independent of the
-  /// caller). `out` is overwritten; `stats` is added to.
+  /// The roots on each line owned by `block` (see block_line_roots), from the Legendre series of each fit of
+  /// cells_per_fit cells (eq. 6), polished on the exact cut-off φ (the same cutoff as gaussian_field: atom k
+  /// contributes where |p − c_k|² < cutoff2_k). `atoms`: distinct field-internal indices of (at least) every atom
+  /// whose cutoff sphere may reach the block, e.g. from field.atoms_near_box(lat.block_box(block), atoms); extra
+  /// atoms cost time only; their order is the summation order (atoms_near_box's ascending order makes the bits
+  /// independent of the caller). `out` is overwritten; `stats` is added to.
   void find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
             std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats);
 
@@ -159,14 +160,5 @@ class line_root_finder {
   std::vector<double> derivative_to_bernstein_;  ///< M²: Legendre → Bernstein at degree M − 1
   workspace scratch_;
 };
-
-/// Roots of φ = t0 on each line owned by `block` (see block_line_roots), from a degree-`degree` Legendre series per
-/// fit of cells_per_fit cells (eq. 6), polished on the exact cut-off φ (the same cutoff as gaussian_field: atom k
-/// contributes where |p − c_k|² < cutoff2_k). `atoms`: field-internal indices from
-/// field.atoms_near_box(lat.block_box(block), atoms). Overwrites `out`, adds to `stats`.
-/// Cost: builds a line_root_finder (tables and scratch, a few µs) per call; use line_root_finder for many blocks.
-void find_block_line_roots(const gaussian_field& field, const lattice& lat, const lattice_index& block,
-                           std::span<const std::uint32_t> atoms, int degree, block_line_roots& out,
-                           line_root_stats& stats);
 
 }  // namespace tracemesh

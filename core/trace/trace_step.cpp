@@ -86,17 +86,14 @@ double next_step(double h, double turn, const trace_step_settings& settings) {
   return std::min({aimed, 2 * h, settings.max_step});
 }
 
-}  // namespace
-
-namespace {
-
 double level_of(const gaussian_field& field) { return field.t0(); }
 double level_of(const field_neighbourhood& near) { return near.field().t0(); }
 
-/// correct_in_plane on a gaussian_field or through a field_neighbourhood (the same values).
+}  // namespace
+
 template <class Field>
-bool correct_in_plane_on(Field& field, const trace_plane& plane, vec3 p, double max_move, surface_sample& out,
-                         std::size_t& evaluations, double tolerance, double blind_step) {
+bool correct_in_plane(Field& field, const trace_plane& plane, vec3 p, double max_move, surface_sample& out,
+                      std::size_t& evaluations, double tolerance, double blind_step) {
   const int v = plane.v_axis();
   const double t0 = level_of(field);
   const vec3 origin = p;
@@ -132,10 +129,9 @@ bool correct_in_plane_on(Field& field, const trace_plane& plane, vec3 p, double 
   return false;
 }
 
-/// polish_on_line on a gaussian_field or through a field_neighbourhood (the same values).
 template <class Field>
-bool polish_on_line_on(Field& field, vec3 guess, double max_move, surface_sample& out, std::size_t& evaluations,
-                       double level_shift) {
+bool polish_on_line(Field& field, vec3 guess, double max_move, surface_sample& out, std::size_t& evaluations,
+                    double level_shift) {
   const double t0 = level_of(field);
   const double x0 = guess.x;
   for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
@@ -157,33 +153,18 @@ bool polish_on_line_on(Field& field, vec3 guess, double max_move, surface_sample
   return false;
 }
 
-}  // namespace
+template bool correct_in_plane(const gaussian_field&, const trace_plane&, vec3, double, surface_sample&,
+                               std::size_t&, double, double);
+template bool correct_in_plane(field_neighbourhood&, const trace_plane&, vec3, double, surface_sample&, std::size_t&,
+                               double, double);
+template bool polish_on_line(const gaussian_field&, vec3, double, surface_sample&, std::size_t&, double);
+template bool polish_on_line(field_neighbourhood&, vec3, double, surface_sample&, std::size_t&, double);
 
 vec3 trace_neighbourhood_reach(const trace_plane& plane, double max_step) {
   vec3 reach{1, 1, 1};
   reach *= neighbourhood_reach_steps * max_step;
   reach[plane.normal_axis] = 0;
   return reach;
-}
-
-bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations, double tolerance, double blind_step) {
-  return correct_in_plane_on(field, plane, p, max_move, out, evaluations, tolerance, blind_step);
-}
-
-bool correct_in_plane(field_neighbourhood& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations, double tolerance, double blind_step) {
-  return correct_in_plane_on(field, plane, p, max_move, out, evaluations, tolerance, blind_step);
-}
-
-bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
-                    std::size_t& evaluations, double level_shift) {
-  return polish_on_line_on(field, guess, max_move, out, evaluations, level_shift);
-}
-
-bool polish_on_line(field_neighbourhood& field, vec3 guess, double max_move, surface_sample& out,
-                    std::size_t& evaluations, double level_shift) {
-  return polish_on_line_on(field, guess, max_move, out, evaluations, level_shift);
 }
 
 traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,
@@ -262,12 +243,11 @@ traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk,
             known != nullptr ||
             (separate_walk ? polish_on_line(field, guess, h, crossing, evaluations, plane.level_shift)
                            : polish_on_line(walk, guess, h, crossing, evaluations, plane.level_shift));
-        const bool at_start = polished && std::abs(crossing.position.x - start.position.x) < 1e-7 &&
-                              (line_v == settings.v_low) == starts_low;
         // The walk leaves the strip there, so s·φ_x points out through that line; a crossing polished onto the
-        // other root of a near-tangency has the opposite sign: localise the crossing with a shorter step.
+        // other root of a near-tangency has the opposite sign: localise the crossing with a shorter step. So has the
+        // start root itself (the caller's s points the walk into the strip there).
         const double outward = (line_v == settings.v_high ? 1.0 : -1.0) * sign * crossing.gradient.x;
-        if (!polished || at_start || !(outward > 0)) {
+        if (!polished || !(outward > 0)) {
           h *= 0.5;
           continue;
         }

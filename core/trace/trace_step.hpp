@@ -103,20 +103,17 @@ vec3 trace_neighbourhood_reach(const trace_plane& plane, double max_step);
 
 /// Newton in x on the line (v fixed) from `guess` (on the plane): the root of φ = t0 + level_shift within
 /// `max_move` Å of the guess, with its gradient. False when it does not converge to 1e-12·t0 (or 1e-11 Å).
-bool polish_on_line(const gaussian_field& field, vec3 guess, double max_move, surface_sample& out,
-                    std::size_t& evaluations, double level_shift = 0);
-bool polish_on_line(field_neighbourhood& field, vec3 guess, double max_move, surface_sample& out,
-                    std::size_t& evaluations, double level_shift = 0);
+/// `Field`: const gaussian_field, or field_neighbourhood (the same values; defined for these two).
+template <class Field>
+bool polish_on_line(Field& field, vec3 guess, double max_move, surface_sample& out, std::size_t& evaluations,
+                    double level_shift = 0);
 
-/// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0 + plane.level_shift}, to `tolerance` Å
-/// (first-order distance |φ − t0| / |∇φ|). A Newton update shorter than `blind_step` Å is applied without
-/// evaluating the field again (the result's gradient is then that of the point before the update). False when it
-/// does not converge within `max_move` Å.
-bool correct_in_plane(const gaussian_field& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations, double tolerance = 1e-11,
-                      double blind_step = 0);
-bool correct_in_plane(field_neighbourhood& field, const trace_plane& plane, vec3 p, double max_move,
-                      surface_sample& out, std::size_t& evaluations, double tolerance = 1e-11,
-                      double blind_step = 0);
+/// Newton along the in-plane gradient (the plane's coordinate unchanged) from p onto {φ = t0 + plane.level_shift},
+/// to `tolerance` Å (first-order distance |φ − t0| / |∇φ|). A Newton update shorter than `blind_step` Å is applied
+/// without evaluating the field again (the result's gradient is then that of the point before the update). False
+/// when it does not converge within `max_move` Å. `Field`: as polish_on_line.
+template <class Field>
+bool correct_in_plane(Field& field, const trace_plane& plane, vec3 p, double max_move, surface_sample& out,
+                      std::size_t& evaluations, double tolerance = 1e-11, double blind_step = 0);
 
 }  // namespace tracemesh
