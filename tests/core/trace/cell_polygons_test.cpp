@@ -355,8 +355,7 @@ void expect_meshed_on_the_first_line_grid(const molecule& mol) {
 // two far walls. The cell's loops are the groove's narrow mouth (four vertices: one arc in each of the two walls
 // beside that line) and a long loop that holds the other mouth and a disk of surface beside it: an annulus, but no
 // band between the two loops is valid, as the long loop's far edges cannot all reach the small one. Cut open along
-// a bridge between them, the annulus is one polygon whose triangulation holds the disk (slit_band). Before, that
-// cell failed the first line grid and the whole capsid all three.
+// a bridge between them, the annulus is one polygon whose triangulation holds the disk (slit_band).
 TEST(cell_polygons, a_tube_whose_mouth_is_a_small_part_of_a_long_loop_is_meshed_on_the_first_line_grid) {
   const molecule groove = atoms({
       {{126.892, -50.761, 30.426}, 1.7, 0}, {{127.589, -51.895, 29.646}, 1.7, 0},
@@ -388,7 +387,7 @@ TEST(cell_polygons, a_tube_whose_mouth_is_a_small_part_of_a_long_loop_is_meshed_
 // that wall, whose bottom passes 0.11 Å over the line (33, −14), and of its ten vertices six lie in that wall. No
 // triangulation of them exists (the triangle on the notch's lowest vertex must reach a vertex off the wall, and each
 // folds), nor a fan around one point; a point of the surface at the neck under the notch splits the loop in two
-// halves that are each triangulated (split_at_pinch). Before, that cell failed the first line grid.
+// halves that are each triangulated (split_at_pinch).
 TEST(cell_polygons, a_loop_pinched_under_a_notch_is_split_and_meshed_on_the_first_line_grid) {
   const molecule sheet = atoms({
       {{19.901, 28.199, -13.775}, 1.7, 0}, {{18.592, 28.352, -13.701}, 1.55, 0}, {{18.972, 31.822, -11.881}, 1.7, 0},
