@@ -141,6 +141,10 @@ enum class loop_strategy {
   /// a loop that doubles back on itself in a wall (a hairpin of the contour where it passes a pinch at a sharp
   /// kernel), whose every other triangulation folds over itself. It makes no fold either.
   in_its_plane,
+  /// The loop cut in two at its pinch (split_at_pinch): where the surface in the cell narrows to a neck thinner than
+  /// the loop's vertices can span (a sheet nearly touching a line, or lying almost in a wall), a point of the surface
+  /// at the neck joins two vertices across it, and each half is triangulated on its own, without new vertices.
+  split_at_pinch,
   none,                ///< nothing worked: the mesh cannot close here
   /// Not a disk: the loop and a partner loop bound one tube of surface inside the cell, meshed by the band between
   /// them (pair_tube_loops). Set only after every strategy above failed; never moved on by resolve_intersections.
@@ -294,6 +298,118 @@ bool fan_around_steiner_point(const gaussian_field& field, const std::vector<num
   return false;
 }
 
+/// Vertex pairs split_at_pinch tries, the closest first: a loop that reaches this strategy has already failed every
+/// other, and this bounds its cost on a long one.
+constexpr std::size_t max_pinch_pairs = 64;
+
+/// The strategies a half of a split loop may take: those that add no vertex and keep the wall rule, so that the
+/// halves share only the two edges of the cut.
+constexpr std::array<loop_strategy, 4> split_half_strategies{loop_strategy::admissible, loop_strategy::admissible_flat,
+                                                              loop_strategy::admissible_relaxed,
+                                                              loop_strategy::flat_relaxed};
+
+bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
+                    double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations);
+
+/// Whether two of `triangles` (vertex numbers of `loop` or steiner_vertex, the pinch point) intersect
+/// (mesh_triangles_intersect: triangles that share a vertex or an edge may only touch there).
+bool triangles_meet(const std::vector<numbered_vertex>& loop, const vec3& pinch,
+                    const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;  // (vertex number, index into positions)
+  std::vector<vec3> positions;
+  for (const numbered_vertex& v : loop) {
+    index.emplace_back(v.id, static_cast<std::uint32_t>(positions.size()));
+    positions.push_back(v.vertex.position);
+  }
+  index.emplace_back(steiner_vertex, static_cast<std::uint32_t>(positions.size()));
+  positions.push_back(pinch);
+  std::sort(index.begin(), index.end());
+  std::vector<std::array<std::uint32_t, 3>> local;
+  for (const auto& t : triangles) {
+    std::array<std::uint32_t, 3> c{};
+    for (int i = 0; i < 3; ++i) c[i] = std::lower_bound(index.begin(), index.end(), std::make_pair(t[i], 0u))->second;
+    local.push_back(c);
+  }
+  for (std::size_t a = 0; a < local.size(); ++a) {
+    for (std::size_t b = a + 1; b < local.size(); ++b) {
+      if (detail::mesh_triangles_intersect(positions, local[a], local[b])) return true;
+    }
+  }
+  return false;
+}
+
+/// `p` moved into the cell's cross-section less the Steiner margin (two vertices on one wall have their middle on it).
+vec3 into_cross_section(vec3 p, const cell_id& cell, double h) {
+  const double margin = 2 * steiner_wall_margin * h;
+  const double y = static_cast<double>(cell.j) * h, z = static_cast<double>(cell.k) * h;
+  p.y = std::clamp(p.y, y + margin, y + h - margin);
+  p.z = std::clamp(p.z, z + margin, z + h - margin);
+  return p;
+}
+
+/// The half of `loop` from vertex `from` to vertex `to` (loop order), closed through the pinch point.
+std::vector<numbered_vertex> loop_half(const std::vector<numbered_vertex>& loop, std::size_t from, std::size_t to,
+                                       const numbered_vertex& pinch) {
+  std::vector<numbered_vertex> half;
+  for (std::size_t n = from; n != to; n = (n + 1) % loop.size()) half.push_back(loop[n]);
+  half.push_back(loop[to]);
+  half.push_back(pinch);
+  return half;
+}
+
+/// The first of split_half_strategies that triangulates `half`; false when none does.
+bool triangulate_half(const gaussian_field& field, const std::vector<numbered_vertex>& half, const cell_id& cell,
+                      double h, loop_mesh& out, std::size_t& evaluations) {
+  for (const loop_strategy s : split_half_strategies) {
+    if (triangulate_by(field, half, cell, h, s, out, evaluations)) return true;
+  }
+  return false;
+}
+
+/// A loop whose surface piece narrows to a neck (a pinch) bounds a disk that no triangulation of its vertices
+/// follows: triangles across the neck must join vertices on both sides of it, and every such triangle stands
+/// across the surface (a fold) or lies in a wall. A point of the surface at the neck (steiner_point from the middle
+/// of two vertices on either side of it) cuts the disk into two, each bounded by one part of the loop and the two
+/// edges to that point, and each is triangulated on its own (split_half_strategies); the two halves walk the cut in
+/// opposite directions, so the loop stays closed and oriented. The neck is not known in advance: vertex pairs are
+/// tried from the closest (the pinch is where the loop comes back near itself; at most max_pinch_pairs), ties in loop
+/// order, and the first split whose halves triangulate without meeting each other is kept.
+bool split_at_pinch(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
+                    double h, loop_mesh& out, std::size_t& evaluations) {
+  const std::size_t n = loop.size();
+  if (n < 4) return false;
+  std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> pairs;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // neighbours on the loop
+      pairs.push_back({squared_norm(loop[j].vertex.position - loop[i].vertex.position), {i, j}});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  if (pairs.size() > max_pinch_pairs) pairs.resize(max_pinch_pairs);
+  for (const auto& [distance2, pair] : pairs) {
+    const auto [i, j] = pair;
+    surface_sample point;
+    const vec3 middle = into_cross_section(0.5 * (loop[i].vertex.position + loop[j].vertex.position), cell, h);
+    if (!steiner_point(field, loop, cell, h, middle, point, evaluations)) continue;
+    const numbered_vertex pinch{steiner_vertex, {point.position, normalized(-point.gradient), 0}};
+    loop_mesh first, second;
+    if (!triangulate_half(field, loop_half(loop, i, j, pinch), cell, h, first, evaluations) ||
+        !triangulate_half(field, loop_half(loop, j, i, pinch), cell, h, second, evaluations)) {
+      continue;
+    }
+    out.triangles = std::move(first.triangles);
+    out.triangles.insert(out.triangles.end(), second.triangles.begin(), second.triangles.end());
+    if (triangles_meet(loop, point.position, out.triangles)) {
+      out.triangles.clear();
+      continue;
+    }
+    out.steiner.push_back(point);
+    return true;
+  }
+  return false;
+}
+
 /// The loop's triangles by `strategy`; false when that strategy cannot triangulate it.
 bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
                     double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations) {
@@ -302,6 +418,7 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
   if (strategy == loop_strategy::steiner_fan || strategy == loop_strategy::steiner_fan_relaxed) {
     return fan_around_steiner_point(field, loop, cell, h, strategy == loop_strategy::steiner_fan, out, evaluations);
   }
+  if (strategy == loop_strategy::split_at_pinch) return split_at_pinch(field, loop, cell, h, out, evaluations);
   std::vector<loop_vertex> vertices(loop.size());
   for (std::size_t n = 0; n < loop.size(); ++n) vertices[n] = loop[n].vertex;
   if (strategy == loop_strategy::unrestricted) {
@@ -450,7 +567,69 @@ void resolve_intersections(const gaussian_field& field, const std::vector<std::v
   out.intersecting = !hit.empty();
 }
 
-/// The band between two loops of a cell (triangulate_annulus), its vertices numbered in the mesh, and its worst q.
+/// Bridges tried by slit_band, the shortest first.
+constexpr std::size_t max_slit_bridges = 16;
+
+/// Whether no directed edge occurs twice among `triangles`: a triangulation of a loop cut open along a bridge may
+/// join some vertex to both copies of a bridge end, which glued back is one edge used twice on the same side.
+bool directed_edges_unique(const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
+  for (const auto& t : triangles) {
+    for (int i = 0; i < 3; ++i) edges.emplace_back(t[i], t[(i + 1) % 3]);
+  }
+  std::sort(edges.begin(), edges.end());
+  return std::adjacent_find(edges.begin(), edges.end()) == edges.end();
+}
+
+/// The tube between two loops triangulated as one polygon: cut open along a bridge outer[a] — inner[b] (an edge
+/// joining vertices on no common wall), the annulus is the loop outer[a], …, outer[a − 1], outer[a], inner[b], …,
+/// inner[b − 1], inner[b], whose triangulations (triangulate_loop) are every triangulation of the annulus that
+/// holds that bridge, not only bands: where the tube's mouth is a small part of a long loop, the rest of that loop
+/// is a disk of its own (chords of the one loop), which no band has. Bridges are tried from the shortest; the first
+/// that triangulates with each edge used once per side is kept. Its worst q in `worst_quality`.
+bool slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner, loop_mesh& out,
+               double& worst_quality) {
+  const std::size_t p = outer.size(), q = inner.size();
+  std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> bridges;
+  for (std::size_t a = 0; a < p; ++a) {
+    for (std::size_t b = 0; b < q; ++b) {
+      if ((outer[a].vertex.planes & inner[b].vertex.planes) != 0) continue;  // it would lie in a wall
+      bridges.push_back({squared_norm(inner[b].vertex.position - outer[a].vertex.position), {a, b}});
+    }
+  }
+  std::sort(bridges.begin(), bridges.end());
+  if (bridges.size() > max_slit_bridges) bridges.resize(max_slit_bridges);
+  std::vector<std::uint32_t> ids;
+  std::vector<loop_vertex> polygon;
+  for (const auto& [length2, bridge] : bridges) {
+    const auto [a, b] = bridge;
+    ids.clear();
+    polygon.clear();
+    for (std::size_t n = 0; n <= p; ++n) {
+      ids.push_back(outer[(a + n) % p].id);
+      polygon.push_back(outer[(a + n) % p].vertex);
+    }
+    for (std::size_t n = 0; n <= q; ++n) {
+      ids.push_back(inner[(b + n) % q].id);
+      polygon.push_back(inner[(b + n) % q].vertex);
+    }
+    std::vector<std::array<std::uint32_t, 3>> local;
+    loop_triangulation_stats stats;
+    if (!triangulate_loop(polygon, local, stats)) continue;
+    std::vector<std::array<std::uint32_t, 3>> triangles;
+    for (const auto& t : local) triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
+    if (!directed_edges_unique(triangles)) continue;
+    out = loop_mesh{};
+    out.strategy = loop_strategy::tube_band;
+    out.triangles = std::move(triangles);
+    worst_quality = stats.last_min_quality;
+    return true;
+  }
+  return false;
+}
+
+/// The band between two loops of a cell (triangulate_annulus, else slit_band), its vertices numbered in the mesh,
+/// and its worst q.
 bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
                   loop_mesh& out, double& worst_quality) {
   std::vector<loop_vertex> a(outer.size()), b(inner.size());
@@ -458,7 +637,7 @@ bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<n
   for (std::size_t n = 0; n < inner.size(); ++n) b[n] = inner[n].vertex;
   std::vector<std::array<std::uint32_t, 3>> local;
   loop_triangulation_stats stats;
-  if (!triangulate_annulus(a, b, local, stats)) return false;
+  if (!triangulate_annulus(a, b, local, stats)) return slit_band(outer, inner, out, worst_quality);
   const auto id = [&](std::uint32_t v) { return v < outer.size() ? outer[v].id : inner[v - outer.size()].id; };
   out = loop_mesh{};
   out.strategy = loop_strategy::tube_band;

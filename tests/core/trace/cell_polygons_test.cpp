@@ -332,6 +332,80 @@ TEST(cell_polygons, raw_trace_mesh_of_a_molecule_has_each_directed_edge_once_wit
   }
 }
 
+/// Meshes `mol` by the trace path at 1 v/Å², with and without the quality pass: on the first line grid, certified,
+/// no fold.
+void expect_meshed_on_the_first_line_grid(const molecule& mol) {
+  for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
+    mesh_params params;
+    params.method = mesh_method::trace;
+    params.refine = refine;
+    progress_token progress;
+    const auto out = mesh_molecule(mol, params, {}, progress);
+    ASSERT_TRUE(out.ok()) << out.error().message();
+    EXPECT_TRUE(out->fallback_reason.empty()) << out->fallback_reason;
+    EXPECT_EQ(out->trace.grid_retries, 0u);
+    EXPECT_EQ(out->trace.line_offset, (line_grid_offset{0, 0}));
+    EXPECT_TRUE(out->certified);
+    EXPECT_EQ(out->report.folded_triangles, 0u);
+  }
+}
+
+// The atoms of the 2BUK capsid (assembly 1, Mantina radii) within 6 Å of a groove of φ < t0 that crosses the cell
+// (j, k) = (−51, 34) diagonally, entering where it grazes the line (−51, 35) over 0.28 Å and leaving through the
+// two far walls. The cell's loops are the groove's narrow mouth (four vertices: one arc in each of the two walls
+// beside that line) and a long loop that holds the other mouth and a disk of surface beside it: an annulus, but no
+// band between the two loops is valid, as the long loop's far edges cannot all reach the small one. Cut open along
+// a bridge between them, the annulus is one polygon whose triangulation holds the disk (slit_band).
+TEST(cell_polygons, a_tube_whose_mouth_is_a_small_part_of_a_long_loop_is_meshed_on_the_first_line_grid) {
+  const molecule groove = atoms({
+      {{126.892, -50.761, 30.426}, 1.7, 0}, {{127.589, -51.895, 29.646}, 1.7, 0},
+      {{128.823, -51.915, 29.514}, 1.52, 0}, {{127.048, -50.971, 32.848}, 1.7, 0},
+      {{125.974, -51.579, 32.969}, 1.52, 0}, {{128.680, -51.873, 34.506}, 1.7, 0},
+      {{125.207, -45.751, 27.406}, 1.55, 0}, {{128.004, -46.226, 27.321}, 1.52, 0},
+      {{131.400, -49.510, 28.911}, 1.55, 0}, {{126.282, -49.510, 28.286}, 1.7, 0},
+      {{131.736, -48.340, 29.777}, 1.7, 0}, {{127.549, -44.182, 30.358}, 1.7, 0},
+      {{126.941, -49.435, 29.665}, 1.7, 0}, {{126.224, -48.300, 30.405}, 1.7, 0},
+      {{130.557, -48.015, 30.701}, 1.7, 0}, {{130.323, -49.098, 31.589}, 1.52, 0},
+      {{126.384, -41.943, 30.736}, 1.7, 0}, {{127.652, -42.774, 30.949}, 1.7, 0},
+      {{124.795, -48.661, 30.812}, 1.7, 0}, {{127.560, -50.562, 31.712}, 1.55, 0},
+      {{122.803, -49.410, 33.404}, 1.7, 0}, {{124.995, -42.501, 33.936}, 1.52, 0},
+      {{127.715, -45.138, 33.982}, 1.7, 0}, {{126.074, -48.452, 34.007}, 1.52, 0},
+      {{127.900, -50.632, 34.064}, 1.7, 0}, {{130.670, -42.416, 34.385}, 1.7, 0},
+      {{128.638, -45.304, 35.190}, 1.7, 0}, {{129.431, -46.588, 34.932}, 1.7, 0},
+      {{126.196, -49.154, 35.021}, 1.7, 0}, {{127.021, -50.180, 35.147}, 1.55, 0},
+      {{125.715, -44.234, 36.650}, 1.7, 0}, {{125.047, -45.273, 36.542}, 1.52, 0},
+      {{127.021, -44.156, 36.642}, 1.55, 0}, {{127.885, -45.325, 36.522}, 1.7, 0},
+      {{125.367, -48.877, 36.275}, 1.7, 0}, {{128.893, -45.318, 37.657}, 1.7, 0},
+      {{132.970, -48.568, 30.679}, 1.7, 0}, {{133.408, -47.660, 31.400}, 1.52, 0},
+      {{132.769, -46.016, 33.262}, 1.52, 0}, {{133.122, -46.364, 34.528}, 1.7, 0},
+      {{132.662, -45.609, 35.613}, 1.7, 0}});
+  expect_meshed_on_the_first_line_grid(groove);
+}
+
+// The atoms of the 2BUK capsid within 6 Å of a sheet of the surface that lies within 0.1 Å of the wall y = 33·h̃
+// of the cell (32, −14) and crosses it back and forth: the cell's loop is a horseshoe around a notch of φ < t0 in
+// that wall, whose bottom passes 0.11 Å over the line (33, −14), and of its ten vertices six lie in that wall. No
+// triangulation of them exists (the triangle on the notch's lowest vertex must reach a vertex off the wall, and each
+// folds), nor a fan around one point; a point of the surface at the neck under the notch splits the loop in two
+// halves that are each triangulated (split_at_pinch).
+TEST(cell_polygons, a_loop_pinched_under_a_notch_is_split_and_meshed_on_the_first_line_grid) {
+  const molecule sheet = atoms({
+      {{19.901, 28.199, -13.775}, 1.7, 0}, {{18.592, 28.352, -13.701}, 1.55, 0}, {{18.972, 31.822, -11.881}, 1.7, 0},
+      {{19.525, 33.900, -10.689}, 1.7, 0}, {{28.703, 27.684, -15.025}, 1.7, 0}, {{28.748, 30.023, -14.333}, 1.7, 0},
+      {{20.474, 28.309, -14.856}, 1.52, 0}, {{25.725, 25.542, -14.312}, 1.52, 0}, {{21.380, 25.469, -12.977}, 1.7, 0},
+      {{21.855, 26.906, -12.759}, 1.7, 0}, {{20.707, 27.885, -12.511}, 1.7, 0}, {{26.881, 25.860, -10.784}, 1.7, 0},
+      {{27.120, 27.276, -11.313}, 1.7, 0}, {{21.938, 30.041, -9.071}, 1.7, 0}, {{23.165, 26.826, -8.264}, 1.7, 0},
+      {{23.204, 29.570, -7.913}, 1.8, 0}, {{22.895, 32.149, -16.735}, 1.52, 0}, {{27.537, 33.282, -16.217}, 1.7, 0},
+      {{26.565, 33.580, -15.372}, 1.55, 0}, {{25.128, 33.461, -15.696}, 1.7, 0}, {{23.291, 31.677, -15.671}, 1.7, 0},
+      {{24.383, 34.684, -15.141}, 1.7, 0}, {{23.922, 34.681, -13.990}, 1.52, 0}, {{24.591, 32.181, -15.047}, 1.7, 0},
+      {{22.592, 30.734, -15.067}, 1.55, 0}, {{20.721, 33.776, -14.865}, 1.52, 0},
+      {{27.014, 34.127, -12.797}, 1.52, 0}, {{20.335, 31.535, -11.923}, 1.7, 0}, {{27.053, 33.974, -11.566}, 1.7, 0},
+      {{24.998, 32.206, -11.691}, 1.52, 0}, {{20.890, 33.584, -10.748}, 1.7, 0}, {{21.248, 32.374, -11.387}, 1.7, 0},
+      {{24.131, 35.955, -10.639}, 1.7, 0}, {{24.963, 35.232, -11.341}, 1.55, 0}, {{25.830, 34.251, -10.702}, 1.7, 0},
+      {{25.069, 32.942, -10.478}, 1.7, 0}, {{28.080, 33.582, -10.851}, 1.55, 0}});
+  expect_meshed_on_the_first_line_grid(sheet);
+}
+
 TEST(cell_polygons, find_strip_returns_the_size_for_an_absent_strip) {
   traced_surface surface;
   surface.strips = {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}};
