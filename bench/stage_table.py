@@ -13,7 +13,9 @@ Two tables, Markdown:
    attribution: allocations made under each stage's function).
 
 Environment: TRACEMESH (default build/bin/tracemesh), TRACEMESH_MOLECULES_DIR (default: as bench/bench_lib.sh),
-RUNS (default 3), THREADS (default 2).
+RUNS (default 3), THREADS (default 2), TRACEMESH_BASELINE (optional: a second tracemesh binary, e.g. built at an
+earlier commit; table 1 then has a row per binary and molecule, from runs interleaved baseline, tracemesh, baseline,
+... so that a slow phase of a shared machine hits both alike).
 Usage: python3 bench/stage_table.py [MOLECULE ...] [--callgrind MOLECULE [--heaptrack]]
   e.g. python3 bench/stage_table.py --callgrind mache.pqr      (table 2 only: no molecules given but mache)
 """
@@ -67,19 +69,45 @@ def report_of(binary, molecule, threads, work):
     return json.loads(run.stdout)
 
 
-def seconds_table(binary, molecules, runs, threads):
-    print(f"Seconds per stage (wall, medians of {runs}; trace, refined, 1 v/Å², {threads} threads)\n")
-    print("| molecule | vertices | " + " | ".join(STAGES) + " | total | field evaluations | per vertex |")
-    print("|---|---:|" + "---:|" * (len(STAGES) + 3))
+def build_label(binary):
+    """What `binary --version` names it by: its engine and, where it says, its commit (else the binary's path)."""
+    version = subprocess.run([binary, "--version"], capture_output=True, text=True, check=False).stdout
+    engine = re.search(r"tracemesh-engine-\d+", version)
+    commit = re.search(r"commit (\w+)", version)
+    if not engine:
+        return binary
+    return engine.group(0) + (f" at {commit.group(1)}" if commit else "")
+
+
+def interleaved_reports(binaries, molecule, runs, threads, work):
+    """{binary: [report, ...]}: `runs` reports of each binary, run in turn (b1, b2, b1, b2, ...)."""
+    reports = {binary: [] for binary in binaries}
+    for _ in range(runs):
+        for binary in binaries:
+            reports[binary].append(report_of(binary, molecule, threads, work))
+    return reports
+
+
+def seconds_row(label, molecule, reports):
+    med = {s: statistics.median(r["timings"].get(s, 0.0) for r in reports) for s in STAGES + ["total"]}
+    last = reports[-1]
+    evaluations = last["trace"]["field_evaluations"]
+    return (f"| {molecule} | {label} | {last['vertices']} | " + " | ".join(f"{med[s]:.2f}" for s in STAGES) +
+            f" | {med['total']:.2f} | {evaluations} | {evaluations / last['vertices']:.1f} |")
+
+
+def seconds_table(binaries, molecules, runs, threads):
+    print(f"Seconds per stage (wall, medians of {runs}" + (", interleaved" if len(binaries) > 1 else "") +
+          f"; trace, refined, 1 v/Å², {threads} threads)\n")
+    print("| molecule | build | vertices | " + " | ".join(STAGES) + " | total | field evaluations | per vertex |")
+    print("|---|---|---:|" + "---:|" * (len(STAGES) + 3))
+    labels = {binary: build_label(binary) for binary in binaries}
     work = tempfile.mkdtemp(prefix="stage_table_")
     try:
         for molecule in molecules:
-            reports = [report_of(binary, molecule, threads, work) for _ in range(runs)]
-            med = {s: statistics.median(r["timings"].get(s, 0.0) for r in reports) for s in STAGES + ["total"]}
-            last = reports[-1]
-            evaluations = last["trace"]["field_evaluations"]
-            print(f"| {molecule} | {last['vertices']} | " + " | ".join(f"{med[s]:.2f}" for s in STAGES) +
-                  f" | {med['total']:.2f} | {evaluations} | {evaluations / last['vertices']:.1f} |", flush=True)
+            reports = interleaved_reports(binaries, molecule, runs, threads, work)
+            for binary in binaries:
+                print(seconds_row(labels[binary], molecule, reports[binary]), flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     print()
@@ -233,12 +261,16 @@ def main():
     if not os.access(binary, os.X_OK):
         print(f"stage_table: {binary} not found; build it or set TRACEMESH", file=sys.stderr)
         return 2
+    baseline = os.environ.get("TRACEMESH_BASELINE")
+    if baseline and not os.access(baseline, os.X_OK):
+        print(f"stage_table: TRACEMESH_BASELINE={baseline} is not an executable", file=sys.stderr)
+        return 2
     runs = int(os.environ.get("RUNS", "3"))
     threads = int(os.environ.get("THREADS", "2"))
     molecules = args or ([] if callgrind_molecule else DEFAULT_MOLECULES)
     try:
         if molecules:
-            seconds_table(binary, molecules, runs, threads)
+            seconds_table([baseline, binary] if baseline else [binary], molecules, runs, threads)
         if callgrind_molecule:
             callgrind_table(binary, callgrind_molecule, with_heaptrack)
     except (RuntimeError, OSError, subprocess.CalledProcessError) as error:
