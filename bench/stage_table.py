@@ -4,7 +4,9 @@
 Two tables, Markdown:
 
 1. Wall seconds per stage (median of RUNS runs of `tracemesh FILE --report -`: trace, refined, THREADS threads), the
-   field evaluations of the trace (roots and traces) and their number per output vertex, for each molecule given
+   line grids retried and the seconds spent on the failed attempts (the report's trace.grid_retries and
+   timings.failed_attempts), the field evaluations of the trace (roots and traces) and their number per output
+   vertex, for each molecule given
    (default: 2buk_capsid.pqr.gz 1k4r_capsid.pqr.gz from TRACEMESH_MOLECULES_DIR).
 2. With --callgrind MOLECULE (a small one: callgrind runs ~50× slower): instructions per stage, load-independent
    (valgrind --tool=callgrind, one thread), from the inclusive cost of the function that runs each stage; the calls
@@ -92,15 +94,18 @@ def seconds_row(label, molecule, reports):
     med = {s: statistics.median(r["timings"].get(s, 0.0) for r in reports) for s in STAGES + ["total"]}
     last = reports[-1]
     evaluations = last["trace"]["field_evaluations"]
-    return (f"| {molecule} | {label} | {last['vertices']} | " + " | ".join(f"{med[s]:.2f}" for s in STAGES) +
+    failed = statistics.median(r["timings"].get("failed_attempts", 0.0) for r in reports)
+    return (f"| {molecule} | {label} | {last['vertices']} | {last['trace'].get('grid_retries', 0)} | {failed:.2f} | " +
+            " | ".join(f"{med[s]:.2f}" for s in STAGES) +
             f" | {med['total']:.2f} | {evaluations} | {evaluations / last['vertices']:.1f} |")
 
 
 def seconds_table(binaries, molecules, runs, threads):
     print(f"Seconds per stage (wall, medians of {runs}" + (", interleaved" if len(binaries) > 1 else "") +
           f"; trace, refined, 1 v/Å², {threads} threads)\n")
-    print("| molecule | build | vertices | " + " | ".join(STAGES) + " | total | field evaluations | per vertex |")
-    print("|---|---|---:|" + "---:|" * (len(STAGES) + 3))
+    print("| molecule | build | vertices | grid retries | failed attempts | " + " | ".join(STAGES) +
+          " | total | field evaluations | per vertex |")
+    print("|---|---|---:|---:|---:|" + "---:|" * (len(STAGES) + 3))
     labels = {binary: build_label(binary) for binary in binaries}
     work = tempfile.mkdtemp(prefix="stage_table_")
     try:
