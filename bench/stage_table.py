@@ -188,7 +188,7 @@ def heaptrack_stage_allocations(binary, molecule, work):
     data = next(os.path.join(work, f) for f in os.listdir(work) if f.startswith("heaptrack."))
     printed = subprocess.run(["heaptrack_print", "-f", data, "--print-allocators", "1", "-n", "100000",
                               "--print-peaks", "0", "--print-leaks", "0", "--print-temporary", "0",
-                              "--print-histogram", "0", "--merge-backtraces", "0"],
+                              "--merge-backtraces", "0"],  # no --print-histogram: its argument is a file to write
                              capture_output=True, text=True, check=True).stdout
     total = re.search(r"calls to allocation functions: (\d+)", printed)
     per_stage = {s: 0 for s in STAGE_FUNCTIONS}
