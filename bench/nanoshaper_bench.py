@@ -14,7 +14,8 @@ Environment:
   NANOSHAPER               the NanoShaper binary (without it the bench says so and exits 0: nothing measured)
   TRACEMESH                the tracemesh binary (default: build/bin/tracemesh of the repository)
   TRACEMESH_BASELINE       optional: a second tracemesh binary (e.g. built at an earlier commit), run interleaved
-                           with the others and given its own columns (a before/after table from one set of runs)
+                           with the others and given its own columns: vertices, wall, wall ratio to NanoShaper,
+                           CPU, peak RSS (a before/after table from one set of runs)
   TRACEMESH_MOLECULES_DIR  where the large molecules are (default: as bench/bench_lib.sh)
   RUNS                     timed runs per program and molecule (default 3)
   THREADS                  threads of both programs (default 2)
@@ -204,10 +205,11 @@ def main():
     molecules = sys.argv[1:] or DEFAULT_MOLECULES
     print(f"tracemesh (trace, refined, 1 v/Å², {threads} threads) vs NanoShaper Blobby (B = −1, {threads} threads); "
           f"medians of {runs} interleaved runs\n")
-    base_header = " TM baseline wall s | baseline/NS wall | TM baseline CPU s |" if baseline else ""
+    base_header = (" TM baseline vertices | TM baseline wall s | baseline/NS wall | TM baseline CPU s |"
+                   " TM baseline peak RSS MiB |") if baseline else ""
     print("| molecule | atoms | NS Grid_scale | NS vertices | TM vertices | NS wall s | TM wall s | TM/NS wall |" +
           base_header + " NS CPU s | TM CPU s | NS peak RSS MiB | TM peak RSS MiB |")
-    print("|---|" + "---:|" * (11 + (3 if baseline else 0)))
+    print("|---|" + "---:|" * (11 + (5 if baseline else 0)))
     status = 0
     for molecule in molecules:
         try:
@@ -217,7 +219,8 @@ def main():
             status = 1
             continue
         ns, tm, base = r["ns"], r["tm"], r["base"]
-        base_cells = f" {base[0]:.2f} | {base[0] / ns[0]:.2f} | {base[1]:.2f} |" if base else ""
+        base_cells = (f" {base[3]} | {base[0]:.2f} | {base[0] / ns[0]:.2f} | {base[1]:.2f} | {base[2]:.0f} |"
+                      if base else "")
         print(f"| {molecule} | {r['atoms']} | {r['grid_scale']:.3f} | {ns[3]} | {tm[3]} | {ns[0]:.2f} | {tm[0]:.2f} | "
               f"{tm[0] / ns[0]:.2f} |{base_cells} {ns[1]:.2f} | {tm[1]:.2f} | {ns[2]:.0f} | {tm[2]:.0f} |", flush=True)
     return status

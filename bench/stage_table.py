@@ -4,7 +4,9 @@
 Two tables, Markdown:
 
 1. Wall seconds per stage (median of RUNS runs of `tracemesh FILE --report -`: trace, refined, THREADS threads), the
-   field evaluations of the trace (roots and traces) and their number per output vertex, for each molecule given
+   line grids retried and the seconds spent on the failed attempts (the report's trace.grid_retries and
+   timings.failed_attempts), the field evaluations of the trace (roots and traces) and their number per output
+   vertex, for each molecule given
    (default: 2buk_capsid.pqr.gz 1k4r_capsid.pqr.gz from TRACEMESH_MOLECULES_DIR).
 2. With --callgrind MOLECULE (a small one: callgrind runs ~50× slower): instructions per stage, load-independent
    (valgrind --tool=callgrind, one thread), from the inclusive cost of the function that runs each stage; the calls
@@ -13,7 +15,9 @@ Two tables, Markdown:
    attribution: allocations made under each stage's function).
 
 Environment: TRACEMESH (default build/bin/tracemesh), TRACEMESH_MOLECULES_DIR (default: as bench/bench_lib.sh),
-RUNS (default 3), THREADS (default 2).
+RUNS (default 3), THREADS (default 2), TRACEMESH_BASELINE (optional: a second tracemesh binary, e.g. built at an
+earlier commit; table 1 then has a row per binary and molecule, from runs interleaved baseline, tracemesh, baseline,
+... so that a slow phase of a shared machine hits both alike).
 Usage: python3 bench/stage_table.py [MOLECULE ...] [--callgrind MOLECULE [--heaptrack]]
   e.g. python3 bench/stage_table.py --callgrind mache.pqr      (table 2 only: no molecules given but mache)
 """
@@ -67,19 +71,48 @@ def report_of(binary, molecule, threads, work):
     return json.loads(run.stdout)
 
 
-def seconds_table(binary, molecules, runs, threads):
-    print(f"Seconds per stage (wall, medians of {runs}; trace, refined, 1 v/Å², {threads} threads)\n")
-    print("| molecule | vertices | " + " | ".join(STAGES) + " | total | field evaluations | per vertex |")
-    print("|---|---:|" + "---:|" * (len(STAGES) + 3))
+def build_label(binary):
+    """What `binary --version` names it by: its engine and, where it says, its commit (else the binary's path)."""
+    version = subprocess.run([binary, "--version"], capture_output=True, text=True, check=False).stdout
+    engine = re.search(r"tracemesh-engine-\d+", version)
+    commit = re.search(r"commit (\w+)", version)
+    if not engine:
+        return binary
+    return engine.group(0) + (f" at {commit.group(1)}" if commit else "")
+
+
+def interleaved_reports(binaries, molecule, runs, threads, work):
+    """{binary: [report, ...]}: `runs` reports of each binary, run in turn (b1, b2, b1, b2, ...)."""
+    reports = {binary: [] for binary in binaries}
+    for _ in range(runs):
+        for binary in binaries:
+            reports[binary].append(report_of(binary, molecule, threads, work))
+    return reports
+
+
+def seconds_row(label, molecule, reports):
+    med = {s: statistics.median(r["timings"].get(s, 0.0) for r in reports) for s in STAGES + ["total"]}
+    last = reports[-1]
+    evaluations = last["trace"]["field_evaluations"]
+    failed = statistics.median(r["timings"].get("failed_attempts", 0.0) for r in reports)
+    return (f"| {molecule} | {label} | {last['vertices']} | {last['trace'].get('grid_retries', 0)} | {failed:.2f} | " +
+            " | ".join(f"{med[s]:.2f}" for s in STAGES) +
+            f" | {med['total']:.2f} | {evaluations} | {evaluations / last['vertices']:.1f} |")
+
+
+def seconds_table(binaries, molecules, runs, threads):
+    print(f"Seconds per stage (wall, medians of {runs}" + (", interleaved" if len(binaries) > 1 else "") +
+          f"; trace, refined, 1 v/Å², {threads} threads)\n")
+    print("| molecule | build | vertices | grid retries | failed attempts | " + " | ".join(STAGES) +
+          " | total | field evaluations | per vertex |")
+    print("|---|---|---:|---:|---:|" + "---:|" * (len(STAGES) + 3))
+    labels = {binary: build_label(binary) for binary in binaries}
     work = tempfile.mkdtemp(prefix="stage_table_")
     try:
         for molecule in molecules:
-            reports = [report_of(binary, molecule, threads, work) for _ in range(runs)]
-            med = {s: statistics.median(r["timings"].get(s, 0.0) for r in reports) for s in STAGES + ["total"]}
-            last = reports[-1]
-            evaluations = last["trace"]["field_evaluations"]
-            print(f"| {molecule} | {last['vertices']} | " + " | ".join(f"{med[s]:.2f}" for s in STAGES) +
-                  f" | {med['total']:.2f} | {evaluations} | {evaluations / last['vertices']:.1f} |", flush=True)
+            reports = interleaved_reports(binaries, molecule, runs, threads, work)
+            for binary in binaries:
+                print(seconds_row(labels[binary], molecule, reports[binary]), flush=True)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     print()
@@ -155,7 +188,7 @@ def heaptrack_stage_allocations(binary, molecule, work):
     data = next(os.path.join(work, f) for f in os.listdir(work) if f.startswith("heaptrack."))
     printed = subprocess.run(["heaptrack_print", "-f", data, "--print-allocators", "1", "-n", "100000",
                               "--print-peaks", "0", "--print-leaks", "0", "--print-temporary", "0",
-                              "--print-histogram", "0", "--merge-backtraces", "0"],
+                              "--merge-backtraces", "0"],  # no --print-histogram: its argument is a file to write
                              capture_output=True, text=True, check=True).stdout
     total = re.search(r"calls to allocation functions: (\d+)", printed)
     per_stage = {s: 0 for s in STAGE_FUNCTIONS}
@@ -233,12 +266,16 @@ def main():
     if not os.access(binary, os.X_OK):
         print(f"stage_table: {binary} not found; build it or set TRACEMESH", file=sys.stderr)
         return 2
+    baseline = os.environ.get("TRACEMESH_BASELINE")
+    if baseline and not os.access(baseline, os.X_OK):
+        print(f"stage_table: TRACEMESH_BASELINE={baseline} is not an executable", file=sys.stderr)
+        return 2
     runs = int(os.environ.get("RUNS", "3"))
     threads = int(os.environ.get("THREADS", "2"))
     molecules = args or ([] if callgrind_molecule else DEFAULT_MOLECULES)
     try:
         if molecules:
-            seconds_table(binary, molecules, runs, threads)
+            seconds_table([baseline, binary] if baseline else [binary], molecules, runs, threads)
         if callgrind_molecule:
             callgrind_table(binary, callgrind_molecule, with_heaptrack)
     except (RuntimeError, OSError, subprocess.CalledProcessError) as error:
