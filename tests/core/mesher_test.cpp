@@ -368,8 +368,10 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
   EXPECT_GT(one->failed_attempt_seconds, 0.0);
   const double h = one->trace.line_spacing;
   EXPECT_EQ(vertices_on_lines(one->mesh, h, {0, 0}), 0u);
-  EXPECT_EQ(vertices_on_lines(one->mesh, h, {0.5, 0.5}), one->trace.polynomial_roots +
-                                                             one->trace.bracketed_roots + one->trace.late_roots);
+  // Every root of the second grid's lines is a vertex, but for roots a weld joined to a neighbour.
+  const std::size_t roots = one->trace.polynomial_roots + one->trace.bracketed_roots + one->trace.late_roots;
+  EXPECT_LE(vertices_on_lines(one->mesh, h, {0.5, 0.5}), roots);
+  EXPECT_GE(vertices_on_lines(one->mesh, h, {0.5, 0.5}) + one->trace.welded_edges, roots);
 
   const result<mesh_output> two =
       mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -15, 1, refine_mode::none, 2));
