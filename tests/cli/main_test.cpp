@@ -470,15 +470,17 @@ TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheRe
 // fas2 at d = −20, t0 = 1 leaves cells open on the first two line grids and closes on the third: no warning (the
 // mesh is the trace path's), and the report says where the lines were and how long the failed attempt took.
 TEST_F(TracemeshCli, ATraceRetriedOnAnotherLineGridSaysSoInTheReport) {
-  const fs::path off = path("fas2.off");
-  const run_result result = run({tracemesh::testing::molecule_path("fas2.pqr").string(), "-o", off.string(), "--d=-20",
-                                 "--t0", "1", "--method", "trace", "--refine", "none", "--report", "-"});
+  // The input of tests/core/mesher_test.cpp's retry test: its first line grid leaves a cell open, the second closes it.
+  const fs::path off = path("mache.off");
+  const run_result result =
+      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-15", "--t0", "1",
+           "--density", "0.5", "--method", "trace", "--refine", "none", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method_used"), "trace");
   EXPECT_TRUE(report.at("fallback").is_null());
-  EXPECT_EQ(report.at("trace").at("grid_retries"), 2);
-  EXPECT_EQ(report.at("trace").at("line_offset"), nlohmann::json::parse("[0.25, 0.75]"));
+  EXPECT_EQ(report.at("trace").at("grid_retries"), 1);
+  EXPECT_EQ(report.at("trace").at("line_offset"), nlohmann::json::parse("[0.5, 0.5]"));
   const nlohmann::json& timings = report.at("timings");
   const double failed = timings.at("failed_attempts").get<double>();
   EXPECT_GT(failed, 0.0);
