@@ -48,9 +48,8 @@ constexpr std::size_t unchecked_quality_pass_triangles = 20'000;
 
 /// Raw meshes of fewer triangles hand no freed memory back to the system before the quality pass: their front end
 /// freed a few megabytes, and malloc_trim's walk of every thread's heap, then the page faults of the pass reusing what
-/// it released, cost more than keeping them (fas2: about 200 page faults fewer, the same peak memory). Larger ones
-/// trim, for their peak (mache at 1 and 2 v/Å², 43,032 and 84,094 raw triangles: 1.3 and 2.5 MB less; a capsid's
-/// front end leaves gigabytes fragmented, release_memory.hpp), and to them the trim's milliseconds are small.
+/// it released, cost more than keeping them. Larger raw meshes trim, for their peak memory (a large molecule's front
+/// end leaves much of the heap fragmented, release_memory.hpp), and to them the trim's milliseconds are small.
 constexpr std::size_t trimmed_from_raw_triangles = 20'000;
 
 /// The trace path's line grids, in units of h̃ (trace_stats::line_offset), attempt by attempt. A trace that cannot
