@@ -150,6 +150,8 @@ enum class loop_strategy {
   /// them (pair_tube_loops). Set only after every strategy above failed; never moved on by resolve_intersections.
   tube_band,
   tube_partner,        ///< the other loop of a tube_band: its edges are in that band, it has no triangles of its own
+  /// Cut into several pieces at pinches (split_at_pinches), when neither a disk nor a tube band closes the loop.
+  split_at_pinches,
 };
 constexpr loop_strategy next(loop_strategy s) { return static_cast<loop_strategy>(static_cast<int>(s) + 1); }
 
@@ -311,18 +313,21 @@ constexpr std::array<loop_strategy, 4> split_half_strategies{loop_strategy::admi
 bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
                     double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations);
 
-/// Whether two of `triangles` (vertex numbers of `loop` or steiner_vertex, the pinch point) intersect
-/// (mesh_triangles_intersect: triangles that share a vertex or an edge may only touch there).
-bool triangles_meet(const std::vector<numbered_vertex>& loop, const vec3& pinch,
-                    const std::vector<std::array<std::uint32_t, 3>>& triangles) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;  // (vertex number, index into positions)
+/// Whether two of `triangles` (vertex numbers of `loop`, whose Steiner points steiner_vertex + m are steiner[m])
+/// intersect (mesh_triangles_intersect: triangles that share a vertex or an edge may only touch there).
+bool pieces_meet(const std::vector<numbered_vertex>& loop, const std::vector<surface_sample>& steiner,
+                 const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;
   std::vector<vec3> positions;
   for (const numbered_vertex& v : loop) {
+    if (v.id >= steiner_vertex) continue;
     index.emplace_back(v.id, static_cast<std::uint32_t>(positions.size()));
     positions.push_back(v.vertex.position);
   }
-  index.emplace_back(steiner_vertex, static_cast<std::uint32_t>(positions.size()));
-  positions.push_back(pinch);
+  for (std::size_t m = 0; m < steiner.size(); ++m) {
+    index.emplace_back(steiner_vertex + static_cast<std::uint32_t>(m), static_cast<std::uint32_t>(positions.size()));
+    positions.push_back(steiner[m].position);
+  }
   std::sort(index.begin(), index.end());
   std::vector<std::array<std::uint32_t, 3>> local;
   for (const auto& t : triangles) {
@@ -400,13 +405,90 @@ bool split_at_pinch(const gaussian_field& field, const std::vector<numbered_vert
     }
     out.triangles = std::move(first.triangles);
     out.triangles.insert(out.triangles.end(), second.triangles.begin(), second.triangles.end());
-    if (triangles_meet(loop, point.position, out.triangles)) {
+    if (pieces_meet(loop, {point}, out.triangles)) {
       out.triangles.clear();
       continue;
     }
     out.steiner.push_back(point);
     return true;
   }
+  return false;
+}
+
+/// How many times split_at_pinches may cut a piece again, and the vertex pairs it tries per cut (the closest first):
+/// bounds on the cost of a loop that no cut closes.
+constexpr int max_pinch_depth = 2;
+constexpr std::size_t max_pinches_per_cut = 16;
+
+/// A piece of a loop (its vertices may include Steiner points steiner_vertex + m, m < steiner.size()) triangulated
+/// without self-intersection: by the first of split_half_strategies whose triangles do not meet, else, while depth
+/// allows, cut again at a pinch (split_piece). Appends to `triangles` and `steiner`; false leaves them as they were.
+bool triangulate_piece(const gaussian_field& field, const std::vector<numbered_vertex>& piece, const cell_id& cell,
+                       double h, int depth, std::vector<std::array<std::uint32_t, 3>>& triangles,
+                       std::vector<surface_sample>& steiner, std::size_t& evaluations);
+
+/// `piece` cut in two at a point of the surface between two of its vertices (as split_at_pinch), each half
+/// triangulated by triangulate_piece, and the union checked for self-intersection.
+bool split_piece(const gaussian_field& field, const std::vector<numbered_vertex>& piece, const cell_id& cell, double h,
+                 int depth, std::vector<std::array<std::uint32_t, 3>>& triangles, std::vector<surface_sample>& steiner,
+                 std::size_t& evaluations) {
+  const std::size_t n = piece.size();
+  if (n < 4) return false;
+  std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> pairs;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;
+      if ((piece[i].vertex.planes & piece[j].vertex.planes) != 0) continue;  // the cut would lie in a wall
+      pairs.push_back({squared_norm(piece[j].vertex.position - piece[i].vertex.position), {i, j}});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  if (pairs.size() > max_pinches_per_cut) pairs.resize(max_pinches_per_cut);
+  const std::size_t kept_triangles = triangles.size(), kept_steiner = steiner.size();
+  for (const auto& [distance2, pair] : pairs) {
+    const auto [i, j] = pair;
+    surface_sample point;
+    const vec3 middle = into_cross_section(0.5 * (piece[i].vertex.position + piece[j].vertex.position), cell, h);
+    if (!steiner_point(field, piece, cell, h, middle, point, evaluations)) continue;
+    const numbered_vertex pinch{steiner_vertex + static_cast<std::uint32_t>(steiner.size()),
+                                {point.position, normalized(-point.gradient), 0}};
+    steiner.push_back(point);
+    if (triangulate_piece(field, loop_half(piece, i, j, pinch), cell, h, depth, triangles, steiner, evaluations) &&
+        triangulate_piece(field, loop_half(piece, j, i, pinch), cell, h, depth, triangles, steiner, evaluations)) {
+      const std::vector<std::array<std::uint32_t, 3>> mine(triangles.begin() + kept_triangles, triangles.end());
+      if (!pieces_meet(piece, steiner, mine)) return true;
+    }
+    triangles.resize(kept_triangles);
+    steiner.resize(kept_steiner);
+  }
+  return false;
+}
+
+bool triangulate_piece(const gaussian_field& field, const std::vector<numbered_vertex>& piece, const cell_id& cell,
+                       double h, int depth, std::vector<std::array<std::uint32_t, 3>>& triangles,
+                       std::vector<surface_sample>& steiner, std::size_t& evaluations) {
+  for (const loop_strategy s : split_half_strategies) {
+    loop_mesh m;
+    if (!triangulate_by(field, piece, cell, h, s, m, evaluations)) continue;
+    if (pieces_meet(piece, steiner, m.triangles)) continue;
+    triangles.insert(triangles.end(), m.triangles.begin(), m.triangles.end());
+    return true;
+  }
+  return depth > 0 && split_piece(field, piece, cell, h, depth - 1, triangles, steiner, evaluations);
+}
+
+/// A loop that no strategy and no tube band closes because every triangulation of it crosses itself: a long sheet
+/// along the cell that touches its walls again and again (sharp kernels, nearly fused spheres), whose triangles span
+/// its length and pass through each other. Algorithm 2 assumes the polygon bounds a disk its vertices can span; a
+/// disk that long needs vertices inside it. The loop is cut at a pinch as in split_at_pinch, and a piece whose every
+/// triangulation still crosses itself is cut again (split_piece), at most max_pinch_depth times below the first cut,
+/// each cut chosen from the closest vertex pairs not on a common wall; every piece keeps the wall rule.
+bool split_at_pinches(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
+                      double h, loop_mesh& out, std::size_t& evaluations) {
+  out = loop_mesh{};
+  out.strategy = loop_strategy::split_at_pinches;
+  if (split_piece(field, loop, cell, h, max_pinch_depth, out.triangles, out.steiner, evaluations)) return true;
+  out = loop_mesh{};
   return false;
 }
 
@@ -704,14 +786,28 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
     triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, meshes[l], out.evaluations);
   }
   resolve_intersections(field, loops, cell, h, meshes, out);
-  if (!out.intersecting) pair_tube_loops(loops, meshes);
+  if (!out.intersecting) {
+    pair_tube_loops(loops, meshes);
+    // Last, so that no loop that closes otherwise changes: a loop still open is cut at several pinches, kept only
+    // when its pieces meet none of the cell's other triangles.
+    for (std::size_t l = 0; l < loops.size(); ++l) {
+      if (meshes[l].strategy != loop_strategy::none) continue;
+      loop_mesh split;
+      if (!split_at_pinches(field, loops[l], cell, h, split, out.evaluations)) continue;
+      meshes[l] = std::move(split);
+      if (!intersecting_loops(loops, meshes).empty()) meshes[l] = loop_mesh{};
+    }
+  }
   for (std::size_t l = 0; l < loops.size(); ++l) {
     const loop_mesh& m = meshes[l];
     if (m.strategy == loop_strategy::none) {
       out.closed = false;
       continue;
     }
-    if (m.strategy != loop_strategy::admissible && m.strategy < loop_strategy::none) ++out.fallback_loops;
+    if (m.strategy != loop_strategy::admissible &&
+        (m.strategy < loop_strategy::none || m.strategy == loop_strategy::split_at_pinches)) {
+      ++out.fallback_loops;
+    }
     const auto first_steiner = static_cast<std::uint32_t>(out.steiner.size());
     out.steiner.insert(out.steiner.end(), m.steiner.begin(), m.steiner.end());
     for (auto t : m.triangles) {

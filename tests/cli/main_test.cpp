@@ -454,8 +454,8 @@ TEST_F(TracemeshCli, TraceMethodGivesCertifiedMeshesWithTraceReports) {
 TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheReport) {
   const fs::path off = path("mache.off");
   const run_result result =
-      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-20", "--t0", "0.3",
-           "--density", "0.5", "--method", "trace", "--report", "-"});
+      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-8", "--t0", "0.1",
+           "--density", "2", "--method", "trace", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method"), "trace");
@@ -467,13 +467,13 @@ TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheRe
   EXPECT_EQ(result.err.rfind("tracemesh: warning: the trace path failed (", 0), 0u) << result.err;
 }
 
-// fas2 at d = −20, t0 = 1 leaves cells open on the first two line grids and closes on the third: no warning (the
-// mesh is the trace path's), and the report says where the lines were and how long the failed attempt took.
+// A job whose first line grid leaves a cell open and whose second closes it: no warning (the mesh is the trace
+// path's), and the report says where the lines were and how long the failed attempt took.
 TEST_F(TracemeshCli, ATraceRetriedOnAnotherLineGridSaysSoInTheReport) {
   // The input of tests/core/mesher_test.cpp's retry test: its first line grid leaves a cell open, the second closes it.
   const fs::path off = path("mache.off");
   const run_result result =
-      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-15", "--t0", "1",
+      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-8", "--t0", "0.1",
            "--density", "0.5", "--method", "trace", "--refine", "none", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());

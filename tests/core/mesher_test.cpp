@@ -355,10 +355,10 @@ std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_gri
 // z, until one grid's cells all close without a fold: the mesh is the trace path's, its roots lie on the moved lines,
 // the failed attempts' time is counted, and it is the same whatever the thread count.
 TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_line_grid) {
-  // A sharp kernel (d = −15) at a low density: a cell of the first line grid holds a contour no strategy closes,
-  // and the second grid, offset by half a spacing in y and z, closes every cell.
+  // A sharp kernel (d = −8, t0 = 0.1) at a low density: a cell of the first line grid holds a contour no strategy
+  // closes, and the second grid, offset by half a spacing in y and z, closes every cell.
   const result<mesh_output> one =
-      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -15, 1, refine_mode::none, 1));
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -8, 0.1, refine_mode::none, 1));
   ASSERT_TRUE(one.ok()) << one.error().message();
   EXPECT_TRUE(one->certified);
   EXPECT_TRUE(one->fallback_reason.empty()) << one->fallback_reason;
@@ -374,7 +374,7 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
   EXPECT_GE(vertices_on_lines(one->mesh, h, {0.5, 0.5}) + one->trace.welded_edges, roots);
 
   const result<mesh_output> two =
-      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -15, 1, refine_mode::none, 2));
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -8, 0.1, refine_mode::none, 2));
   ASSERT_TRUE(two.ok()) << two.error().message();
   EXPECT_EQ(two->trace.grid_retries, 1u);
   EXPECT_EQ(one->mesh.positions, two->mesh.positions);
@@ -418,14 +418,14 @@ TEST(mesher_retry, a_trace_that_closes_every_cell_is_not_retried) {
   EXPECT_GT(vertices_on_lines(out->mesh, out->trace.line_spacing, {0, 0}), 0u);
 }
 
-// Sharp kernels make creases that the trace path cannot always close on any of its line grids: mache at d = −20,
-// t0 = 0.3 and density 0.5 leaves cells open on all three (docs/method.md#line-grid-retries-and-lattice-fallback). The job
+// Sharp kernels make creases that the trace path cannot always close on any of its line grids: mache at d = −8,
+// t0 = 0.1 and density 2 leaves a cell open on all three (docs/method.md#line-grid-retries-and-lattice-fallback). The job
 // is meshed by the lattice path instead, says so, counts the failed attempts' time, and is the
 // lattice path's very mesh. Should the trace path learn to close these cells, this test needs another input it fails
 // on (tests/cli and tests/integration have the same case).
 TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_lattice_path_and_says_so) {
   const result<mesh_output> out =
-      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -20, 0.3, refine_mode::full));
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 2, -8, 0.1, refine_mode::full));
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_TRUE(out->certified);
   EXPECT_EQ(out->method, mesh_method::trace);
@@ -438,7 +438,7 @@ TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_l
   EXPECT_GT(out->failed_attempt_seconds, 0.0);
 
   const result<mesh_output> lattice =
-      mesh_file("mache.pqr", sharp_params(mesh_method::lattice, 0.5, -20, 0.3, refine_mode::full));
+      mesh_file("mache.pqr", sharp_params(mesh_method::lattice, 2, -8, 0.1, refine_mode::full));
   ASSERT_TRUE(lattice.ok()) << lattice.error().message();
   EXPECT_TRUE(lattice->fallback_reason.empty());
   EXPECT_EQ(out->mesh.triangles, lattice->mesh.triangles);

@@ -332,13 +332,16 @@ TEST(cell_polygons, raw_trace_mesh_of_a_molecule_has_each_directed_edge_once_wit
   }
 }
 
-/// Meshes `mol` by the trace path at 1 v/Å², with and without the quality pass: on the first line grid, certified,
-/// no fold.
-void expect_meshed_on_the_first_line_grid(const molecule& mol) {
+/// Meshes `mol` by the trace path at `density` v/Å² with the kernel (d, t0), with and without the quality pass: on
+/// the first line grid, certified, no fold.
+void expect_meshed_on_the_first_line_grid(const molecule& mol, double d = -1, double t0 = 1, double density = 1) {
   for (const refine_mode refine : {refine_mode::none, refine_mode::full}) {
     mesh_params params;
     params.method = mesh_method::trace;
     params.refine = refine;
+    params.d = d;
+    params.t0 = t0;
+    params.density = density;
     progress_token progress;
     const auto out = mesh_molecule(mol, params, {}, progress);
     ASSERT_TRUE(out.ok()) << out.error().message();
@@ -404,6 +407,39 @@ TEST(cell_polygons, a_loop_pinched_under_a_notch_is_split_and_meshed_on_the_firs
       {{24.131, 35.955, -10.639}, 1.7, 0}, {{24.963, 35.232, -11.341}, 1.55, 0}, {{25.830, 34.251, -10.702}, 1.7, 0},
       {{25.069, 32.942, -10.478}, 1.7, 0}, {{28.080, 33.582, -10.851}, 1.55, 0}});
   expect_meshed_on_the_first_line_grid(sheet);
+}
+
+// The atoms of acetylcholinesterase (mache) within 6 Å of the cell (11, −8) at d = −20, t0 = 10, 0.5 v/Å²: a sheet
+// of nearly fused spheres runs 5.6 Å along the cell, touching its walls again and again, and its loop (17 vertices,
+// ten of them roots on the corner lines) winds once around the cell. Every triangulation of that loop the
+// strategies find crosses itself (long triangles span the length of the sheet and pass through each other), so is
+// every single split at a pinch, and no band pairs it with another loop; cut at a few pinches along its length
+// (split_at_pinches), each piece triangulates without crossing the others.
+TEST(cell_polygons, a_long_sheet_whose_every_triangulation_crosses_itself_is_cut_at_pinches_on_the_first_line_grid) {
+  const molecule sheet = atoms({
+      {{16.696, 12.379, -10.268}, 1.908, 0}, {{16.744, 12.803, -9.265}, 1.387, 0},
+      {{18.041, 12.506, -11.024}, 1.908, 0}, {{18.127, 12.284, -12.231}, 1.661, 0},
+      {{19.066, 12.825, -10.245}, 1.824, 0}, {{18.833, 13.010, -9.280}, 1.000, 0},
+      {{20.407, 13.213, -10.622}, 1.908, 0}, {{20.458, 13.047, -11.699}, 1.387, 0},
+      {{20.512, 14.770, -10.511}, 1.908, 0}, {{21.453, 15.147, -10.911}, 1.487, 0},
+      {{20.498, 15.167, -9.496}, 1.487, 0}, {{19.697, 15.249, -11.054}, 1.487, 0},
+      {{21.480, 12.357, -9.862}, 1.908, 0}, {{21.376, 11.120, -9.819}, 1.661, 0},
+      {{22.550, 12.959, -9.273}, 1.824, 0}, {{22.669, 13.961, -9.320}, 1.000, 0},
+      {{23.688, 12.210, -8.834}, 1.908, 0}, {{23.977, 11.512, -9.619}, 1.387, 0},
+      {{24.891, 13.100, -8.617}, 1.908, 0}, {{25.701, 12.427, -8.337}, 1.487, 0},
+      {{24.767, 13.828, -7.815}, 1.487, 0}, {{25.331, 13.920, -9.832}, 1.908, 0},
+      {{26.034, 14.715, -9.584}, 1.487, 0}, {{24.437, 14.478, -10.109}, 1.487, 0},
+      {{25.831, 13.050, -11.019}, 1.908, 0}, {{26.439, 12.008, -10.859}, 1.661, 0},
+      {{25.578, 13.467, -12.255}, 1.824, 0}, {{24.952, 14.231, -12.467}, 1.000, 0},
+      {{26.128, 12.935, -12.914}, 1.000, 0}, {{23.461, 11.341, -7.569}, 1.908, 0},
+      {{24.123, 10.335, -7.458}, 1.661, 0}, {{22.660, 11.717, -6.612}, 1.824, 0},
+      {{22.193, 12.535, -6.976}, 1.000, 0}, {{22.205, 11.030, -5.407}, 1.908, 0},
+      {{23.020, 10.956, -4.688}, 1.387, 0}, {{21.096, 11.897, -4.666}, 1.908, 0},
+      {{21.576, 13.296, -4.168}, 1.908, 0}, {{21.672, 13.961, -5.027}, 1.487, 0},
+      {{22.446, 13.189, -3.520}, 1.487, 0}, {{20.754, 13.775, -3.636}, 1.487, 0},
+      {{19.989, 12.091, -5.518}, 1.721, 0}, {{19.294, 11.815, -4.916}, 1.000, 0}, {{21.227, 9.251, -6.793}, 1.824, 0},
+      {{21.254, 9.903, -7.564}, 1.000, 0}});
+  expect_meshed_on_the_first_line_grid(sheet, -20, 10, 0.5);
 }
 
 TEST(cell_polygons, find_strip_returns_the_size_for_an_absent_strip) {
