@@ -170,7 +170,7 @@ def ladder_summary(rows, threads=None, full_ladder=True):
         out.append(f"- {path}: " + "; ".join(parts))
     # The rule compares the trace path's total time with the lattice path's at each density: summed over
     # the ladder. Single rows are listed too; the smallest take milliseconds, where fixed costs and the timer move a
-    # ratio by ±0.5 between runs (gly at 1 v/Å², 2026-11-27: 1.46 in a ladder run, 0.74–1.05 re-run alone).
+    # ratio by ±0.5 between runs (gly at 1 v/Å²: 1.46 in a ladder run, 0.74–1.05 re-run alone).
     together = {d: sums[("trace refined", d)][0] / sums[("trace refined", d)][1]
                 for d in densities if ("trace refined", d) in sums}
     ratios_ok = all(d in together and together[d] <= DEFAULT_RULE_RATIO for d in densities)

@@ -48,7 +48,7 @@ struct mesh_params {
   double density = 1.0;  ///< requested vertices per Å² (sets the sampling step h̃ ≈ 1/√density)
   double d = -1.0;       ///< kernel decay rate, < 0
   double t0 = 1.0;       ///< isovalue, > 0
-  /// trace since 2026-11-27: certified on the whole ladder, within 1.25× of the lattice path's time (README
+  /// trace: certified on the whole ladder, within 1.25× of the lattice path's time (README
   /// "Benchmarks", the default rule).
   mesh_method method = mesh_method::trace;
   refine_mode refine = refine_mode::full;
@@ -105,6 +105,6 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 
 /// The engine's version: part of every job id and report, so that a change to the meshes it makes never serves a
 /// mesh cached by an older engine. Bump it whenever delivered meshes change; CHANGELOG.md says what each changed.
-inline constexpr const char* engine_version = "tracemesh-engine-20";
+inline constexpr const char* engine_version = "tracemesh-engine-21";
 
 }  // namespace tracemesh

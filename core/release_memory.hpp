@@ -10,7 +10,7 @@
 
 // Address- and ThreadSanitizer replace glibc's allocator with their own: glibc's arenas then hold nothing to trim,
 // and under ThreadSanitizer malloc_trim called from two job workers at once crashed inside glibc (SEGV in mtrim,
-// the server's integration tests in CI on 2026-11-28).
+// in the server's integration tests).
 #if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
 #define TRACEMESH_SANITIZER_ALLOCATOR 1
 #elif defined(__has_feature)

@@ -283,7 +283,7 @@ mesh_params sharp_params(mesh_method method, double density, double d, double t0
 
 // A sharp kernel leaves dozens of tiny cavities (mache at d = −15, t0 = 1, 0.5 v/Å²: 106 components). The quality
 // pass collapsed one of them to a flat tetrahedron turned inside out, and the job failed its certificate (an inward
-// component) on both paths, found 2026-11-28. The quality pass now treats such a component as a failed check
+// component) on both paths. The quality pass now treats such a component as a failed check
 // (remesh_intersections.hpp) and keeps that cavity as it was.
 TEST(mesher_sharp_kernel, tiny_cavities_stay_outward_oriented_through_the_quality_pass) {
   const result<mesh_output> out =
@@ -306,7 +306,7 @@ result<mesh_output> traced_on_the_first_grid(const char* file, double d, double 
 }
 
 // Walls of cells tangent to the surface at saddles, where the contour in the wall crosses itself and no walk gets
-// past: until 2026-11-28 every line grid met such a strip on mache at d = −15, t0 = 0.01, 1 v/Å², and the lattice
+// past: every line grid used to meet such a strip on mache at d = −15, t0 = 0.01, 1 v/Å², and the lattice
 // path made the mesh with an area 11.5% under the lattice path's own at 4 v/Å². Those strips are now traced at
 // t0·(1 ± ε) (strip_arcs.cpp). On villin_1vii at d = −15, t0 = 1, 1 v/Å² (h̃ = 0.93 Å) one strip is, and the first
 // grid's trace is certified with the lattice path's area at 4 v/Å² (3,258 Å²) to 1% (0.9% measured).
@@ -318,7 +318,7 @@ TEST(mesher_sharp_kernel, strips_whose_contour_crosses_itself_are_traced_at_a_sh
 }
 
 // A loop may double back on itself along a wall where the contour passes a pinch; every triangulation of the
-// dynamic programme then folds over itself (found 2026-11-28 on fas2 by bench/sharp_kernel_sweep.py). Such a loop
+// dynamic programme then folds over itself (bench/sharp_kernel_sweep.py found it on fas2). Such a loop
 // is cut into ears in its own plane (loop_triangulation.hpp: triangulate_loop_in_its_plane, a counted fallback).
 // fas2 at d = −8, t0 = 0.1, 1 v/Å² (h̃ = 0.93 Å) has one, and without that fallback needs the second line grid.
 TEST(mesher_sharp_kernel, a_loop_that_doubles_back_in_a_wall_is_triangulated_in_its_plane) {
@@ -329,7 +329,7 @@ TEST(mesher_sharp_kernel, a_loop_that_doubles_back_in_a_wall_is_triangulated_in_
 
 // A crevice between sharp atoms makes the contour in a wall a hairpin narrower than the sagitta of the arc's
 // straight edges, which then cross, and the cells beside the wall cannot close. On fas2 at d = −20, t0 = 0.1,
-// 0.5 v/Å² that happened on all three line grids and the lattice path made the mesh (found 2026-11-29). Crossing
+// 0.5 v/Å² that happened on all three line grids and the lattice path made the mesh. Crossing
 // edges now keep more walk points (strip_arcs.cpp: untangle_arcs; its own test in strip_arcs_test.cpp). At 1 v/Å²
 // the same crevice is untangled on the first grid (at 0.5 v/Å² its loops can now only be triangulated with folds,
 // which no triangulation makes: the lattice path meshes it).

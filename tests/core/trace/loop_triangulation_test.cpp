@@ -799,7 +799,7 @@ std::size_t self_intersecting_pairs(const std::vector<loop_vertex>& loop, const 
 // A loop of mache at d = −15, t0 = 1, 1 v/Å² (cell j = 22, k = −1 of the first line grid, 11 vertices as traced):
 // where the contour passes a pinch, the loop doubles back on itself along the wall z = 0. Every triangulation the
 // dynamic programme finds, with or without its rules on walls and normals, folds over itself or fails, so the cell
-// stayed open (found 2026-11-28). Cut into ears in its own plane, it is not.
+// stayed open. Cut into ears in its own plane, it is not.
 std::vector<loop_vertex> doubled_back_loop() {
   return {
       vertex({-19.165821624136196, 23, -1}, {-0.65615220621501902, 0.68256578947368451, 0.32182017543859637}, 6),

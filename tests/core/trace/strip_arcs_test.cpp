@@ -391,8 +391,8 @@ int meeting_edges(const strip_trace& trace, const strip_id& strip, double spacin
 // mache with a sharp kernel (d = −15, t0 = 1) at 0.5 v/Å² (h̃ = √2 Å): in the xy strip z = −3h̃, y ∈ [−10h̃, −9h̃],
 // a small loop of contour leaves the low line at x ≈ −12.6568 and comes back to it at x ≈ −12.7948. The walk from
 // −12.7948 dies where the loop turns within a hair; the walk from −12.6568 goes round and ends on −12.7948. That
-// root was marked as done by its failed walk, so the good arc was refused too and the cell could not close (found
-// 2026-11-28). A root is now free until an arc takes it, whichever end the walk started from.
+// root was marked as done by its failed walk, so the good arc was refused too and the cell could not close.
+// A root is now free until an arc takes it, whichever end the walk started from.
 TEST(strip_arcs, a_root_whose_own_walk_dies_is_reached_from_the_other_end_of_its_contour) {
   const molecule mol = mache_moved_by({0, 0, 0});
   const gaussian_field field(mol, -15, 1);
@@ -413,7 +413,7 @@ TEST(strip_arcs, a_root_whose_own_walk_dies_is_reached_from_the_other_end_of_its
 
 // mache at d = −15, t0 = 1, 1 v/Å² (h̃ = 1 Å) on the third line grid (lines at y = (j + ¼)·h̃, z = (k + ¾)·h̃: the
 // molecule moved by −(0, ¼, ¾) Å): the xz strip y = 4, z ∈ [−5, −4] is tangent to the surface where the contour
-// crosses itself, and two of its roots had no arc after every pass with smaller steps (found 2026-11-28). Traced at
+// crosses itself, and two of its roots had no arc after every pass with smaller steps. Traced at
 // t0·(1 + 1e-3), where the crossing splits, every root ends one arc, and the arcs' points are back on φ = t0.
 TEST(strip_arcs, a_contour_that_crosses_itself_is_traced_at_a_level_next_to_t0) {
   const molecule mol = mache_moved_by({0, 0.25, 0.75});
@@ -450,7 +450,7 @@ TEST(strip_arcs, a_contour_that_crosses_itself_is_traced_at_a_level_next_to_t0) 
 // z ∈ [24h̃, 25h̃], the arc from the root at x ≈ −9.384 runs into a crevice between sharp atoms, a hairpin about
 // 0.07 Å wide and 1.9 Å deep, and back out. Its kept points, joined by straight edges, made the edge leaving the
 // hairpin cross the one entering it, and the cells on both sides of the strip could not close their loops on any
-// line grid (found 2026-11-29). Edges that cross now keep the walk point farthest from their chord until no two
+// line grid. Edges that cross now keep the walk point farthest from their chord until no two
 // edges of the strip meet.
 TEST(strip_arcs, the_straight_edges_of_a_hairpin_narrower_than_their_sagitta_are_untangled) {
   const result<molecule> mol = read_pqr_file(testing::molecule_path("fas2.pqr"));
