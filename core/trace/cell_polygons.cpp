@@ -311,7 +311,8 @@ constexpr std::array<loop_strategy, 4> split_half_strategies{loop_strategy::admi
                                                               loop_strategy::flat_relaxed};
 
 bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
-                    double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations);
+                    double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations,
+                    std::uint8_t kept_walls = 0);
 
 /// Whether two of `triangles` (vertex numbers of `loop`, whose Steiner points steiner_vertex + m are steiner[m])
 /// intersect (mesh_triangles_intersect: triangles that share a vertex or an edge may only touch there).
@@ -492,9 +493,11 @@ bool split_at_pinches(const gaussian_field& field, const std::vector<numbered_ve
   return false;
 }
 
-/// The loop's triangles by `strategy`; false when that strategy cannot triangulate it.
+/// The loop's triangles by `strategy`; false when that strategy cannot triangulate it. The strategies that drop the
+/// wall rule (unrestricted, in_its_plane) keep it on `kept_walls` (cell_wall bits; mesh_cell).
 bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
-                    double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations) {
+                    double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations,
+                    std::uint8_t kept_walls) {
   out = loop_mesh{};
   out.strategy = strategy;
   if (strategy == loop_strategy::steiner_fan || strategy == loop_strategy::steiner_fan_relaxed) {
@@ -504,12 +507,13 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
   std::vector<loop_vertex> vertices(loop.size());
   for (std::size_t n = 0; n < loop.size(); ++n) vertices[n] = loop[n].vertex;
   if (strategy == loop_strategy::unrestricted) {
-    for (loop_vertex& v : vertices) v.planes = 0;
+    for (loop_vertex& v : vertices) v.planes &= kept_walls;
   }
   std::vector<std::array<std::uint32_t, 3>> local;
   loop_triangulation_stats stats;
   loop_triangulation_settings settings;
   if (strategy == loop_strategy::in_its_plane) {
+    settings.kept_walls = kept_walls;
     const bool ok = triangulate_loop_in_its_plane(vertices, local, stats, settings);
     for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
     return ok;
@@ -527,9 +531,10 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
 
 /// The first strategy from `from` on that triangulates the loop (loop_strategy::none when none does).
 void triangulate_from(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
-                      double h, loop_strategy from, loop_mesh& out, std::size_t& evaluations) {
+                      double h, loop_strategy from, std::uint8_t kept_walls, loop_mesh& out,
+                      std::size_t& evaluations) {
   for (loop_strategy s = from; s < loop_strategy::none; s = next(s)) {
-    if (triangulate_by(field, loop, cell, h, s, out, evaluations)) return;
+    if (triangulate_by(field, loop, cell, h, s, out, evaluations, kept_walls)) return;
   }
   out = loop_mesh{};
 }
@@ -616,7 +621,8 @@ std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<number
 /// Each round first looks for one loop whose change alone removes its intersections (so that a loop that was fine
 /// is not spoilt for its neighbour's sake), else moves every loop involved on.
 void resolve_intersections(const gaussian_field& field, const std::vector<std::vector<numbered_vertex>>& loops,
-                           const cell_id& cell, double h, std::vector<loop_mesh>& meshes, cell_mesh& out) {
+                           const cell_id& cell, double h, std::uint8_t kept_walls, std::vector<loop_mesh>& meshes,
+                           cell_mesh& out) {
   constexpr int max_rounds = 16;
   std::vector<std::size_t> hit = intersecting_loops(loops, meshes);
   for (int round = 0; round < max_rounds && !hit.empty(); ++round) {
@@ -625,7 +631,7 @@ void resolve_intersections(const gaussian_field& field, const std::vector<std::v
       const loop_mesh kept = meshes[l];
       for (loop_strategy s = next(kept.strategy); kept.strategy < loop_strategy::none && s < loop_strategy::none;
            s = next(s)) {
-        if (!triangulate_by(field, loops[l], cell, h, s, meshes[l], out.evaluations)) continue;
+        if (!triangulate_by(field, loops[l], cell, h, s, meshes[l], out.evaluations, kept_walls)) continue;
         const std::vector<std::size_t> after = intersecting_loops(loops, meshes);
         if (!std::binary_search(after.begin(), after.end(), l)) {
           fixed = true;
@@ -639,7 +645,7 @@ void resolve_intersections(const gaussian_field& field, const std::vector<std::v
       bool changed = false;
       for (const std::size_t l : hit) {
         if (meshes[l].strategy >= loop_strategy::none) continue;
-        triangulate_from(field, loops[l], cell, h, next(meshes[l].strategy), meshes[l], out.evaluations);
+        triangulate_from(field, loops[l], cell, h, next(meshes[l].strategy), kept_walls, meshes[l], out.evaluations);
         changed = true;
       }
       if (!changed) break;
@@ -764,6 +770,33 @@ void pair_tube_loops(const std::vector<std::vector<numbered_vertex>>& loops, std
   }
 }
 
+/// Adds to `walls` (cell_wall bits) the walls in which some triangle of `m` has an edge joining two vertices of `loop`
+/// on that wall other than a loop edge, and to `lines` (cell_mesh::line_chords) the corner lines along which such an
+/// edge runs. Only the strategies that drop the wall rule make one (every other keeps the rule on each edge it adds,
+/// and its Steiner points lie off the walls), so only theirs are looked at.
+void add_chords(const std::vector<numbered_vertex>& loop, const loop_mesh& m, std::uint8_t& walls,
+                std::uint8_t& lines) {
+  if (m.strategy != loop_strategy::unrestricted && m.strategy != loop_strategy::in_its_plane) return;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;  // (vertex, position in the loop)
+  for (std::uint32_t n = 0; n < loop.size(); ++n) index.emplace_back(loop[n].id, n);
+  std::sort(index.begin(), index.end());
+  const auto at = [&](std::uint32_t id) {
+    return std::lower_bound(index.begin(), index.end(), std::make_pair(id, 0u))->second;
+  };
+  const auto n = static_cast<std::uint32_t>(loop.size());
+  for (const auto& t : m.triangles) {
+    for (int c = 0; c < 3; ++c) {
+      const std::uint32_t a = at(t[c]), b = at(t[(c + 1) % 3]);
+      if ((a + 1) % n == b || (b + 1) % n == a) continue;  // a loop edge: an arc's, shared with the neighbour
+      const std::uint8_t shared = loop[a].vertex.planes & loop[b].vertex.planes;
+      walls |= shared;
+      if ((shared & (wall_y_low | wall_y_high)) != 0 && (shared & (wall_z_low | wall_z_high)) != 0) {
+        lines |= static_cast<std::uint8_t>(1u << (((shared & wall_y_high) != 0) + 2 * ((shared & wall_z_high) != 0)));
+      }
+    }
+  }
+}
+
 }  // namespace
 
 std::size_t traced_surface::find_strip(const strip_id& strip) const {
@@ -771,7 +804,8 @@ std::size_t traced_surface::find_strip(const strip_id& strip) const {
   return it != strips.end() && *it == strip ? static_cast<std::size_t>(it - strips.begin()) : strips.size();
 }
 
-cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, const cell_id& cell) {
+cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, const cell_id& cell,
+                    std::uint8_t kept_walls) {
   cell_mesh out;
   std::vector<cell_arc> arcs;
   std::vector<std::vector<numbered_vertex>> loops;
@@ -783,9 +817,9 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
   const double h = surface.spacing;
   std::vector<loop_mesh> meshes(loops.size());
   for (std::size_t l = 0; l < loops.size(); ++l) {
-    triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, meshes[l], out.evaluations);
+    triangulate_from(field, loops[l], cell, h, loop_strategy::admissible, kept_walls, meshes[l], out.evaluations);
   }
-  resolve_intersections(field, loops, cell, h, meshes, out);
+  resolve_intersections(field, loops, cell, h, kept_walls, meshes, out);
   if (!out.intersecting) {
     pair_tube_loops(loops, meshes);
     // Last, so that no loop that closes otherwise changes: a loop still open is cut at several pinches, kept only
@@ -808,6 +842,7 @@ cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, 
         (m.strategy < loop_strategy::none || m.strategy == loop_strategy::split_at_pinches)) {
       ++out.fallback_loops;
     }
+    add_chords(loops[l], m, out.wall_chords, out.line_chords);
     const auto first_steiner = static_cast<std::uint32_t>(out.steiner.size());
     out.steiner.insert(out.steiner.end(), m.steiner.begin(), m.steiner.end());
     for (auto t : m.triangles) {

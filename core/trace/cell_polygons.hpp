@@ -51,9 +51,18 @@ struct cell_mesh {
   std::size_t evaluations = 0;
   bool closed = true;  ///< false when an arc end had no partner (a root with no arc or two): the mesh would leak
   bool intersecting = false;  ///< false unless two of the cell's triangles intersect after every fallback
+  /// The walls (cell_wall bits) that hold an edge of its triangles other than an arc's: a chord of a loop in that
+  /// wall, made by a strategy that drops the wall rule (cell_polygons.cpp: unrestricted, in_its_plane).
+  std::uint8_t wall_chords = 0;
+  /// The corner lines along which such an edge runs (it lies in two walls): bit 1 << (y + 2z) for the line
+  /// (j + y, k + z), y, z ∈ {0, 1}.
+  std::uint8_t line_chords = 0;
 };
 
-/// Closes and triangulates the loops of `cell`.
-cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, const cell_id& cell);
+/// Closes and triangulates the loops of `cell`. The strategies that drop the wall rule keep it on `kept_walls`
+/// (cell_wall bits): a wall's chords may be made by one of its two cells only (trace_mesher.cpp), as the two would
+/// otherwise lay triangles on the same edges of the wall, an edge of four triangles.
+cell_mesh mesh_cell(const gaussian_field& field, const traced_surface& surface, const cell_id& cell,
+                    std::uint8_t kept_walls = 0);
 
 }  // namespace tracemesh

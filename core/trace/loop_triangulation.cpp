@@ -559,6 +559,8 @@ bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vecto
         }
       }
       if (!empty) continue;
+      // With more than three vertices left, a and c are not neighbours on the loop: (a, c) is a new edge.
+      if ((loop[a].planes & loop[c].planes & settings.kept_walls) != 0) continue;
       const vec3 &pa = loop[a].position, &pc = loop[c].position;
       if (!(squared_norm(pc - pa) >= min_edge2)) continue;
       const double longest2 = std::max({squared_norm(loop[b].position - pa), squared_norm(pc - loop[b].position),

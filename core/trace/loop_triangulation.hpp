@@ -57,6 +57,9 @@ struct loop_triangulation_settings {
   /// normal and its corners' field normals, (1 + cos)/2 — the triangulation that lies flattest on the surface, for
   /// loops whose best-shaped triangulation folds over itself (a fallback of the trace path).
   bool maximise_normal_agreement = false;
+  /// triangulate_loop_in_its_plane only: walls (cell_wall bits) on which it keeps the wall rule, cutting no ear whose
+  /// new edge joins two vertices on one of them (cell_polygons.cpp: the walls whose chords belong to the neighbour).
+  std::uint8_t kept_walls = 0;
 };
 
 /// What the triangulations did. Every call adds to the counters (so one object can sum a thread's loops; merge
@@ -155,9 +158,9 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
 /// projections then do not overlap, so the triangles cannot cross each other, whatever the loop's folds in 3-D —
 /// which no rule of triangulate_loop ensures for a loop that doubles back on itself within a wall (a hairpin of the
 /// contour at a sharp kernel, where every triangulation the dynamic programme prefers folds over itself). Neither
-/// the wall rule nor the orientation rule applies but for the latter's floor (no face against the normals at all
-/// three corners); a triangle must not be degenerate (area ≥ settings.min_area_ratio × longest edge², edges ≥
-/// settings.min_edge_length).
+/// the wall rule (but on settings.kept_walls) nor the orientation rule applies but for the latter's floor (no face
+/// against the normals at all three corners); a triangle must not be degenerate (area ≥ settings.min_area_ratio ×
+/// longest edge², edges ≥ settings.min_edge_length).
 /// @param out  receives n − 2 triangles as indices into `loop`, each in the loop's cyclic order, hence oriented like
 ///             the loop.
 /// @return false, appending nothing, when n < 3, the projection is not simple, or some step has no acceptable ear.

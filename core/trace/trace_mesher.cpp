@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <string>
@@ -11,6 +12,7 @@
 #include "core/mesh_edits/short_edge_collapse.hpp"
 #include "core/trace/cell_polygons.hpp"
 #include "core/trace/line_roots.hpp"
+#include "core/trace/loop_triangulation.hpp"
 #include "core/trace/strip_arcs.hpp"
 #include "core/trace/trace_lines.hpp"
 #include "core/trace/untouched_cavities.hpp"
@@ -262,6 +264,59 @@ void number_vertices_by_first_use(surface_mesh& mesh) {
   }
 }
 
+/// Gives the chords of each wall and of each line to one of the cells beside it (cell_mesh::wall_chords,
+/// line_chords). Algorithm 2 triangulates each cell's polygons on their own, which is sound only under the
+/// admissibility rule. The strategies that drop the wall rule (for a sheet lying almost in a wall) lay triangles in the
+/// wall between its arcs; where the surface crosses the wall there as a thin tube, both cells beside it do, on the
+/// same vertices, and an edge they share carries four triangles. Admissible triangles of different cells meet only
+/// along shared arcs (docs/method.md#the-admissibility-rule); that holds again once no wall, and no line, has chords
+/// from two cells. The cell beyond a wall (+y or +z) keeps its own chords, and the cell before it, when both made
+/// some, is meshed again with the rule kept on that wall; of two diagonal cells that both made chords along the
+/// line between them, the one at the lower j keeps the rule on its +y wall. A cell meshed again may make chords in
+/// another of its walls, so the check is repeated; each time, it keeps the rule on one more of its two +y and +z
+/// walls, so the pass ends.
+void give_chords_to_one_cell(const gaussian_field& field, const traced_surface& surface,
+                             const std::vector<cell_id>& ids, std::vector<cell_mesh>& cells) {
+  const auto find = [&](const cell_id& c) {
+    const auto it = std::lower_bound(ids.begin(), ids.end(), c);
+    return it != ids.end() && *it == c ? static_cast<std::size_t>(it - ids.begin()) : ids.size();
+  };
+  // A wall or line of this cell (its bit in wall_chords or line_chords), the other cell beside it (at dj, dk), the
+  // same wall or line's bit in that cell, and the wall on which this cell keeps the rule when both have chords there.
+  struct facing_chords {
+    bool line;
+    std::uint8_t mine;
+    std::int64_t dj, dk;
+    std::uint8_t theirs, kept;
+  };
+  constexpr std::array<facing_chords, 4> pairs{{
+      {false, wall_y_high, 1, 0, wall_y_low, wall_y_high},
+      {false, wall_z_high, 0, 1, wall_z_low, wall_z_high},
+      {true, 1u << 3, 1, 1, 1u << 0, wall_y_high},  // line (j + 1, k + 1): the other's line (0, 0)
+      {true, 1u << 1, 1, -1, 1u << 2, wall_y_high},  // line (j + 1, k): the other's line (0, 1)
+  }};
+  std::vector<std::uint8_t> kept(cells.size(), 0);
+  for (;;) {
+    std::vector<std::size_t> again;
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+      const std::uint8_t before = kept[c];
+      for (const facing_chords& p : pairs) {
+        if (((p.line ? cells[c].line_chords : cells[c].wall_chords) & p.mine) == 0) continue;
+        const std::size_t n = find({ids[c].j + p.dj, ids[c].k + p.dk});
+        if (n == ids.size() || ((p.line ? cells[n].line_chords : cells[n].wall_chords) & p.theirs) == 0) continue;
+        kept[c] |= p.kept;
+      }
+      if (kept[c] != before) again.push_back(c);
+    }
+    if (again.empty()) return;
+    for (const std::size_t c : again) {
+      const std::size_t spent = cells[c].evaluations;
+      cells[c] = mesh_cell(field, surface, ids[c], kept[c]);
+      cells[c].evaluations += spent;
+    }
+  }
+}
+
 /// The mesh: roots, then interior points, then the cells' Steiner points; triangles cell by cell.
 surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cells) {
   surface_mesh mesh;
@@ -336,6 +391,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
                     static_cast<double>(done += r.size()) / static_cast<double>(cell_ids.size()));
   });
   if (progress.cancelled()) return cancelled_status();
+  give_chords_to_one_cell(field, surface, cell_ids, cells);
   std::size_t open_cells = 0, intersecting_cells = 0, failures = 0;
   for (std::size_t s = 0; s < surface.traces.size(); ++s) failures += surface.traces[s].failures;
   for (const cell_mesh& c : cells) {

@@ -442,6 +442,25 @@ TEST(cell_polygons, a_long_sheet_whose_every_triangulation_crosses_itself_is_cut
   expect_meshed_on_the_first_line_grid(sheet, -20, 10, 0.5);
 }
 
+// The atoms of acetylcholinesterase (mache) within 2 Å of the cells (−2, −6) and (−1, −6) over x ∈ [20.4, 27.9] at
+// d = −8, t0 = 10, 1 v/Å²: a thin tube of the surface crosses the wall y = −h̃ between them, lying almost in it, and
+// each cell's loop (25 and 15 vertices) takes the triangulation without the wall rule. Both cells then laid
+// triangles in the wall between the same arcs, so that edges of the wall carried four triangles (two of each cell)
+// and the quality pass refused the raw mesh on every line grid. Only the cell beyond the wall keeps its triangles
+// there; the other is meshed again with the rule kept on that wall.
+TEST(cell_polygons, two_cells_beside_a_wall_never_both_lay_triangles_in_it_and_mesh_on_the_first_line_grid) {
+  const molecule tube = atoms({
+      {{21.068, 1.335, -6.971}, 1.661, 0}, {{23.414, 0.668, -7.113}, 1.387, 0}, {{25.017, 1.286, -5.885}, 1.908, 0},
+      {{25.242, 0.104, -5.635}, 1.661, 0}, {{27.658, 1.397, -4.912}, 1.387, 0}, {{26.534, 1.132, -3.201}, 1.908, 0},
+      {{27.033, 0.011, -3.026}, 1.661, 0}, {{23.822, -2.295, -2.798}, 1.908, 0}, {{22.950, -2.224, -4.069}, 1.908, 0},
+      {{22.476, -3.181, -4.289}, 1.487, 0}, {{23.627, -1.988, -4.890}, 1.487, 0}, {{22.057, -0.976, -3.780}, 1.908, 0},
+      {{21.251, -1.427, -3.201}, 1.487, 0}, {{21.598, -0.481, -4.636}, 1.487, 0}, {{23.012, -0.102, -2.979}, 1.908, 0},
+      {{23.447, 0.674, -3.609}, 1.387, 0}, {{26.032, -2.682, -3.863}, 1.824, 0}, {{25.899, -1.747, -4.221}, 1.000, 0},
+      {{27.355, -3.312, -4.164}, 1.908, 0}, {{28.069, -2.506, -5.241}, 1.908, 0}, {{28.858, -1.947, -4.736}, 1.487, 0},
+      {{27.345, -1.784, -5.618}, 1.487, 0}, {{28.633, -3.300, -6.423}, 1.908, 0}});
+  expect_meshed_on_the_first_line_grid(tube, -8, 10, 1);
+}
+
 TEST(cell_polygons, find_strip_returns_the_size_for_an_absent_strip) {
   traced_surface surface;
   surface.strips = {{0, 0, 0}, {0, 1, 0}, {1, 0, 0}};
