@@ -402,6 +402,28 @@ std::vector<std::uint32_t> remesh_operations::settle_vertices() {
       }
     }
   });
+  // The edits checked their triangles with the vertex where they left it, not where this projection puts it: tenths
+  // of an Å away after relaxation's single Newton step on a steep field, hundredths after a split's coarse projection,
+  // with a turned normal. A triangle accepted nearly edge-on to its corner normals may then face against all three.
+  // Every triangle at a placed vertex was unfolded when last edited, so a fold there now is this projection's: its
+  // placed corners count as unsettled, and the stage is refused like any other unclean one.
+  std::vector<std::uint8_t> folded(mesh_.face_slots(), 0);
+  tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, mesh_.face_slots(), 1024), [&](const auto& range) {
+    for (std::uint32_t f = range.begin(); f != range.end(); ++f) {
+      if (mesh_.face_removed(f)) continue;
+      const auto t = mesh_.face(f);
+      const bool settled = (mesh_.placed(t[0]) && !failed[t[0]]) || (mesh_.placed(t[1]) && !failed[t[1]]) ||
+                           (mesh_.placed(t[2]) && !failed[t[2]]);
+      if (!settled) continue;
+      folded[f] = shape_of({{mesh_.position(t[0]), mesh_.position(t[1]), mesh_.position(t[2])},
+                            {mesh_.normal(t[0]), mesh_.normal(t[1]), mesh_.normal(t[2])}})
+                      .folded;
+    }
+  });
+  for (std::uint32_t f = 0; f < folded.size(); ++f) {
+    if (!folded[f]) continue;
+    for (const std::uint32_t v : mesh_.face(f)) failed[v] |= mesh_.placed(v) ? 1 : 0;
+  }
   std::vector<std::uint32_t> unsettled;
   for (std::uint32_t v = 0; v < failed.size(); ++v) {
     if (failed[v]) unsettled.push_back(v);

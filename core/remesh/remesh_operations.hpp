@@ -56,7 +56,8 @@ class remesh_operations {
   bool relax_vertices();
   /// Projects every vertex the edits placed onto the surface to thresholds.surface_tolerance (a tiny move after
   /// relaxation, whatever its protection since), refreshing its normal. Returns the vertices that could not be
-  /// projected (normally none). Parallel.
+  /// projected (normally none), and the projected corners of any triangle the projections folded (is_folded: no
+  /// edit makes one, and neither may this). Parallel.
   std::vector<std::uint32_t> settle_vertices();
 
   /// The operations made, and the field evaluations they took.
