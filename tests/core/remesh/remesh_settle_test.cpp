@@ -9,19 +9,20 @@
 namespace tracemesh {
 namespace {
 
-// mache at d = −10, t0 = 3, 0.5 v/Å² is traced on its third line grid (the first two leave an edge the quality pass
-// refuses). There a relaxation left a vertex 0.5 Å off the steep surface (its single Newton step fell short), and the
-// projection that settled it turned a neighbouring triangle over against all three corner normals: the certificate
-// refused the fold and the lattice path made the mesh. The settling now refuses a stage whose projections fold a
-// triangle, so that round is redone with the region frozen and the trace path's mesh is certified.
+// mache at d = −15, t0 = 0.1, 1 v/Å² is traced on its third line grid (the first two fail). There a split or collapse
+// placed a vertex at its coarse projection tolerance, on a triangle accepted nearly edge-on to its corner normals,
+// and the projection that settled it, hundredths of an Å away, turned the triangle against all three: the
+// certificate refused the fold and the lattice path made the mesh. The settling now refuses a stage whose
+// projections fold a triangle, so that round is redone with the region frozen and the trace path's mesh is
+// certified.
 TEST(remesh_settle, settling_the_vertices_of_a_sharp_kernel_mesh_folds_no_triangle) {
   const result<molecule> mol = read_pqr_file(testing::molecule_path("mache.pqr"));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
   mesh_params params;
   params.method = mesh_method::trace;
-  params.density = 0.5;
-  params.d = -10;
-  params.t0 = 3;
+  params.density = 1;
+  params.d = -15;
+  params.t0 = 0.1;
   params.refine = refine_mode::full;
   progress_token progress;
   const result<mesh_output> out = mesh_molecule(*mol, params, {}, progress);
