@@ -135,7 +135,8 @@ enum class loop_strategy {
   steiner_fan_relaxed, ///< the fan without that rule
   /// Without the admissibility rule either (walls ignored): for a sheet that lies almost in a wall, whose
   /// admissible triangles would have to fold across the cell. Faces in a wall are then possible; the cell's own
-  /// test still guards against its other loops, and the certificate against a neighbour doing the same.
+  /// test still guards against its other loops, and give_chords_to_one_cell (trace_mesher.cpp) against a neighbour
+  /// doing the same.
   unrestricted,
   /// The loop cut into ears in its own best plane (triangulate_loop_in_its_plane), no rule on walls or normals: for
   /// a loop that doubles back on itself in a wall (a hairpin of the contour where it passes a pinch at a sharp
