@@ -15,7 +15,7 @@ namespace {
 // certificate refused the fold and the lattice path made the mesh. The settling now refuses a stage whose
 // projections fold a triangle, so that round is redone with the region frozen and the trace path's mesh is
 // certified.
-TEST(remesh_settle, settling_the_vertices_of_a_sharp_kernel_mesh_folds_no_triangle) {
+TEST(remesh_operations, settling_the_vertices_of_a_sharp_kernel_mesh_folds_no_triangle) {
   const result<molecule> mol = read_pqr_file(testing::molecule_path("mache.pqr"));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
   mesh_params params;
