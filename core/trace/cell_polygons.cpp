@@ -670,12 +670,41 @@ bool directed_edges_unique(const std::vector<std::array<std::uint32_t, 3>>& tria
   return std::adjacent_find(edges.begin(), edges.end()) == edges.end();
 }
 
+/// Whether the band `triangles` (mesh vertex ids of `outer` and `inner`) crosses itself. Its triangles obey the
+/// rules one by one; the best-shaped band of a tube bent round a corner line can still cut across the bend and pass
+/// through its own far side, which is no band of the surface.
+bool band_crosses_itself(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
+                         const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;  // (vertex id, index into positions)
+  std::vector<vec3> positions;
+  for (const auto* loop : {&outer, &inner}) {
+    for (const numbered_vertex& v : *loop) {
+      index.emplace_back(v.id, static_cast<std::uint32_t>(positions.size()));
+      positions.push_back(v.vertex.position);
+    }
+  }
+  std::sort(index.begin(), index.end());
+  std::vector<std::array<std::uint32_t, 3>> corners;
+  for (const auto& t : triangles) {
+    std::array<std::uint32_t, 3> c{};
+    for (int i = 0; i < 3; ++i) c[i] = std::lower_bound(index.begin(), index.end(), std::make_pair(t[i], 0u))->second;
+    corners.push_back(c);
+  }
+  for (std::size_t a = 0; a < corners.size(); ++a) {
+    for (std::size_t b = a + 1; b < corners.size(); ++b) {
+      if (detail::mesh_triangles_intersect(positions, corners[a], corners[b])) return true;
+    }
+  }
+  return false;
+}
+
 /// The tube between two loops triangulated as one polygon: cut open along a bridge outer[a] — inner[b] (an edge
 /// joining vertices on no common wall), the annulus is the loop outer[a], …, outer[a − 1], outer[a], inner[b], …,
 /// inner[b − 1], inner[b], whose triangulations (triangulate_loop) are every triangulation of the annulus that
 /// holds that bridge, not only bands: where the tube's mouth is a small part of a long loop, the rest of that loop
 /// is a disk of its own (chords of the one loop), which no band has. Bridges are tried from the shortest; the first
-/// that triangulates with each edge used once per side is kept. Its worst q in `worst_quality`.
+/// that triangulates with each edge used once per side and without crossing itself is kept. Its worst q in
+/// `worst_quality`.
 bool slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner, loop_mesh& out,
                double& worst_quality) {
   const std::size_t p = outer.size(), q = inner.size();
@@ -707,7 +736,7 @@ bool slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numb
     if (!triangulate_loop(polygon, local, stats)) continue;
     std::vector<std::array<std::uint32_t, 3>> triangles;
     for (const auto& t : local) triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
-    if (!directed_edges_unique(triangles)) continue;
+    if (!directed_edges_unique(triangles) || band_crosses_itself(outer, inner, triangles)) continue;
     out = loop_mesh{};
     out.strategy = loop_strategy::tube_band;
     out.triangles = std::move(triangles);
@@ -717,8 +746,8 @@ bool slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numb
   return false;
 }
 
-/// The band between two loops of a cell (triangulate_annulus, else slit_band), its vertices numbered in the mesh,
-/// and its worst q.
+/// The band between two loops of a cell (triangulate_annulus, else slit_band; a band that crosses itself is none),
+/// its vertices numbered in the mesh, and its worst q.
 bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
                   loop_mesh& out, double& worst_quality) {
   std::vector<loop_vertex> a(outer.size()), b(inner.size());
@@ -728,9 +757,12 @@ bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<n
   loop_triangulation_stats stats;
   if (!triangulate_annulus(a, b, local, stats)) return slit_band(outer, inner, out, worst_quality);
   const auto id = [&](std::uint32_t v) { return v < outer.size() ? outer[v].id : inner[v - outer.size()].id; };
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  for (const auto& t : local) triangles.push_back({id(t[0]), id(t[1]), id(t[2])});
+  if (band_crosses_itself(outer, inner, triangles)) return slit_band(outer, inner, out, worst_quality);
   out = loop_mesh{};
   out.strategy = loop_strategy::tube_band;
-  for (const auto& t : local) out.triangles.push_back({id(t[0]), id(t[1]), id(t[2])});
+  out.triangles = std::move(triangles);
   worst_quality = stats.last_min_quality;
   return true;
 }
