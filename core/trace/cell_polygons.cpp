@@ -675,27 +675,9 @@ bool directed_edges_unique(const std::vector<std::array<std::uint32_t, 3>>& tria
 /// through its own far side, which is no band of the surface.
 bool band_crosses_itself(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
                          const std::vector<std::array<std::uint32_t, 3>>& triangles) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;  // (vertex id, index into positions)
-  std::vector<vec3> positions;
-  for (const auto* loop : {&outer, &inner}) {
-    for (const numbered_vertex& v : *loop) {
-      index.emplace_back(v.id, static_cast<std::uint32_t>(positions.size()));
-      positions.push_back(v.vertex.position);
-    }
-  }
-  std::sort(index.begin(), index.end());
-  std::vector<std::array<std::uint32_t, 3>> corners;
-  for (const auto& t : triangles) {
-    std::array<std::uint32_t, 3> c{};
-    for (int i = 0; i < 3; ++i) c[i] = std::lower_bound(index.begin(), index.end(), std::make_pair(t[i], 0u))->second;
-    corners.push_back(c);
-  }
-  for (std::size_t a = 0; a < corners.size(); ++a) {
-    for (std::size_t b = a + 1; b < corners.size(); ++b) {
-      if (detail::mesh_triangles_intersect(positions, corners[a], corners[b])) return true;
-    }
-  }
-  return false;
+  std::vector<numbered_vertex> both = outer;
+  both.insert(both.end(), inner.begin(), inner.end());
+  return pieces_meet(both, {}, triangles);
 }
 
 /// The tube between two loops triangulated as one polygon: cut open along a bridge outer[a] — inner[b] (an edge
