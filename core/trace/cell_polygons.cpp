@@ -373,6 +373,27 @@ bool triangulate_half(const gaussian_field& field, const std::vector<numbered_ve
   return false;
 }
 
+/// The pairs (i, j) of `loop`'s vertices that are not neighbours on it, closest first (ties in loop order), at most
+/// `limit`; with `off_common_walls`, only pairs that share no wall. The candidate pinches of split_at_pinch and
+/// split_piece.
+std::vector<std::pair<std::size_t, std::size_t>> closest_vertex_pairs(const std::vector<numbered_vertex>& loop,
+                                                                      std::size_t limit, bool off_common_walls) {
+  const std::size_t n = loop.size();
+  std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> pairs;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // neighbours on the loop
+      if (off_common_walls && (loop[i].vertex.planes & loop[j].vertex.planes) != 0) continue;  // a cut in a wall
+      pairs.push_back({squared_norm(loop[j].vertex.position - loop[i].vertex.position), {i, j}});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  if (pairs.size() > limit) pairs.resize(limit);
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  for (const auto& [distance2, pair] : pairs) out.push_back(pair);
+  return out;
+}
+
 /// A loop whose surface piece narrows to a neck (a pinch) bounds a disk that no triangulation of its vertices
 /// follows: triangles across the neck must join vertices on both sides of it, and every such triangle stands
 /// across the surface (a fold) or lies in a wall. A point of the surface at the neck (steiner_point from the middle
@@ -383,19 +404,8 @@ bool triangulate_half(const gaussian_field& field, const std::vector<numbered_ve
 /// order, and the first split whose halves triangulate without meeting each other is kept.
 bool split_at_pinch(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
                     double h, loop_mesh& out, std::size_t& evaluations) {
-  const std::size_t n = loop.size();
-  if (n < 4) return false;
-  std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> pairs;
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = i + 2; j < n; ++j) {
-      if (i == 0 && j == n - 1) continue;  // neighbours on the loop
-      pairs.push_back({squared_norm(loop[j].vertex.position - loop[i].vertex.position), {i, j}});
-    }
-  }
-  std::sort(pairs.begin(), pairs.end());
-  if (pairs.size() > max_pinch_pairs) pairs.resize(max_pinch_pairs);
-  for (const auto& [distance2, pair] : pairs) {
-    const auto [i, j] = pair;
+  if (loop.size() < 4) return false;
+  for (const auto& [i, j] : closest_vertex_pairs(loop, max_pinch_pairs, false)) {
     surface_sample point;
     const vec3 middle = into_cross_section(0.5 * (loop[i].vertex.position + loop[j].vertex.position), cell, h);
     if (!steiner_point(field, loop, cell, h, middle, point, evaluations)) continue;
@@ -434,21 +444,9 @@ bool triangulate_piece(const gaussian_field& field, const std::vector<numbered_v
 bool split_piece(const gaussian_field& field, const std::vector<numbered_vertex>& piece, const cell_id& cell, double h,
                  int depth, std::vector<std::array<std::uint32_t, 3>>& triangles, std::vector<surface_sample>& steiner,
                  std::size_t& evaluations) {
-  const std::size_t n = piece.size();
-  if (n < 4) return false;
-  std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> pairs;
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t j = i + 2; j < n; ++j) {
-      if (i == 0 && j == n - 1) continue;
-      if ((piece[i].vertex.planes & piece[j].vertex.planes) != 0) continue;  // the cut would lie in a wall
-      pairs.push_back({squared_norm(piece[j].vertex.position - piece[i].vertex.position), {i, j}});
-    }
-  }
-  std::sort(pairs.begin(), pairs.end());
-  if (pairs.size() > max_pinches_per_cut) pairs.resize(max_pinches_per_cut);
+  if (piece.size() < 4) return false;
   const std::size_t kept_triangles = triangles.size(), kept_steiner = steiner.size();
-  for (const auto& [distance2, pair] : pairs) {
-    const auto [i, j] = pair;
+  for (const auto& [i, j] : closest_vertex_pairs(piece, max_pinches_per_cut, true)) {
     surface_sample point;
     const vec3 middle = into_cross_section(0.5 * (piece[i].vertex.position + piece[j].vertex.position), cell, h);
     if (!steiner_point(field, piece, cell, h, middle, point, evaluations)) continue;
