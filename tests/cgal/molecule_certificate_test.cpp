@@ -10,6 +10,7 @@
 #include "cgal/cgal_check.hpp"
 #include "core/mesher.hpp"
 #include "core/io/pqr_reader.hpp"
+#include "support/sanitized_build.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {
@@ -28,7 +29,7 @@ TEST_P(cgal_molecule_certificate, cgal_agrees_the_mesh_is_certified) {
   const molecule_case& c = GetParam();
   auto mol = read_pqr_file(testing::molecule_path(c.file));
   ASSERT_TRUE(mol.ok()) << mol.error().message();
-  if (std::getenv("TRACEMESH_SANITIZED") && mol->atoms.size() > 1000) GTEST_SKIP() << "Release suite only";
+  if (testing::sanitized_build() && mol->atoms.size() > 1000) GTEST_SKIP() << "Release suite only";
   mesh_params params;
   params.density = c.density;
   progress_token progress;

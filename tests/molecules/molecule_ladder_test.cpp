@@ -11,6 +11,7 @@
 #include "core/mesher.hpp"
 #include "core/io/pqr_reader.hpp"
 #include "support/mesh_expectations.hpp"
+#include "support/sanitized_build.hpp"
 #include "support/test_paths.hpp"
 
 namespace tracemesh {
@@ -18,8 +19,7 @@ namespace {
 
 using testing::case_name;
 using testing::ladder_case;
-
-bool sanitized_build() { return std::getenv("TRACEMESH_SANITIZED") != nullptr; }
+using testing::sanitized_build;
 
 /// Meshes `mol` with default parameters but `density`, `method` and `threads` (0: all), expecting success.
 result<mesh_output> mesh_at(const molecule& mol, double density, mesh_method method = mesh_params{}.method,
