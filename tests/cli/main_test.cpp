@@ -16,8 +16,8 @@
 #include "core/mesher.hpp"
 #include "support/held_jobs.hpp"
 #include "support/pqr_edits.hpp"
-#include "support/structure_writers.hpp"
 #include "support/sanitized_build.hpp"
+#include "support/structure_writers.hpp"
 #include "support/shell_xyzr.hpp"
 #include "support/terminal_child.hpp"
 #include "support/test_paths.hpp"
@@ -454,8 +454,11 @@ TEST_F(TracemeshCli, TraceMethodGivesCertifiedMeshesWithTraceReports) {
 // the CLI still writes a certified mesh, made by the lattice path, warns in one line and says so in the report.
 TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheReport) {
   // Release suite only: the job (three line grids, then the lattice path) takes minutes under a sanitizer, and
-  // mesher_fallback in tests/core/mesher_test.cpp runs it there; what this test adds (the warning line and the report's fields) is bookkeeping.
-  if (tracemesh::testing::sanitized_build()) GTEST_SKIP() << "Release suite only";
+  // mesher_fallback in tests/core/mesher_test.cpp runs it there. What this test adds is bookkeeping:
+  // the warning line and the report's fields.
+  if (tracemesh::testing::sanitized_build()) {
+    GTEST_SKIP() << "Release suite only: core mesher_fallback runs this job under the sanitizers";
+  }
   const fs::path off = path("mache.off");
   const run_result result =
       run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-15", "--t0", "3",

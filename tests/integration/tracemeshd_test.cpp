@@ -287,8 +287,11 @@ TEST_F(TracemeshdTest, LatticeMethodWithAndWithoutRefinementGivesCertifiedMeshes
 // not failed: the lattice path's certified mesh, a report that says so, and counters an operator can alert on.
 TEST_F(TracemeshdTest, ATraceJobThatFallsBackIsDoneReportedAndCounted) {
   // Release suite only: the job (three line grids, then the lattice path) takes minutes under a sanitizer, and
-  // mesher_fallback in tests/core/mesher_test.cpp runs it there; what this test adds (the report's fields and two counters) is bookkeeping.
-  if (tracemesh::testing::sanitized_build()) GTEST_SKIP() << "Release suite only";
+  // mesher_fallback in tests/core/mesher_test.cpp runs it there. What this test adds is bookkeeping:
+  // the report's fields and two counters.
+  if (tracemesh::testing::sanitized_build()) {
+    GTEST_SKIP() << "Release suite only: core mesher_fallback runs this job under the sanitizers";
+  }
   server_process server(work_.path(), {});
   EXPECT_EQ(metric(server, "tracemesh_trace_fallbacks_total"), 0);
   EXPECT_EQ(metric(server, "tracemesh_trace_grid_retries_total"), 0);

@@ -1,7 +1,7 @@
 #pragma once
-// Whether the suite runs in a sanitizer build (make test-sanitize, make test-tsan set TRACEMESH_SANITIZED): the
-// tests that only repeat, around a slow job, code another test already runs under the sanitizers skip there and
-// run in the Release suite.
+// Whether the suite runs in a sanitizer build (make test-sanitize and make test-tsan set TRACEMESH_SANITIZED). The
+// few tests that would take minutes there skip and run in the Release suite: the largest molecules, and jobs that
+// another test already runs under the sanitizers (docs/testing.md lists them).
 #include <cstdlib>
 
 namespace tracemesh::testing {
