@@ -1,6 +1,9 @@
 # tracemesh_settings: the one place for warnings and sanitizer flags; every target links it.
 add_library(tracemesh_settings INTERFACE)
 target_compile_options(tracemesh_settings INTERFACE -Wall -Wextra -Wpedantic)
+# The libraries are position-independent (they are linked into the Python extension too, python/CMakeLists.txt);
+# without interposition of their functions the compiler inlines and calls them as it does in an executable.
+target_compile_options(tracemesh_settings INTERFACE -fno-semantic-interposition)
 if(TRACEMESH_WERROR)
   target_compile_options(tracemesh_settings INTERFACE -Werror)
 endif()
