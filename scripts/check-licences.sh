@@ -4,10 +4,10 @@
 # Usage: scripts/check-licences.sh [-v] BINARY...
 #   Shared libraries: each one `ldd BINARY` resolves, mapped to its Debian package (dpkg -S) and that package's
 #   /usr/share/doc/<package>/copyright.
-#   Static parts, when BINARY was built in a CMake build tree (BUILD/bin/NAME): the link line of NAME
-#   (CMakeFiles/NAME.dir/link.txt) gives the project's static libraries and any system archive; the compilers'
-#   dependency files (*.o.d) of those objects give every system header compiled into the binary (header-only
-#   libraries: Boost, nlohmann-json, CLI11, gemmi, ...). A header is judged by its own SPDX-License-Identifier
+#   Static parts, when BINARY was built in a CMake build tree (BUILD/bin/NAME, Makefile or Ninja generator): the link
+#   line of NAME gives the project's static libraries and any system archive; the build's dependency records of
+#   those objects give every system header compiled into the binary (header-only libraries: Boost, nlohmann-json,
+#   CLI11, gemmi, ...). A header is judged by its own SPDX-License-Identifier
 #   line when it has one (Linux's "GPL-2.0 WITH Linux-syscall-note"), else by its package's copyright file.
 #   A package's licence is the "Files: *" stanza of a machine-readable copyright file (the other stanzas cover
 #   build scripts, tests and examples, not the library), or, for a free-form file, GPL-only when it names the GPL
@@ -145,37 +145,63 @@ spdx_of_headers() {
       print FILENAME "\t" id; seen = 1; nextfile }'
 }
 
-# The target's directory in the build tree: BUILD/.../CMakeFiles/NAME.dir holding link.txt.
-target_dir_of() {
-  local binary=$1 build
-  build=$(dirname "$(dirname "$(realpath "$binary")")")
-  [[ -f $build/CMakeCache.txt ]] || return 1
-  local link_txt
-  link_txt=$(find "$build" -path "*/CMakeFiles/$(basename "$binary").dir/link.txt" -print -quit)
-  [[ -n $link_txt ]] && dirname "$link_txt"
+# The CMake build tree BINARY was built in (BUILD/bin/NAME), or nothing.
+build_tree_of() {
+  local build
+  build=$(dirname "$(dirname "$(realpath "$1")")")
+  [[ -f $build/CMakeCache.txt ]] && echo "$build"
+}
+
+# What BINARY (built in the tree BUILD) holds statically, one "archive PATH" or "header PATH" per line: the system
+# archives of its link line, and the system headers of its objects and of the project's libraries' objects. Makefile
+# trees keep the link line in CMakeFiles/NAME.dir/link.txt and the headers in the compilers' dependency files
+# (*.o.d); Ninja trees keep both in ninja's own records (-t commands, -t inputs, -t deps). Prints nothing for a
+# binary the tree does not build.
+static_inputs() {
+  local binary=$1 build=$2 name token
+  name=$(basename "$binary")
+  if grep -q '^CMAKE_GENERATOR:INTERNAL=Ninja' "$build/CMakeCache.txt"; then
+    local target
+    target=$(realpath --relative-to="$build" "$binary")
+    ninja -C "$build" -t query "$target" >/dev/null 2>&1 || return 0
+    for token in $(ninja -C "$build" -t commands "$target" | tail -n 1); do
+      [[ $token == /usr/*.a ]] && echo "archive $token"
+    done
+    ninja -C "$build" -t inputs "$target" | grep '\.o$' | (cd "$build" && xargs -r ninja -t deps) |
+      sed -n 's/^ *\(\/usr\/.*\)$/header \1/p'
+    return
+  fi
+  local link_txt target_dir link_dir archive
+  link_txt=$(find "$build" -path "*/CMakeFiles/$name.dir/link.txt" -print -quit)
+  [[ -n $link_txt ]] || return 0
+  target_dir=$(dirname "$link_txt")
+  link_dir=$(dirname "$(dirname "$target_dir")")
+  local object_dirs=("$target_dir")
+  for token in $(cat "$link_txt"); do
+    [[ $token == *.a ]] || continue
+    archive=$(cd "$link_dir" && realpath -m "$token")
+    if [[ $archive == /usr/* ]]; then
+      echo "archive $archive"
+    else  # the project's own library libNAME.a: its objects' dependency files
+      archive=$(dirname "$archive")/CMakeFiles/$(basename "$archive" .a | sed 's/^lib//').dir
+      [[ -d $archive ]] && object_dirs+=("$archive")
+    fi
+  done
+  find "${object_dirs[@]}" -name '*.o.d' -exec cat {} + | tr ' \\' '\n\n' | sed -n 's/:$//; /^\/usr\//s/^/header /p'
 }
 
 check_static_parts() {
-  local binary=$1 target_dir link_dir token archive library_dir headers header package spdx
-  target_dir=$(target_dir_of "$binary") || return 0
-  [[ -n $target_dir ]] || return 0
-  link_dir=$(dirname "$(dirname "$target_dir")")
-  local object_dirs=("$target_dir")
-  for token in $(cat "$target_dir/link.txt"); do
-    [[ $token == *.a ]] || continue
-    archive=$(cd "$link_dir" && realpath -m "$token")
-    if [[ $archive == /usr/* ]]; then  # a system archive: judged by its package
-      package=$(package_of "$archive") || { echo "check-licences: $binary: $archive belongs to no package" >&2; failures=$((failures + 1)); continue; }
-      judge_package "$binary" "$(basename "$archive")" "$package"
-    else  # the project's own library libNAME.a: its objects' dependency files
-      library_dir=$(dirname "$archive")/CMakeFiles/$(basename "$archive" .a | sed 's/^lib//').dir
-      [[ -d $library_dir ]] && object_dirs+=("$library_dir")
-    fi
-  done
-  headers=$(find "${object_dirs[@]}" -name '*.o.d' -exec cat {} + | tr ' \\' '\n\n' |
-              sed -n 's/:$//; /^\/usr\//p' | xargs -r realpath -m -s | sort -u)
+  local binary=$1 build inputs archive headers header package spdx
+  build=$(build_tree_of "$binary") || return 0
+  inputs=$(static_inputs "$binary" "$build")
+  [[ -n $inputs ]] || return 0
+  while read -r archive; do
+    package=$(package_of "$archive") || { echo "check-licences: $binary: $archive belongs to no package" >&2; failures=$((failures + 1)); continue; }
+    judge_package "$binary" "$(basename "$archive")" "$package"
+  done < <(sed -n 's/^archive //p' <<<"$inputs")
+  headers=$(sed -n 's/^header //p' <<<"$inputs" | xargs -r realpath -m -s | sort -u)
   if [[ -z $headers ]]; then
-    echo "check-licences: $binary: no dependency files under $target_dir (build the binary first)" >&2
+    echo "check-licences: $binary: no dependency records in $build (build the binary first)" >&2
     failures=$((failures + 1))
     return
   fi
