@@ -176,8 +176,12 @@ static_inputs() {
   [[ -n $link_txt ]] || return 0
   target_dir=$(dirname "$link_txt")
   link_dir=$(dirname "$(dirname "$target_dir")")
-  local object_dirs=("$target_dir")
+  local object_dirs=("$target_dir") object_deps=()
   for token in $(cat "$link_txt"); do
+    if [[ $token == *.o ]]; then  # an object of the link line (an OBJECT library's too): its dependency file
+      object_deps+=("$(cd "$link_dir" && realpath -m "$token").d")
+      continue
+    fi
     [[ $token == *.a ]] || continue
     archive=$(cd "$link_dir" && realpath -m "$token")
     if [[ $archive == /usr/* ]]; then
@@ -187,7 +191,8 @@ static_inputs() {
       [[ -d $archive ]] && object_dirs+=("$archive")
     fi
   done
-  find "${object_dirs[@]}" -name '*.o.d' -exec cat {} + | tr ' \\' '\n\n' | sed -n 's/:$//; /^\/usr\//s/^/header /p'
+  { find "${object_dirs[@]}" -name '*.o.d' -exec cat {} +; ((${#object_deps[@]} == 0)) || cat "${object_deps[@]}" 2>/dev/null; } | tr ' \\' '\n\n' |
+    sed -n 's/:$//; /^\/usr\//s/^/header /p'
 }
 
 check_static_parts() {
