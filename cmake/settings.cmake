@@ -27,19 +27,22 @@ endif()
 if(NOT CMAKE_CXX_FLAGS_CI OR CMAKE_CXX_FLAGS_CI STREQUAL "-O2 -g")
   set(CMAKE_CXX_FLAGS_CI "-O1 -g1" CACHE STRING "Flags for the CI build type" FORCE)
 endif()
-# tracemesh_unoptimised_in_ci(targets...): compiled at -O0 in the CI build type, but for fuzzing (its speed is the
-# campaign's). For the service (HTTP, jobs, storage), the command's driver, the encoders and the tests' own code: their
-# tests wait on sockets, processes and events, not on their speed, while Beast's and Asio's templates make most of the
-# sanitizer build's compile time. The mesher's libraries keep -O1: meshing is most of the sanitized suite's run time.
+# tracemesh_unoptimised_in_ci(targets... [NEVER_FUZZED]): compiled at -O0 in the CI build type, but in a fuzzing
+# build (TRACEMESH_BUILD_FUZZERS: a campaign runs as fast as the code it fuzzes) unless NEVER_FUZZED. For the service
+# (HTTP, jobs, storage), the command's driver, the encoders and the tests' own code: their tests wait on sockets,
+# processes and events, not on their speed, while Beast's and Asio's templates make most of the sanitizer build's
+# compile time. The mesher's libraries keep -O1: meshing is most of the sanitized suite's run time.
 # Measured on 2 cores (g++ 12, -fsanitize=address,undefined): tracemesh_server's largest unity file 90 s of CPU at
 # -O1 -g1, 53 s at -O0; the whole sanitizer build 7 min 55 s → 7 min 0 s, `make test-tsan` 5 min 46 s → 4 min 0 s,
 # and the service's tests no slower.
 function(tracemesh_unoptimised_in_ci)
-  if(NOT TRACEMESH_BUILD_FUZZERS)
-    foreach(_target IN LISTS ARGN)
-      target_compile_options(${_target} PRIVATE $<$<CONFIG:CI>:-O0>)
-    endforeach()
+  cmake_parse_arguments(PARSE_ARGV 0 _tm "NEVER_FUZZED" "" "")
+  if(TRACEMESH_BUILD_FUZZERS AND NOT _tm_NEVER_FUZZED)
+    return()
   endif()
+  foreach(_target IN LISTS _tm_UNPARSED_ARGUMENTS)
+    target_compile_options(${_target} PRIVATE $<$<CONFIG:CI>:-O0>)
+  endforeach()
 endfunction()
 # Fuzzer builds instrument every library for coverage, so libFuzzer sees inside the parsers.
 if(TRACEMESH_BUILD_FUZZERS)
