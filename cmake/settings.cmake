@@ -33,8 +33,8 @@ endif()
 # processes and events, not on their speed, while Beast's and Asio's templates make most of the sanitizer build's
 # compile time. The mesher's libraries keep -O1: meshing is most of the sanitized suite's run time.
 # Measured on 2 cores (g++ 12, -fsanitize=address,undefined): tracemesh_server's largest unity file 90 s of CPU at
-# -O1 -g1, 53 s at -O0; the whole sanitizer build 7 min 55 s → 7 min 0 s, `make test-tsan` 5 min 46 s → 4 min 0 s,
-# and the service's tests no slower.
+# -O1 -g1, 53 s at -O0; with tracemeshd's main.cpp compiled once (server/CMakeLists.txt), the whole sanitizer build
+# 7 min 55 s → 7 min 0 s and `make test-tsan` 5 min 46 s → 4 min 0 s, the service's tests no slower.
 function(tracemesh_unoptimised_in_ci)
   cmake_parse_arguments(PARSE_ARGV 0 _tm "NEVER_FUZZED" "" "")
   if(TRACEMESH_BUILD_FUZZERS AND NOT _tm_NEVER_FUZZED)
