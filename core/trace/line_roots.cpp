@@ -26,6 +26,7 @@ constexpr int block_lines = lattice::block_cells;
 /// filling one vector of simd::max_lanes.
 constexpr int bound_pieces = simd::max_lanes / 2;
 static_assert(lattice::block_cells % bound_pieces == 0);
+static_assert(std::tuple_size_v<decltype(line_root_finder::workspace::atom_factors::piece_curvature)> == bound_pieces);
 /// Relative margin between a bound and t0 for it to prove a line one-sided: far above the rounding of sums of a few
 /// hundred terms (~1e-13), far below any distance at which a root could be.
 constexpr double bound_margin = 1e-9;
@@ -115,9 +116,11 @@ template <int W>
   const double d = field.d();
   const double scale = kernel_exp(-d);
   ws.bounds.assign(static_cast<std::size_t>(lines_per_block) * simd::max_lanes, 0.0);
+  ws.curvature.assign(static_cast<std::size_t>(lines_per_block) * bound_pieces, 0.0);
+  const double peak_curvature = 2 * kernel_exp(-1.5);  // the maximum of |2t − 1|·e^(−t) for t > 1/2, at t = 3/2
   alignas(64) std::array<double, simd::max_lanes> offset2{}, factor{};
   for (std::size_t a = 0; a < count; ++a) {
-    const atom_line_factors& f = ws.factors[a];
+    atom_line_factors& f = ws.factors[a];
     if (!f.reaches_a_line()) continue;
     const double c = ws.x[a], cutoff2 = ws.cutoff2[a];
     for (int p = 0; p < bound_pieces; ++p) {
@@ -132,6 +135,18 @@ template <int W>
       e *= d * ws.inv_r2[a];
       simd::exp_in_place(e);
       simd::store(factor.data() + m, e);
+    }
+    // |d²/dx² e^(−t)| = 2·rate·|2t − 1|·e^(−t) with t = rate·δx², rate = −d/r²: its maximum over each piece
+    // (added to the lines' curvature bounds by sample_nodes, for the lines sampled).
+    const double rate = -d * ws.inv_r2[a];
+    for (int p = 0; p < bound_pieces; ++p) {
+      f.piece_near2[static_cast<std::size_t>(p)] = offset2[static_cast<std::size_t>(p)];
+      const double t_near = rate * offset2[static_cast<std::size_t>(p)];
+      const double t_far = rate * offset2[static_cast<std::size_t>(bound_pieces + p)];
+      double q = std::max(std::abs(2 * t_near - 1) * factor[static_cast<std::size_t>(p)],
+                          std::abs(2 * t_far - 1) * factor[static_cast<std::size_t>(bound_pieces + p)]);
+      if (t_near <= 1.5 && t_far >= 1.5) q = std::max(q, peak_curvature);
+      f.piece_curvature[static_cast<std::size_t>(p)] = 2 * rate * q;
     }
     for (int k = f.k_lo; k < f.k_hi; ++k) {
       for (int j = f.j_lo; j < f.j_hi; ++j) {
@@ -165,7 +180,8 @@ int choose_sampled_lines(line_root_finder::workspace& ws, double t0, double insi
 
 /// φ at every quadrature node of the lines to sample (ws.sums[line·P + m], ws.sampled) from the separable kernel:
 /// per atom its y and z factors (line_factors) and one x factor per node; an atom adds to the nodes of a line within
-/// its cutoff (δx² + ρ² < cutoff², ρ² = δy² + δz²).
+/// its cutoff (δx² + ρ² < cutoff², ρ² = δy² + δz²). Also the lines' curvature bounds per piece (ws.curvature), from
+/// the atoms' piece bounds (bound_lines).
 ///
 /// The loops have no data-dependent branch inside an atom (mispredicted branches cost more than the arithmetic they
 /// skip): each atom works on the rectangle of lines j ∈ [j_lo, j_hi), k ∈ [k_lo, k_hi) with δy² < cutoff² and
@@ -204,9 +220,12 @@ template <int W>
     }
     int g_lo, g_hi;
     range_below(group_min.data(), groups, cutoff2, g_lo, g_hi);
-    if (g_lo >= g_hi) continue;
-    simd::axis_factors<W>(ws.node_x.data() + g_lo * W, (g_hi - g_lo) * W, ws.x[a], d, inv_r2, dx2 + g_lo * W,
-                          ex + g_lo * W);
+    // An atom that reaches no node may still reach a piece between nodes: it adds to the curvature bounds only.
+    const bool reaches_a_node = g_lo < g_hi;
+    if (reaches_a_node) {
+      simd::axis_factors<W>(ws.node_x.data() + g_lo * W, (g_hi - g_lo) * W, ws.x[a], d, inv_r2, dx2 + g_lo * W,
+                            ex + g_lo * W);
+    }
     for (int k = k_lo; k < k_hi; ++k) {
       for (int j = j_lo; j < j_hi; ++j) {
         if (!ws.sampled[static_cast<std::size_t>(j + block_lines * k)]) continue;
@@ -214,7 +233,10 @@ template <int W>
         const double weight = scale * ey[static_cast<std::size_t>(j)] * ez[static_cast<std::size_t>(k)];
         double* row =
             ws.sums.data() + static_cast<std::size_t>(j + block_lines * k) * static_cast<std::size_t>(node_stride);
-        simd::add_kernel_terms<W>(row, ex, dx2, weight, rho2, cutoff2, g_lo * W, g_hi * W);
+        if (reaches_a_node) simd::add_kernel_terms<W>(row, ex, dx2, weight, rho2, cutoff2, g_lo * W, g_hi * W);
+        simd::add_kernel_terms<(W < bound_pieces ? W : bound_pieces)>(
+            ws.curvature.data() + static_cast<std::size_t>(j + block_lines * k) * bound_pieces,
+            f.piece_curvature.data(), f.piece_near2.data(), weight, rho2, cutoff2, 0, bound_pieces);
       }
     }
   }
@@ -289,34 +311,12 @@ template <int W>
   return {simd::lane_sum(value), simd::lane_sum(slope), simd::lane_sum(curvature)};
 }
 
-/// Polishes a series candidate by third-order steps on ln(φ/t0) from `x`. Succeeds when a correction is at most
-/// root_tolerance; fails when a step exceeds `max_step`, leaves [lo, hi] or the steps run out.
-template <int W>
-[[gnu::always_inline]] inline bool polish_candidate(const line_root_finder::workspace& ws, double t0, double x,
-                                                    double lo, double hi, double max_step, line_root& root,
-                                                    std::size_t& evaluations) {
-  for (int iteration = 0; iteration < max_newton_iterations; ++iteration) {
-    const line_sample s = evaluate_line<W>(ws, x);
-    ++evaluations;
-    const double step = log_step(s, t0);
-    if (!(std::abs(step) <= max_step)) return false;  // also NaN
-    if (std::abs(step) <= root_tolerance) {
-      root = {x + step, s.slope};
-      return true;
-    }
-    x += step;
-    if (!(x >= lo && x <= hi)) return false;
-  }
-  return false;
-}
-
-/// The root in (lo, hi) where φ − t0 is inside (≥ 0) near lo iff `lo_inside`, and the opposite near hi: third-order
-/// steps on ln(φ/t0) kept inside the shrinking bracket, bisection where a step would leave it.
+/// The root in (lo, hi) where φ − t0 is inside (≥ 0) near lo iff `lo_inside`, and the opposite near hi, from `x`
+/// inside it: third-order steps on ln(φ/t0) kept inside the shrinking bracket, bisection where a step would leave it.
 template <int W>
 [[gnu::always_inline]] inline bool polish_bracket(const line_root_finder::workspace& ws, double t0, double lo,
-                                                  bool lo_inside, double hi, line_root& root,
+                                                  bool lo_inside, double hi, double x, line_root& root,
                                                   std::size_t& evaluations) {
-  double x = 0.5 * (lo + hi);
   for (int iteration = 0; iteration < max_bracket_iterations; ++iteration) {
     const line_sample s = evaluate_line<W>(ws, x);
     ++evaluations;
@@ -343,66 +343,20 @@ void sort_unique(std::vector<line_root>& roots) {
   roots.erase(end, roots.end());
 }
 
-/// Walks the line through its node samples and accepted roots in x order and lists the gaps where the sign of
-/// φ − t0 (at a node; on either side of a root from φ_x) does not follow: each must hold another root.
-void find_walk_gaps(std::span<const double> node_x, std::span<const double> node_value, double t0,
-                    std::span<const line_root> roots, std::vector<line_root_finder::walk_gap>& gaps) {
-  gaps.clear();
-  bool known = false, inside = false, at_root = false;
-  double position = 0;
-  std::size_t n = 0, r = 0;
-  while (n < node_x.size() || r < roots.size()) {
-    const bool take_root = r < roots.size() && (n == node_x.size() || roots[r].x <= node_x[n]);
-    if (take_root) {
-      const bool before = roots[r].phi_x < 0;  // φ increases through the root: outside before it
-      if (known && inside != before) {
-        gaps.push_back(line_root_finder::walk_gap{position, roots[r].x, inside, at_root, true});
-      }
-      inside = roots[r].phi_x >= 0;
-      position = roots[r].x;
-      at_root = true;
-      ++r;
-    } else {
-      const bool here = node_value[n] >= t0;
-      if (known && inside != here) {
-        gaps.push_back(line_root_finder::walk_gap{position, node_x[n], inside, at_root, false});
-      }
-      inside = here;
-      position = node_x[n];
-      at_root = false;
-      ++n;
-    }
-    known = true;
-  }
-}
-
 }  // namespace
 
 line_root_finder::line_root_finder(const line_root_settings& settings) : settings_(settings), fitter_(settings.degree) {
-  // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix, stored by column
-  // (node), with two more rows: a_M and a_{M−1}, for the fit's error estimate.
-  const int count = fitter_.points(), rows = count + 2;
-  values_to_bernstein_.assign(static_cast<std::size_t>(count * rows), 0.0);
+  // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix stored by column
+  // (node).
+  const int count = fitter_.points();
+  values_to_bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
   std::vector<double> unit(static_cast<std::size_t>(count)), a(unit.size()), b(unit.size());
   for (int m = 0; m < count; ++m) {
     std::fill(unit.begin(), unit.end(), 0.0);
     unit[static_cast<std::size_t>(m)] = 1;
     fitter_.coefficients(unit, a);
     fitter_.bernstein(a, b);
-    double* column = values_to_bernstein_.data() + static_cast<std::size_t>(m * rows);
-    for (int j = 0; j < count; ++j) column[j] = b[static_cast<std::size_t>(j)];
-    column[count] = a[static_cast<std::size_t>(count - 1)];
-    column[count + 1] = count >= 3 ? a[static_cast<std::size_t>(count - 2)] : 0.0;
-  }
-  // Legendre → Bernstein at degree M − 1, for the derivative series (its extrema are probed), also by column.
-  const int slope_count = count - 1;
-  derivative_to_bernstein_.assign(static_cast<std::size_t>(slope_count * slope_count), 0.0);
-  std::vector<double> slope_unit(static_cast<std::size_t>(slope_count));
-  for (int n = 0; n < slope_count; ++n) {
-    std::fill(slope_unit.begin(), slope_unit.end(), 0.0);
-    slope_unit[static_cast<std::size_t>(n)] = 1;
-    legendre_to_bernstein(slope_unit, std::span<double>(derivative_to_bernstein_).subspan(
-                                          static_cast<std::size_t>(n * slope_count), slope_unit.size()));
+    std::copy(b.begin(), b.end(), values_to_bernstein_.begin() + static_cast<std::ptrdiff_t>(m * count));
   }
 }
 
@@ -472,20 +426,9 @@ namespace {
 /// What a line's fits need besides the node values.
 struct fit_context {
   const legendre_fitter& fitter;
-  std::span<const double> values_to_bernstein;      ///< (M+1)² matrix
-  std::span<const double> derivative_to_bernstein;  ///< M² matrix, by column: Legendre → Bernstein at degree M − 1
+  std::span<const double> values_to_bernstein;  ///< (M+1)² matrix
   const block_geometry& geometry;
   double t0;
-  const line_root_settings& settings;
-};
-
-/// Scratch of one fit.
-struct fit_scratch {
-  std::vector<double>& a;        ///< Legendre coefficients of series − t0
-  std::vector<double>& b;        ///< its Bernstein coefficients
-  std::vector<double>& slope;    ///< the derivative's Legendre coefficients
-  std::vector<double>& slope_b;  ///< and Bernstein coefficients
-  std::vector<double>& extrema;  ///< roots of the derivative, s
 };
 
 /// out[r] = Σₘ matrix[m·rows + r]·f[m], r < rows, m < columns (a column-major matrix–vector product; the inner
@@ -499,125 +442,264 @@ void multiply_columns(const double* matrix, int rows, int columns, const double*
   }
 }
 
-/// Candidates (Å, appended to `candidates`) of one fit from its node values `f` (M + 1 of them): the series' roots
-/// (kind 1) and the fit's ends where the series, extended linearly, reaches t0 within end_reach beyond them
-/// (kind 2). Probes (Å, appended to `probes`): the series' extrema within probe_margin × the fit error estimate
-/// of t0, where φ itself may cross t0 and back unseen by the series; φ sampled there joins the sign walk. A fit
-/// whose Bernstein coefficients all lie on one side of t0, beyond that margin, has neither (it is quiet).
-void fit_candidates(const fit_context& c, int fit, const double* f, fit_scratch& scratch,
-                    std::vector<double>& candidates, std::vector<double>& probes, line_root_stats& stats) {
+/// The roots of one fit's series (Å, appended to `candidates`) from its node values `f` (M + 1 of them). A fit whose
+/// Bernstein coefficients all lie on one side of t0 has none (it is quiet).
+void fit_candidates(const fit_context& c, int fit, const double* f, std::vector<double>& a, std::vector<double>& b,
+                    std::vector<double>& candidates, line_root_stats& stats) {
   const int points = c.fitter.points();
-  const std::span<const double> values(f, static_cast<std::size_t>(points));
-  const double mid = c.geometry.fit_mid[static_cast<std::size_t>(fit)];
-  const double half = c.geometry.fit_half[static_cast<std::size_t>(fit)];
-  std::vector<double>& b = scratch.b;  // M + 3 entries: the Bernstein coefficients, then a_M and a_{M−1}
   ++stats.fits;
-  multiply_columns(c.values_to_bernstein.data(), points + 2, points, f, b.data());
-  int changes = 0;
-  double nearest = std::numeric_limits<double>::infinity();
+  multiply_columns(c.values_to_bernstein.data(), points, points, f, b.data());
+  bool changes = false;
   for (int j = 0; j < points; ++j) {
     b[static_cast<std::size_t>(j)] -= c.t0;  // the Bernstein coefficients of t0 are all t0
-    nearest = std::min(nearest, std::abs(b[static_cast<std::size_t>(j)]));
-    if (j > 0) changes += (b[static_cast<std::size_t>(j)] >= 0) != (b[static_cast<std::size_t>(j - 1)] >= 0);
+    if (j > 0) changes |= (b[static_cast<std::size_t>(j)] >= 0) != (b[static_cast<std::size_t>(j - 1)] >= 0);
   }
-  // The fit's error, estimated as |a_M| + |a_{M−1}| (the coefficients of these smooth fields decay fast).
-  const double error =
-      std::abs(b[static_cast<std::size_t>(points)]) + std::abs(b[static_cast<std::size_t>(points + 1)]);
-  const double margin = c.settings.probe_margin * error;
-  if (changes == 0 && nearest > margin) {
+  if (!changes) {
     ++stats.quiet_fits;
-  } else {
-    std::vector<double>& a = scratch.a;
-    c.fitter.coefficients(values, a);  // eq. 6
-    a[0] -= c.t0;
-    if (changes > 0) {
-      const std::size_t before = candidates.size();
-      legendre_roots(a, std::span<const double>(b.data(), static_cast<std::size_t>(points)), candidates,
-                     series_root_tolerance);
-      for (std::size_t n = before; n < candidates.size(); ++n) candidates[n] = mid + half * candidates[n];
-    }
-    if (margin > 0 && points > 2) {
-      legendre_derivative(a, scratch.slope);
-      const auto slope_count = static_cast<std::size_t>(points - 1);
-      multiply_columns(c.derivative_to_bernstein.data(), points - 1, points - 1, scratch.slope.data(),
-                       scratch.slope_b.data());
-      scratch.extrema.clear();
-      legendre_roots(std::span<const double>(scratch.slope.data(), slope_count),
-                     std::span<const double>(scratch.slope_b.data(), slope_count), scratch.extrema,
-                     series_root_tolerance);
-      for (const double s : scratch.extrema) {
-        if (std::abs(legendre_value(a, s)) <= margin) probes.push_back(mid + half * s);
-      }
-    }
+    return;
   }
-  // Kind 2: the series' value and slope (d/ds) at each end, from the Bernstein coefficients.
-  const auto last = static_cast<std::size_t>(points - 1);
-  const double degree = points - 1;
-  const double slope_lo = 0.5 * degree * (b[1] - b[0]), slope_hi = 0.5 * degree * (b[last] - b[last - 1]);
-  const double reach_lo = slope_lo != 0 ? -b[0] / slope_lo : 1.0;
-  const double reach_hi = slope_hi != 0 ? -b[last] / slope_hi : -1.0;
-  if (reach_lo <= 0 && reach_lo >= -c.settings.end_reach) candidates.push_back(mid + half * (-1 + reach_lo));
-  if (reach_hi >= 0 && reach_hi <= c.settings.end_reach) candidates.push_back(mid + half * (1 + reach_hi));
+  c.fitter.coefficients(std::span<const double>(f, static_cast<std::size_t>(points)), a);  // eq. 6
+  a[0] -= c.t0;
+  const std::size_t before = candidates.size();
+  legendre_roots(a, std::span<const double>(b.data(), static_cast<std::size_t>(points)), candidates,
+                 series_root_tolerance);
+  const double mid = c.geometry.fit_mid[static_cast<std::size_t>(fit)];
+  const double half = c.geometry.fit_half[static_cast<std::size_t>(fit)];
+  for (std::size_t n = before; n < candidates.size(); ++n) candidates[n] = mid + half * candidates[n];
 }
 
-/// The line's samples for the sign walk (ws.walk_x, ws.walk_value, ascending x): the span ends and nodes
-/// (`node_x`, `node_values`) merged with φ at the probes (evaluated here, on the exact field).
+/// Bounds of φ and φ_x over intervals, summed term by term (W intervals, or W atoms, per vector).
+template <class F>
+struct interval_sums {
+  F phi_low{}, phi_high{}, slope_low{}, slope_high{}, slope_scale{};
+};
+
+/// out = a where `mask` is set, b elsewhere (bitwise; an out-parameter, as vectors are never returned).
+template <class F>
+[[gnu::always_inline]] inline void blend(F& out, const simd::mask_of<F>& mask, const F& a, const F& b) {
+  using M = simd::mask_of<F>;
+  out = reinterpret_cast<F>((reinterpret_cast<M>(a) & mask) | (reinterpret_cast<M>(b) & ~mask));
+}
+
+/// Adds one atom's terms over the interval x ∈ [c + lo, c + hi] (offsets lo < hi from its centre c; e_lo, e_hi its
+/// x factors e^(k·δx²) there, k = d/r²) to the bounds (eqs. 3–5 along a line, and their extension to φ_x): the
+/// factor lies between its values at the nearest and farthest points of the interval; its slope 2k·δx·e^(k·δx²)
+/// between its values at the ends, or its peak ±√(−2k)·e^(−1/2) at δx = ∓1/√(−2k) when the interval holds that
+/// point. The atom adds to the upper bounds where its cutoff reaches the interval, to the lower bound of φ where it
+/// covers the whole interval.
+template <class F>
+[[gnu::always_inline]] inline void add_interval_terms(const F& lo, const F& hi, const F& e_lo, const F& e_hi,
+                                                      const F& k, const F& weight, const F& rho2, const F& cutoff2,
+                                                      const F& peak_offset, const F& peak_slope,
+                                                      interval_sums<F>& sums) {
+  const F zero{}, one = zero + 1.0;
+  F nearest, below, farthest;
+  blend(nearest, lo > zero, lo, zero);
+  blend(below, hi < zero, -hi, zero);
+  nearest += below;
+  blend(farthest, -lo > hi, -lo, hi);
+  const auto reaches = nearest * nearest + rho2 < cutoff2;
+  const auto covers = farthest * farthest + rho2 < cutoff2;
+  F e_low, e_max, e_high;
+  blend(e_low, e_lo < e_hi, e_lo, e_hi);
+  blend(e_max, e_lo > e_hi, e_lo, e_hi);
+  blend(e_high, (lo <= zero) & (hi >= zero), one, e_max);
+  const F s_lo = 2 * k * lo * e_lo, s_hi = 2 * k * hi * e_hi;
+  F s_min, s_max, s_low, s_high;
+  blend(s_min, s_lo < s_hi, s_lo, s_hi);
+  blend(s_max, s_lo > s_hi, s_lo, s_hi);
+  blend(s_low, (lo <= peak_offset) & (hi >= peak_offset), -peak_slope, s_min);
+  blend(s_high, (lo <= -peak_offset) & (hi >= -peak_offset), peak_slope, s_max);
+  F high = weight * e_high, low = weight * e_low, slope_low = weight * s_low, slope_high = weight * s_high;
+  F scale;
+  blend(scale, -slope_low > slope_high, -slope_low, slope_high);
+  simd::keep_lanes(high, reaches);
+  simd::keep_lanes(low, covers);
+  simd::keep_lanes(slope_low, reaches);
+  simd::keep_lanes(slope_high, reaches);
+  simd::keep_lanes(scale, reaches);
+  sums.phi_high += high;
+  sums.phi_low += low;
+  sums.slope_low += slope_low;
+  sums.slope_high += slope_high;
+  sums.slope_scale += scale;
+}
+
+/// The bounds over [x_lo, x_hi] of the current line, from its atoms' factors at both ends (W atoms at a time).
 template <int W>
-[[gnu::always_inline]] inline void walk_samples(line_root_finder::workspace& ws, std::span<const double> node_x,
-                                                std::span<const double> node_values, line_root_stats& stats) {
-  ws.walk_x.clear();
-  ws.walk_value.clear();
-  std::size_t p = 0;
-  for (std::size_t n = 0; n < node_x.size(); ++n) {
-    for (; p < ws.probes.size() && ws.probes[p] < node_x[n]; ++p) {
-      ws.walk_x.push_back(ws.probes[p]);
-      ws.walk_value.push_back(evaluate_line<W>(ws, ws.probes[p]).value);
+[[gnu::always_inline]] inline interval_sums<double> bound_interval(const line_root_finder::workspace& ws, double x_lo,
+                                                                   double x_hi) {
+  using F = typename simd::pack<W>::f64;
+  interval_sums<F> sums;
+  const double half_decay = kernel_exp(-0.5);
+  for (std::size_t a = 0; a < ws.line_count; a += W) {
+    F c, k, weight, y2, z2, cutoff2;
+    simd::load(c, ws.line_x.data() + a);
+    simd::load(k, ws.line_d_inv_r2.data() + a);
+    simd::load(weight, ws.line_weight.data() + a);
+    simd::load(y2, ws.line_dy2.data() + a);
+    simd::load(z2, ws.line_dz2.data() + a);
+    simd::load(cutoff2, ws.line_cutoff2.data() + a);
+    // The slope's peak: at δx = ±1/√(−2k), of magnitude √(−2k)·e^(−1/2) (padding lanes: k = 0, weight = 0).
+    F peak_offset{}, peak_slope{};
+    for (int lane = 0; lane < W; ++lane) {
+      const double root_rate = std::sqrt(-2 * k[lane]);
+      peak_offset[lane] = root_rate > 0 ? 1 / root_rate : 0.0;
+      peak_slope[lane] = root_rate * half_decay;
+    }
+    const F lo = x_lo - c, hi = x_hi - c;
+    F e_lo = k * (lo * lo), e_hi = k * (hi * hi);
+    simd::exp_in_place(e_lo);
+    simd::exp_in_place(e_hi);
+    add_interval_terms<F>(lo, hi, e_lo, e_hi, k, weight, y2 + z2, cutoff2, peak_offset, peak_slope, sums);
+  }
+  return {simd::lane_sum(sums.phi_low), simd::lane_sum(sums.phi_high), simd::lane_sum(sums.slope_low),
+          simd::lane_sum(sums.slope_high), simd::lane_sum(sums.slope_scale)};
+}
+
+/// What the bounds prove about an interval.
+enum class interval_proof : char { no_root, one_root, undecided };
+char interval_proof_code(interval_proof p) { return static_cast<char>(p); }
+
+/// The proof from the curvature bound alone: |φ''| ≤ K on the line (K = Σ weight·2|d|/r², as |d²/dx² e^(d·δx²/r²)|
+/// ≤ 2|d|/r²), so on [lo, lo + width] φ lies within K·width²/8 of the chord between its end values, and φ' within
+/// K·width/2 of the chord's slope. `below`, `above`: φ − t0 at the ends.
+interval_proof prove_by_curvature(double curvature, double width, double below, double above, double t0) {
+  const double margin = bound_margin * t0;
+  const bool opposite_ends = (below >= 0) != (above >= 0);
+  if (!opposite_ends && std::min(std::abs(below), std::abs(above)) > curvature * width * width / 8 + margin) {
+    return interval_proof::no_root;
+  }
+  if (std::abs(above - below) > curvature * width * width / 2 + margin) {
+    return opposite_ends ? interval_proof::one_root : interval_proof::no_root;
+  }
+  return interval_proof::undecided;
+}
+
+/// The proof from the bounds of φ and φ_x over the interval (`b`, add_interval_terms).
+interval_proof prove_by_bounds(const interval_sums<double>& b, double t0, double value_lo, double value_hi) {
+  const bool opposite_ends = (value_lo >= t0) != (value_hi >= t0);
+  const double slope_margin = bound_margin * b.slope_scale;
+  if (b.slope_low > slope_margin || b.slope_high < -slope_margin) {
+    return opposite_ends ? interval_proof::one_root : interval_proof::no_root;
+  }
+  if (b.phi_high < t0 * (1 - bound_margin) || b.phi_low > t0 * (1 + bound_margin)) return interval_proof::no_root;
+  return interval_proof::undecided;
+}
+
+/// Proves the root count of [lo, hi] (φ = value_lo, value_hi at its ends), which the curvature bound left undecided,
+/// from the bounds over it and, where they do not decide, over its halves (φ sampled at the middle), recursively;
+/// appends the one-root pieces to ws.brackets in x order. A piece still undecided after max_interval_splits
+/// halvings is counted by the signs at its ends.
+template <int W>
+[[gnu::always_inline]] inline void prove_interval(line_root_finder::workspace& ws, double t0, double curvature,
+                                                  double lo, double value_lo, double hi, double value_hi,
+                                                  line_root_stats& stats) {
+  struct piece {
+    double lo, value_lo, hi, value_hi;
+    int splits;  ///< halvings that made it
+  };
+  // Depth first, left half first: at most one pending right half per level.
+  std::array<piece, max_interval_splits + 1> pending;
+  std::size_t count = 0;
+  pending[count++] = {lo, value_lo, hi, value_hi, 0};
+  while (count > 0) {
+    const piece p = pending[--count];
+    interval_proof proof =
+        p.splits == 0 ? interval_proof::undecided
+                      : prove_by_curvature(curvature, p.hi - p.lo, p.value_lo - t0, p.value_hi - t0, t0);
+    if (proof == interval_proof::undecided) {
+      proof = prove_by_bounds(bound_interval<W>(ws, p.lo, p.hi), t0, p.value_lo, p.value_hi);
+    }
+    if (proof == interval_proof::undecided && p.splits < max_interval_splits) {
+      ++stats.split_intervals;
+      const double mid = 0.5 * (p.lo + p.hi);
+      const double value_mid = evaluate_line<W>(ws, mid).value;
       ++stats.field_evaluations;
-      ++stats.probes;
+      pending[count++] = {mid, value_mid, p.hi, p.value_hi, p.splits + 1};
+      pending[count++] = {p.lo, p.value_lo, mid, value_mid, p.splits + 1};
+      continue;
     }
-    ws.walk_x.push_back(node_x[n]);
-    ws.walk_value.push_back(node_values[n]);
+    if (proof == interval_proof::undecided) {
+      ++stats.tangent_intervals;
+      proof = (p.value_lo >= t0) != (p.value_hi >= t0) ? interval_proof::one_root : interval_proof::no_root;
+    }
+    if (proof == interval_proof::one_root) ws.brackets.push_back({p.lo, p.hi, p.value_lo >= t0});
   }
 }
 
-/// The roots of the current line (its atoms gathered in ws) from its candidates, then its sign walk: appended to
-/// ws.accepted, sorted and unique.
+/// The curvature bound's proof of each interval between consecutive samples of a line (`node_x`, exact φ `values`;
+/// ws.proofs), except inside the pieces whose bounds (`pieces_proven`, bound_lines) already prove them root-free.
+/// Returns whether any interval may hold a root (one_root or undecided).
+bool prove_by_curvature(line_root_finder::workspace& ws, std::span<const double> node_x, const double* values,
+                        double t0, const double* piece_curvature,
+                        const std::array<double, bound_pieces + 1>& piece_edges,
+                        const std::array<bool, bound_pieces>& pieces_proven) {
+  ws.proofs.assign(node_x.size() - 1, interval_proof_code(interval_proof::no_root));
+  ws.interval_curvature.resize(node_x.size() - 1);
+  bool any = false;
+  int piece = 0;
+  for (std::size_t m = 0; m + 1 < node_x.size(); ++m) {
+    const double lo = node_x[m], hi = node_x[m + 1];
+    while (piece + 1 < bound_pieces && lo >= piece_edges[static_cast<std::size_t>(piece + 1)]) ++piece;
+    const bool inside_one_piece = piece + 1 == bound_pieces || hi <= piece_edges[static_cast<std::size_t>(piece + 1)];
+    if (inside_one_piece && pieces_proven[static_cast<std::size_t>(piece)]) continue;
+    const double curvature = inside_one_piece ? piece_curvature[piece]
+                                              : std::max(piece_curvature[piece], piece_curvature[piece + 1]);
+    ws.interval_curvature[m] = curvature;
+    const interval_proof proof = prove_by_curvature(curvature, hi - lo, values[m] - t0, values[m + 1] - t0, t0);
+    ws.proofs[m] = interval_proof_code(proof);
+    any |= proof != interval_proof::no_root;
+  }
+  return any;
+}
+
+/// The one-root intervals of the current line (ws.brackets, in x order; its atoms gathered) from the curvature
+/// bound's proofs (ws.proofs) and, where they are undecided, prove_interval.
 template <int W>
-[[gnu::always_inline]] inline void solve_line(line_root_finder::workspace& ws, const block_geometry& geometry, double h,
-                                              double t0, bool sign_walk, std::span<const double> node_x,
-                                              std::span<const double> node_values, line_root_stats& stats) {
-  if (sign_walk) walk_samples<W>(ws, node_x, node_values, stats);
+[[gnu::always_inline]] inline void find_brackets(line_root_finder::workspace& ws, std::span<const double> node_x,
+                                                 const double* values, double t0, line_root_stats& stats) {
+  ws.brackets.clear();
+  for (std::size_t m = 0; m + 1 < node_x.size(); ++m) {
+    switch (static_cast<interval_proof>(ws.proofs[m])) {
+      case interval_proof::one_root:
+        ws.brackets.push_back({node_x[m], node_x[m + 1], values[m] >= t0});
+        break;
+      case interval_proof::undecided:
+        prove_interval<W>(ws, t0, ws.interval_curvature[m], node_x[m], values[m], node_x[m + 1], values[m + 1],
+                          stats);
+        break;
+      case interval_proof::no_root:
+        break;
+    }
+  }
+}
+
+/// The roots of the current line (ws.accepted, sorted and unique): one per bracket, solved from the series root
+/// inside it (ws.candidates, sorted) or from its middle when the series has none there.
+template <int W>
+[[gnu::always_inline]] inline void solve_brackets(line_root_finder::workspace& ws, const block_geometry& geometry,
+                                                  double t0, line_root_stats& stats) {
   std::vector<line_root>& found = ws.accepted;
   found.clear();
-  for (const double start : ws.candidates) {
+  std::sort(ws.candidates.begin(), ws.candidates.end());
+  std::size_t used = 0;
+  auto candidate = ws.candidates.begin();
+  for (const line_root_finder::root_bracket& bracket : ws.brackets) {
+    candidate = std::lower_bound(candidate, ws.candidates.end(), bracket.lo);
+    const bool seeded = candidate != ws.candidates.end() && *candidate < bracket.hi;
+    const double start = seeded ? *candidate : 0.5 * (bracket.lo + bracket.hi);
     line_root root{};
-    if (polish_candidate<W>(ws, t0, start, geometry.x_lo - h, geometry.x_hi + h, cells_per_fit * h, root,
-                            stats.field_evaluations) &&
-        root.x >= geometry.x_lo && root.x < geometry.x_hi) {
-      found.push_back(root);
-    } else {
-      ++stats.rejected_roots;
-    }
-  }
-  sort_unique(found);
-  stats.polynomial_roots += found.size();
-  if (!sign_walk) return;
-  find_walk_gaps(ws.walk_x, ws.walk_value, t0, found, ws.gaps);
-  const std::size_t walked = found.size();
-  for (const line_root_finder::walk_gap& gap : ws.gaps) {
-    line_root root{};
-    if (!polish_bracket<W>(ws, t0, gap.lo, gap.lo_inside, gap.hi, root, stats.field_evaluations)) continue;
-    if (!(root.x >= gap.lo && root.x <= gap.hi && root.x >= geometry.x_lo && root.x < geometry.x_hi)) continue;
-    if ((gap.lo_is_root && root.x - gap.lo <= duplicate_distance) ||
-        (gap.hi_is_root && gap.hi - root.x <= duplicate_distance)) {
-      continue;  // converged onto the root that bounds the gap
+    if (!polish_bracket<W>(ws, t0, bracket.lo, bracket.lo_inside, bracket.hi, start, root, stats.field_evaluations) ||
+        !(root.x >= geometry.x_lo && root.x < geometry.x_hi)) {
+      continue;
     }
     found.push_back(root);
+    ++(seeded ? stats.polynomial_roots : stats.bracketed_roots);
+    used += seeded;
   }
-  if (found.size() > walked) {
-    sort_unique(found);
-    stats.sign_walk_roots += found.size() - walked;
-  }
+  stats.rejected_roots += ws.candidates.size() - std::min(used, ws.candidates.size());
+  sort_unique(found);
 }
 
 /// Appends the dips of one line (line_root_settings::dip_ratio) from its samples `values` at `node_x`.
@@ -630,11 +712,15 @@ void find_dips(int line, std::span<const double> node_x, const double* values, d
   }
 }
 
-/// True when any two node values lie on different sides of t0.
-bool crosses_level(const double* values, int count, double t0) {
-  bool crosses = false;
-  for (int m = 1; m < count; ++m) crosses |= (values[m] >= t0) != (values[0] >= t0);
-  return crosses;
+/// Which pieces of `line` the bounds of bound_lines prove free of roots (φ below or above t0 throughout).
+std::array<bool, bound_pieces> proven_pieces(const line_root_finder::workspace& ws, int line, double t0) {
+  std::array<bool, bound_pieces> proven{};
+  const double* b = ws.bounds.data() + static_cast<std::size_t>(line) * simd::max_lanes;
+  for (int p = 0; p < bound_pieces; ++p) {
+    proven[static_cast<std::size_t>(p)] =
+        b[p] < t0 * (1 - bound_margin) || b[bound_pieces + p] > t0 * (1 + bound_margin);
+  }
+  return proven;
 }
 
 }  // namespace
@@ -643,8 +729,8 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
                             std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats) {
   workspace& ws = scratch_;
   // The samples of a line, ascending in x: the span's lower end, the nodes of each fit, the span's upper end (the
-  // ends only feed the sign walk; the lower end of one block is the upper end of the previous one, computed from the
-  // same atoms in the same order, so the two blocks agree on its sign).
+  // lower end of one block is the upper end of the previous one, computed from the same atoms in the same order, so
+  // the two blocks agree on its sign).
   const int points = fitter_.points();
   const int samples = points * fits_per_line + 2;
   const int node_stride = static_cast<int>(padded_size(static_cast<std::size_t>(samples)));
@@ -663,13 +749,10 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
     }
   }
   ws.legendre.resize(static_cast<std::size_t>(points));
-  ws.bernstein.resize(static_cast<std::size_t>(points + 2));
+  ws.bernstein.resize(static_cast<std::size_t>(points));
   const auto line_y = line_coordinates(block.j, h), line_z = line_coordinates(block.k, h);
   const std::size_t count = atoms.size(), stride = padded_size(count);
-  const fit_context context{fitter_, values_to_bernstein_, derivative_to_bernstein_, geometry, t0, settings_};
-  ws.slope.resize(static_cast<std::size_t>(points));
-  ws.slope_bernstein.resize(static_cast<std::size_t>(points));
-  fit_scratch scratch{ws.legendre, ws.bernstein, ws.slope, ws.slope_bernstein, ws.extrema};
+  const fit_context context{fitter_, values_to_bernstein_, geometry, t0};
   const std::span<const double> node_x(ws.node_x.data(), static_cast<std::size_t>(samples));
   out.roots.clear();
   out.dips.clear();
@@ -685,13 +768,9 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
   simd::dispatch([&](auto lanes) __attribute__((always_inline)) {
     constexpr int W = decltype(lanes)::value;
     line_factors<W>(field, ws, count, stride, line_y, line_z);
-    int sampled_lines = lines_per_block;
-    if (settings_.prove_root_free) {
-      bound_lines<W>(field, ws, count, piece_edges);
-      sampled_lines = choose_sampled_lines(ws, t0, inside_level);
-    } else {
-      ws.sampled.fill(1);
-    }
+    bound_lines<W>(field, ws, count, piece_edges);
+    const int sampled_lines = settings_.prove_root_free ? choose_sampled_lines(ws, t0, inside_level) : lines_per_block;
+    if (!settings_.prove_root_free) ws.sampled.fill(1);
     sample_nodes<W>(field, ws, count, node_stride);
     stats.lines += lines_per_block;
     stats.proven_lines += static_cast<std::size_t>(lines_per_block - sampled_lines);
@@ -703,17 +782,22 @@ void line_root_finder::find(const gaussian_field& field, const lattice& lat, con
       }
       const double* values = ws.sums.data() + static_cast<std::size_t>(line) * static_cast<std::size_t>(node_stride);
       if (settings_.dip_ratio > 0) find_dips(line, node_x, values, t0, settings_.dip_ratio, out.dips);
-      ws.candidates.clear();
-      ws.probes.clear();
-      for (int q = 0; q < fits_per_line; ++q) {
-        fit_candidates(context, q, values + 1 + q * points, scratch, ws.candidates, ws.probes, stats);
-      }
-      if (!settings_.sign_walk) ws.probes.clear();
-      if (!ws.candidates.empty() || !ws.probes.empty() || (settings_.sign_walk && crosses_level(values, samples, t0))) {
-        gather_line_atoms<W>(ws, count, stride, line % block_lines, line / block_lines, field.d());
-        solve_line<W>(ws, geometry, h, t0, settings_.sign_walk, node_x,
-                      std::span<const double>(values, static_cast<std::size_t>(samples)), stats);
-        out.roots.insert(out.roots.end(), ws.accepted.begin(), ws.accepted.end());
+      std::array<bool, bound_pieces> proven{};
+      if (settings_.prove_root_free) proven = proven_pieces(ws, line, t0);
+      if (std::find(proven.begin(), proven.end(), false) != proven.end()) {
+        ws.candidates.clear();
+        for (int q = 0; q < fits_per_line; ++q) {
+          fit_candidates(context, q, values + 1 + q * points, ws.legendre, ws.bernstein, ws.candidates, stats);
+        }
+        const double* curvature = ws.curvature.data() + static_cast<std::size_t>(line) * bound_pieces;
+        if (prove_by_curvature(ws, node_x, values, t0, curvature, piece_edges, proven)) {
+          gather_line_atoms<W>(ws, count, stride, line % block_lines, line / block_lines, field.d());
+          find_brackets<W>(ws, node_x, values, t0, stats);
+          solve_brackets<W>(ws, geometry, t0, stats);
+          out.roots.insert(out.roots.end(), ws.accepted.begin(), ws.accepted.end());
+        } else {
+          stats.rejected_roots += ws.candidates.size();
+        }
       }
       out.first[static_cast<std::size_t>(line + 1)] = static_cast<std::uint32_t>(out.roots.size());
     }

@@ -6,26 +6,31 @@
 /// First, φ is bounded over four pieces of each line span from the same separable kernel (per atom, its factor's
 /// extremes over a piece; the paper's eqs. 3–5 along a line): a span below t0, or above it, on every piece holds no
 /// root and is skipped. Per remaining block line, the span x ∈ [8·i·h̃, 8·(i+1)·h̃) is cut into fits of
-/// cells_per_fit cells; φ is sampled at the
-/// M + 1 Gauss–Legendre nodes of each fit from the separable kernel (per atom: 8 + 8 + nodes exponentials for all 64
-/// lines, instead of one per atom and point), and the degree-M Legendre series of eq. 6 interpolating those samples is
-/// searched for roots of series = t0 (legendre.hpp: Bernstein subdivision, which also proves most fits root-free).
-/// Three kinds of candidates are polished on the exact cut-off φ of the line:
-///  1. the series' roots in [−1, 1];
-///  2. an end of a fit where the series, extended linearly, reaches t0 within end_reach (in units of the fit's half
-///     width) beyond that end (a root the fit puts just outside its span, as happens at seams);
-///  3. a *sign walk* (with probes, below): the node samples are exact values of φ, so along each line the sign of
-///     φ − t0 at the nodes and on either side of every accepted root (given by the sign of φ_x) must alternate
-///     consistently. Where it does not, a root is missing in between and is solved for inside that bracket. φ is
-///     also sampled at both ends of the span (bit-identical in the two blocks that share an end), so roots between
-///     an end and the nearest node are bracketed too. Where a fit's series has an extremum within a few times its
-///     error estimate of t0 (a near tangency, where φ may cross t0 and back unseen), φ is *probed* there and the
-///     sample joins the walk.
-/// Polishing uses third-order steps on ln(φ/t0) (the quadratic Taylor model from φ, φ_x, φ_xx: exact for a single
-/// atom), safeguarded by bisection for bracketed roots. A root is accepted when the last correction is at most
+/// cells_per_fit cells; φ is sampled at the M + 1 Gauss–Legendre nodes of each fit and at both span ends from the
+/// separable kernel (per atom: 8 + 8 + nodes exponentials for all 64 lines, instead of one per atom and point), and
+/// the degree-M Legendre series of eq. 6 interpolating those samples is searched for roots of series = t0
+/// (legendre.hpp: Bernstein subdivision).
+///
+/// The root count is then proved, interval by interval between consecutive samples (whose values are exact).
+/// First by curvature: the per-atom bounds extended to φ_xx (|d²/dx² e^(d·δx²/r²)| = 2(−d/r²)·|2t − 1|·e^(−t),
+/// t = −d·δx²/r², bounded over each piece) bound |φ''| ≤ K, so φ lies within K·w²/8 of the chord between an interval's
+/// end values (no root when both ends are farther from t0, on one side) and φ' within K·w/2 of the chord's slope
+/// (monotone: one root when the ends lie on opposite sides of t0, none otherwise). Where that does not decide, by the
+/// bounds of φ and φ_x over the interval (the factor's slope 2d·δx/r²·e^(d·δx²/r²) has its extremes at
+/// |δx| = r/√(−2d), so it is bounded over an interval exactly): one-sided, or monotone. An interval that neither
+/// proves is halved (φ sampled at its middle) until its halves do, or until max_interval_splits halvings leave an
+/// interval of a few 1e-7·h̃ around a tangency of the line with the surface, whose roots are then counted by the signs
+/// at its ends (line_root_stats::tangent_intervals). Each one-root interval is solved by third-order steps on
+/// ln(φ/t0) (the quadratic Taylor model from φ, φ_x, φ_xx: exact for a single atom) from the series' root inside it
+/// (the Legendre fit stays the root finder; the bounds certify it), safeguarded by bisection within the interval; a
+/// series root in an interval proved empty is rejected. A root is accepted when the last correction is at most
 /// 1e-10 Å (root = last point + correction, φ_x from the last evaluation), which leaves |φ − t0| ≲ 1e-13·t0 for a
 /// simple root; then kept if it lies in the block's half-open span. Roots of one line closer than 1e-9 Å with the
 /// same sign of φ_x are one root.
+///
+/// The curvature and slope bounds are those of the smooth sum of the atoms that reach an interval; the cut-off field
+/// differs from it by jumps below the cutoff tolerance (gaussian_field.hpp), so a monotone interval can hold more than
+/// one root only where φ lies within such a jump of t0.
 ///
 /// Deterministic: the result depends only on the inputs (the simd width, fixed per machine, only groups lane sums).
 
@@ -52,10 +57,12 @@ struct line_root_stats {
   std::size_t proven_lines = 0;
   /// φ values computed (quadrature nodes and span ends of the lines sampled, Newton steps), one per point
   std::size_t field_evaluations = 0;
-  std::size_t polynomial_roots = 0;   ///< distinct roots found from the Legendre series (kinds 1 and 2)
-  std::size_t rejected_roots = 0;     ///< series candidates that Newton did not confirm inside the span
-  std::size_t sign_walk_roots = 0;    ///< roots the series missed, found by the sign walk (kind 3)
-  std::size_t probes = 0;             ///< φ sampled at extrema of a series close to t0 (for the sign walk)
+  std::size_t polynomial_roots = 0;   ///< roots solved from a root of the Legendre series inside their interval
+  std::size_t rejected_roots = 0;     ///< series roots in intervals proved empty, or not confirmed by polishing
+  std::size_t bracketed_roots = 0;    ///< roots of one-root intervals where the series had none
+  std::size_t split_intervals = 0;    ///< intervals halved because neither bound proved them
+  /// intervals still unproved after max_interval_splits halvings (a tangency): roots counted by their ends' signs
+  std::size_t tangent_intervals = 0;
   std::size_t quiet_fits = 0;         ///< fits dismissed without a root search (Bernstein hull on one side of t0)
   std::size_t fits = 0;               ///< fits computed
 };
@@ -81,14 +88,13 @@ struct block_line_roots {
   std::vector<dip> dips;
 };
 
+/// Halvings of an interval whose root count the bounds cannot prove (line_roots.hpp), at most: from a node gap of
+/// about h̃/3 down to a few 1e-7·h̃.
+inline constexpr int max_interval_splits = 20;
+
 /// Tunables of line_root_finder.
 struct line_root_settings {
   int degree = 10;          ///< M, degree of the Legendre series (paper: 10); 1..legendre_max_degree
-  double end_reach = 0.05;  ///< kind-2 candidates: reach beyond a fit's end, in units of its half width
-  bool sign_walk = true;    ///< kind-3 candidates and probes (off: the series alone, as in the paper)
-  /// Probes: φ is sampled at an extremum of a fit's series that comes within probe_margin × (|a_M| + |a_{M−1}|) of
-  /// t0; the sample joins the sign walk, which then brackets a pair of roots the series missed. 0: no probes.
-  double probe_margin = 4;
   /// Dips: a node sample (not a span end) where φ is lower than at both neighbouring samples and lies in
   /// (t0, dip_ratio·t0]. The line passes near a pocket of φ < t0 that may touch no line (a cavity between lines,
   /// untouched_cavities.hpp). 0: none reported.
@@ -118,11 +124,10 @@ class line_root_finder {
   void find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
             std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats);
 
-  /// A gap of the sign walk that must hold a root: (lo, hi), the sign of φ − t0 just after lo, and whether the
-  /// ends are roots (a new root must then keep clear of them).
-  struct walk_gap {
+  /// An interval of a line proved to hold exactly one root: (lo, hi), and whether φ ≥ t0 at lo.
+  struct root_bracket {
     double lo, hi;
-    bool lo_inside, lo_is_root, hi_is_root;
+    bool lo_inside;
   };
 
   /// Scratch of one block (sizes grow to the largest block seen). Public so that the kernels in line_roots.cpp
@@ -136,6 +141,9 @@ class line_root_finder {
     /// One atom's factors on the 8 y and 8 z lines of the block, and the rectangle of lines its cutoff reaches.
     struct atom_factors {
       alignas(64) std::array<double, simd::max_lanes> ey, dy2, ez, dz2;
+      /// Per piece of the span (line_roots.cpp): the bound on |d²/dx²| of the x factor over it, and δx² to its
+      /// nearest point
+      alignas(32) std::array<double, 4> piece_curvature, piece_near2;
       int j_lo, j_hi, k_lo, k_hi;  ///< the lines with δy² < cutoff² (δz² < cutoff²): [j_lo, j_hi) × [k_lo, k_hi)
       bool reaches_a_line() const { return j_lo < j_hi && k_lo < k_hi; }
     };
@@ -147,17 +155,16 @@ class line_root_finder {
     std::vector<line_root> accepted;                      ///< roots of the current line
     std::vector<double> candidates;                       ///< candidates of the current line, Å
     std::vector<double> legendre, bernstein;              ///< one fit's coefficients
-    std::vector<double> slope, slope_bernstein, extrema;  ///< its derivative's coefficients and roots
-    std::vector<double> probes;                           ///< x of the current line's probes, Å
-    std::vector<double> walk_x, walk_value;               ///< the current line's samples for the sign walk
-    std::vector<walk_gap> gaps;                           ///< the current line's sign-walk gaps
+    std::vector<double> curvature;           ///< per line and piece: a bound on |φ_xx| (bound_lines)
+    std::vector<char> proofs;                ///< the current line's intervals, as the curvature bound proves them
+    std::vector<double> interval_curvature;  ///< and the bound on |φ_xx| over each
+    std::vector<root_bracket> brackets;   ///< the current line's one-root intervals
   };
 
  private:
   line_root_settings settings_;
   legendre_fitter fitter_;
-  std::vector<double> values_to_bernstein_;      ///< (M+1)²: Bernstein coefficients of the fit from the node values
-  std::vector<double> derivative_to_bernstein_;  ///< M²: Legendre → Bernstein at degree M − 1
+  std::vector<double> values_to_bernstein_;  ///< (M+1)²: Bernstein coefficients of the fit from the node values
   workspace scratch_;
 };
 

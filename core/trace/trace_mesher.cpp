@@ -141,7 +141,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
     stats.lines += block_stats[n].lines;
     stats.proven_lines += block_stats[n].proven_lines;
     stats.polynomial_roots += block_stats[n].polynomial_roots;
-    stats.bracketed_roots += block_stats[n].sign_walk_roots;
+    stats.bracketed_roots += block_stats[n].bracketed_roots;
     stats.field_evaluations += block_stats[n].field_evaluations;
     entries.insert(entries.end(), per_block[n].begin(), per_block[n].end());
     if (dips) dips->insert(dips->end(), dips_per_block[n].begin(), dips_per_block[n].end());
