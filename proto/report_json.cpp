@@ -52,7 +52,7 @@ nlohmann::json trace_to_json(const trace_parameters& params, const trace_stats& 
       {"lines", stats.lines},
       {"proven_lines", stats.proven_lines},
       {"polynomial_roots", stats.polynomial_roots},
-      {"late_roots", stats.late_roots},
+      {"tangent_root_intervals", stats.tangent_root_intervals},
       {"arcs", stats.arcs},
       {"bracketed_roots", stats.bracketed_roots},
       {"polygons", stats.polygons},

@@ -64,7 +64,7 @@ nlohmann::json parameters_to_json(const mesh_params& params);
 nlohmann::json input_to_json(const input_summary& input);
 /// The trace path's section: {parameters: {legendre_degree, step_fraction, step (Å, stats.step), line_spacing (Å,
 /// stats.line_spacing), cos_bound, extreme_tolerance}, line_offset ([y, z] in units of h̃), grid_retries, lines,
-/// polynomial_roots, bracketed_roots, late_roots, arcs, polygons, extreme_points, retraced_arcs, fallback_loops,
+/// polynomial_roots, bracketed_roots, tangent_root_intervals, arcs, polygons, extreme_points, retraced_arcs, fallback_loops,
 /// welded_edges, collapsed_raw_edges, level_shifted_strips, untouched_cavities, untouched_cavities_left,
 /// field_evaluations, raw_vertices, raw_triangles,
 /// field_evaluations_per_vertex (field_evaluations / raw_vertices; 0 without vertices)}.

@@ -152,7 +152,7 @@ std::vector<kept_point> resample(const std::vector<surface_sample>& points, cons
 int end_sign(int end_side, int sign) { return end_side == 1 ? sign : -sign; }
 
 /// The root at which an arc ending at `x` arrives: the nearest root whose φ_x has `phi_x_sign`, within `reach` Å;
-/// -1 when there is none (a late root). Two roots of a near-tangency can be closer than the crossing's accuracy;
+/// -1 when there is none. Two roots of a near-tangency can be closer than the crossing's accuracy;
 /// their opposite signs of φ_x tell them apart.
 std::int64_t end_root(std::span<const line_point> roots, double x, int phi_x_sign, double reach) {
   std::int64_t best = -1;
@@ -313,7 +313,6 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
   trace_plane plane = surface_plane;
   plane.level_shift = level_shift;
   const int v = plane.v_axis();
-  const line_id line_ids[2] = {strip.low_line(), strip.high_line()};
   std::vector<char> covered[2] = {std::vector<char>(roots[0].size(), 0), std::vector<char>(roots[1].size(), 0)};
   trace_step_settings step;
   step.low_roots = roots[0];
@@ -349,22 +348,15 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
         const bool taken = match >= 0 && (covered[end_side][static_cast<std::size_t>(match)] ||
                                           (end_side == side && match == static_cast<std::int64_t>(i)));
         const bool bare_return = end_side == side && arc.points.size() < 3;  // needs an interior point (§7.7)
-        // The walk must leave the strip through its end: s·φ_x there points out of it (> 0 through the high line).
-        // Otherwise it jumped to another branch of the contour and the arcs' directions would not chain (§7.10).
-        const double end_phi_x = match >= 0 ? roots[end_side][static_cast<std::size_t>(match)].gradient.x
-                                            : arc.points.back().gradient.x;
-        const bool leaves = end_phi_x * end_sign(end_side, sign) > 0;
-        accepted = !taken && !bare_return && leaves;
+        // The end must be a root whose φ_x lets the walk leave the strip there (end_root takes no other): else it
+        // jumped to another branch of the contour and the arcs' directions would not chain (§7.10). The line roots
+        // are complete (line_roots.hpp), so a crossing with no such root near it went astray too.
+        accepted = match >= 0 && !taken && !bare_return;
       }
       if (!accepted) continue;
       covered[side][i] = 1;
-      double end_x = arc.points.back().position.x;
-      if (match >= 0) {
-        covered[end_side][match] = 1;
-        end_x = roots[end_side][match].x;
-      } else {
-        out.late_roots.push_back({line_ids[end_side], {end_x, arc.points.back().gradient, true}});
-      }
+      covered[end_side][match] = 1;
+      const double end_x = roots[end_side][match].x;
       const double line_v = side == 0 ? step.v_low : step.v_high;
       pending_arc p;
       p.length = arc_lengths(arc.points);
@@ -436,13 +428,13 @@ bool shifted_roots(const gaussian_field& field, const strip_id& strip, int side,
         moved.gradient.x * roots[i].gradient.x <= 0) {
       return false;
     }
-    out.push_back({moved.position.x, moved.gradient, roots[i].late});
+    out.push_back({moved.position.x, moved.gradient});
   }
   return true;
 }
 
 /// The strip traced at a level shifted by level_shifts[n]·t0 (see there), its arcs ending on the true roots; false
-/// when that level gives no complete set of arcs either (a root without counterpart, a failure or a late root).
+/// when that level gives no complete set of arcs either (a root without counterpart or a failure).
 bool trace_strip_shifted(const gaussian_field& field, const std::array<std::span<const line_point>, 2>& roots,
                          const strip_id& strip, const strip_settings& settings, double relative_shift,
                          strip_trace& out) {
@@ -458,7 +450,7 @@ bool trace_strip_shifted(const gaussian_field& field, const std::array<std::span
   strip_trace shifted = trace_strip_once(field, {moved[0], moved[1]}, strip, settings, level_shift);
   out.evaluations += evaluations + shifted.evaluations;
   // Every kept point must be back on φ = t0: the walk's own points lie on the shifted level.
-  if (shifted.failures > 0 || !shifted.late_roots.empty() || shifted.unpolished > 0) return false;
+  if (shifted.failures > 0 || shifted.unpolished > 0) return false;
   // Each arc end is a moved root; it ends on the root it was moved from.
   const auto original_x = [&](const arc_end& end) {
     const std::vector<line_point>& m = moved[end.side];

@@ -43,7 +43,6 @@ struct strip_arc {
 struct strip_trace {
   std::vector<strip_arc> arcs;
   std::vector<surface_sample> interior;  ///< the arcs' kept interior points, arc after arc
-  std::vector<trace_lines::entry> late_roots;  ///< crossings where the line had no root
   std::size_t evaluations = 0;
   std::size_t extreme_points = 0;  ///< kept interior points with φ_x ≈ 0
   std::size_t retraced = 0;        ///< arcs traced again with a smaller step after a failure or conflict

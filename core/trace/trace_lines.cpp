@@ -59,12 +59,4 @@ std::vector<trace_lines::entry> trace_lines::entries() const {
   return out;
 }
 
-std::size_t trace_lines::add(std::vector<entry> added) {
-  std::vector<entry> all = entries();
-  const std::size_t before = all.size();
-  all.insert(all.end(), added.begin(), added.end());
-  *this = trace_lines(std::move(all));
-  return root_count() - before;
-}
-
 }  // namespace tracemesh

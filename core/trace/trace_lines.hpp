@@ -1,8 +1,7 @@
 #pragma once
 /// @file trace_lines.hpp
 /// The lines of the trace path: every line parallel to x through lattice points (J·h̃, K·h̃) that holds a root of
-/// φ = t0, with its roots sorted by x. Roots come from the Legendre polynomial (line_roots.hpp) or, later, from
-/// traces that crossed the line where the polynomial had none (late roots, method.md §7.2).
+/// φ = t0, with its roots sorted by x (line_roots.hpp proves them complete).
 
 #include <cstdint>
 #include <span>
@@ -19,11 +18,10 @@ struct line_id {
   friend constexpr bool operator<(const line_id& a, const line_id& b) { return a.j < b.j || (a.j == b.j && a.k < b.k); }
 };
 
-/// A root on a line: its x, the gradient of φ there, and whether the polynomial missed it.
+/// A root on a line: its x and the gradient of φ there.
 struct line_point {
   double x = 0;
   vec3 gradient;
-  bool late = false;
 };
 
 /// Lines sorted by (J, K), roots of each sorted by x, stored flat.
@@ -53,9 +51,6 @@ class trace_lines {
   }
   /// Index (within the line's roots) of the root nearest x within merge_tolerance, or -1.
   std::int64_t match(std::span<const line_point> roots, double x) const;
-
-  /// Adds roots (late roots); returns how many were new.
-  std::size_t add(std::vector<entry> entries);
 
   /// All (line, root) pairs, for rebuilding.
   std::vector<entry> entries() const;

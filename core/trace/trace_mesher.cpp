@@ -56,9 +56,6 @@ struct point_spacing {
   double collapse_below = 0;  ///< edges at an arc point shorter than this are collapsed (0: only the welds)
 };
 
-/// Rounds of re-tracing strips whose lines gained late roots, before giving up.
-constexpr int max_late_root_rounds = 8;
-
 status cancelled_status() { return {errc::cancelled, "meshing was cancelled"}; }
 
 /// True when two roots `gap` Å apart whose steeper slope |φ_x| / |∇φ| is `slope` bound a cap too small to mesh (see
@@ -119,7 +116,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
           std::vector<line_point> points;
           for (std::uint32_t q = roots.first[line]; q < roots.first[line + 1]; ++q) {
             const vec3 p{roots.roots[q].x, static_cast<double>(id.j) * h, static_cast<double>(id.k) * h};
-            line_point point{roots.roots[q].x, {}, false};
+            line_point point{roots.roots[q].x, {}};
             field.value_and_gradient(p, point.gradient);
             ++block_stats[n].field_evaluations;
             points.push_back(point);
@@ -142,6 +139,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
     stats.proven_lines += block_stats[n].proven_lines;
     stats.polynomial_roots += block_stats[n].polynomial_roots;
     stats.bracketed_roots += block_stats[n].bracketed_roots;
+    stats.tangent_root_intervals += block_stats[n].tangent_intervals;
     stats.field_evaluations += block_stats[n].field_evaluations;
     entries.insert(entries.end(), per_block[n].begin(), per_block[n].end());
     if (dips) dips->insert(dips->end(), dips_per_block[n].begin(), dips_per_block[n].end());
@@ -150,51 +148,21 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
 }
 
 
-/// Algorithm 1 on every strip, then again on the strips whose lines gained late roots (docs/method.md#late-roots), until no
-/// trace finds a new root.
+/// Algorithm 1 on every strip.
 status trace_all_strips(const gaussian_field& field, const strip_settings& settings, traced_surface& surface,
                         progress_token& progress, trace_stats& stats) {
   std::vector<strip_id> strips = strips_beside(surface.lines);
   std::vector<strip_trace> traces(strips.size());
-  std::vector<char> stale(strips.size(), 1);
-  for (int round = 0; round < max_late_root_rounds; ++round) {
-    std::atomic<std::size_t> done{0};
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, strips.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
-      if (progress.cancelled()) return;
-      for (std::size_t s = r.begin(); s != r.end(); ++s) {
-        if (stale[s]) traces[s] = trace_strip(field, surface.lines, strips[s], settings);
-      }
-      progress.report(mesh_stage::tracing, static_cast<double>(done += r.size()) / static_cast<double>(strips.size()));
-    });
-    if (progress.cancelled()) return cancelled_status();
-    std::vector<trace_lines::entry> late;
-    for (std::size_t s = 0; s < strips.size(); ++s) {
-      if (!stale[s]) continue;
-      stats.field_evaluations += traces[s].evaluations;
-      late.insert(late.end(), traces[s].late_roots.begin(), traces[s].late_roots.end());
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, strips.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+    if (progress.cancelled()) return;
+    for (std::size_t s = r.begin(); s != r.end(); ++s) {
+      traces[s] = trace_strip(field, surface.lines, strips[s], settings);
     }
-    if (late.empty()) break;
-    std::vector<line_id> grown;
-    for (const auto& e : late) grown.push_back(e.line);
-    std::sort(grown.begin(), grown.end());
-    grown.erase(std::unique(grown.begin(), grown.end()), grown.end());
-    stats.late_roots += surface.lines.add(std::move(late));
-    // Re-trace every strip beside a grown line; keep the others' traces.
-    std::vector<strip_id> next = strips_beside(surface.lines);
-    std::vector<strip_trace> next_traces(next.size());
-    std::vector<char> next_stale(next.size(), 0);
-    for (std::size_t s = 0; s < next.size(); ++s) {
-      const bool touches = std::binary_search(grown.begin(), grown.end(), next[s].low_line()) ||
-                           std::binary_search(grown.begin(), grown.end(), next[s].high_line());
-      const auto old = std::lower_bound(strips.begin(), strips.end(), next[s]);
-      const bool known = old != strips.end() && *old == next[s];
-      next_stale[s] = touches || !known;
-      if (!next_stale[s]) next_traces[s] = std::move(traces[static_cast<std::size_t>(old - strips.begin())]);
-    }
-    strips = std::move(next);
-    traces = std::move(next_traces);
-    stale = std::move(next_stale);
-  }
+    progress.report(mesh_stage::tracing, static_cast<double>(done += r.size()) / static_cast<double>(strips.size()));
+  });
+  if (progress.cancelled()) return cancelled_status();
+  for (const strip_trace& trace : traces) stats.field_evaluations += trace.evaluations;
   surface.strips = std::move(strips);
   surface.traces = std::move(traces);
   return {};

@@ -33,9 +33,11 @@ struct trace_stats {
   std::size_t lines = 0;                ///< line spans (one per surviving block and line) searched for roots
   /// of those, spans whose bounds of φ prove them on one side of t0: neither sampled nor fitted (line_roots.hpp)
   std::size_t proven_lines = 0;
-  std::size_t polynomial_roots = 0;     ///< roots found by the Legendre polynomial and accepted by Newton
-  std::size_t bracketed_roots = 0;      ///< roots the polynomial missed, found between line samples of opposite sign
-  std::size_t late_roots = 0;           ///< roots the polynomial missed, found where a trace crossed a line
+  std::size_t polynomial_roots = 0;     ///< roots solved from a root of the Legendre polynomial
+  std::size_t bracketed_roots = 0;      ///< roots the polynomial missed, in intervals the bounds prove hold one
+  /// line intervals the bounds could not decide down to a few 1e-7·h̃ (tangencies; line_roots.hpp): their roots are
+  /// counted by the signs at their ends
+  std::size_t tangent_root_intervals = 0;
   std::size_t arcs = 0;                 ///< traced arcs (pieces of contour between two line points)
   std::size_t polygons = 0;             ///< closed polygons of Algorithm 2 (one per surface piece in a cell)
   std::size_t extreme_points = 0;       ///< points with φ_x = 0 (step 4) kept as vertices

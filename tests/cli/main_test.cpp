@@ -461,7 +461,7 @@ TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheRe
   }
   const fs::path off = path("mache.off");
   const run_result result =
-      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-15", "--t0", "3",
+      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-20", "--t0", "3",
            "--density", "2", "--method", "trace", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());

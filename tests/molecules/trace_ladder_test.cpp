@@ -51,12 +51,12 @@ void print_row(const trace_case& c, const char* refine, const mesh_output& out, 
   std::printf(
       "[ trace    ] %-16s d=%.0f %-4s %6.2fs V=%-6zu density %.3f edge ratio %.3f (<0.2: %.4f%%) area %+.3f%% "
       "volume %+.3f%% vs lattice, components %zu (lattice %zu), cavities %zu, genus %ld | lines %zu roots "
-      "%zu+%zu+%zu arcs %zu polygons %zu fallbacks %zu retraced %zu evaluations %zu | folds %zu near duplicates %zu\n",
+      "%zu+%zu (tangent intervals %zu) arcs %zu polygons %zu fallbacks %zu retraced %zu evaluations %zu | folds %zu near duplicates %zu\n",
       c.file.c_str(), c.density, refine, seconds, r.vertices, r.achieved_density, r.quality.edge_ratio_mean,
       100 * r.quality.fraction_below_0_2, 100 * relative(r.area, lattice.report.area),
       100 * relative(r.volume, lattice.report.volume), r.components.size(), lattice.report.components.size(),
-      r.cavities, r.genus, out.trace.lines, out.trace.polynomial_roots, out.trace.bracketed_roots, out.trace.late_roots,
-      out.trace.arcs, out.trace.polygons, out.trace.fallback_loops, out.trace.retraced_arcs,
+      r.cavities, r.genus, out.trace.lines, out.trace.polynomial_roots, out.trace.bracketed_roots,
+      out.trace.tangent_root_intervals, out.trace.arcs, out.trace.polygons, out.trace.fallback_loops, out.trace.retraced_arcs,
       out.trace.field_evaluations, r.folded_triangles, r.near_duplicate_vertex_pairs);
 }
 
@@ -100,7 +100,7 @@ TEST_P(trace_ladder, raw_and_refined_meshes_are_certified_and_match_the_lattice_
     const trace_stats& t = raw->trace;
     EXPECT_EQ(t.raw_vertices, r.vertices + t.collapsed_raw_edges);  // the polygons, less the edges collapsed
     EXPECT_EQ(t.raw_triangles, r.triangles + 2 * t.collapsed_raw_edges);
-    EXPECT_EQ(t.arcs, 2 * (t.polynomial_roots + t.bracketed_roots + t.late_roots));  // one arc per root and strip
+    EXPECT_EQ(t.arcs, 2 * (t.polynomial_roots + t.bracketed_roots));  // one arc per root and strip
     EXPECT_GT(t.lines, 0u);
     EXPECT_GT(t.polygons, 0u);
     EXPECT_GT(t.field_evaluations, 0u);

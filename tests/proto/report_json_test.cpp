@@ -83,7 +83,7 @@ trace_stats sample_trace_stats() {
   t.lines = 101;
   t.proven_lines = 61;
   t.polynomial_roots = 102;
-  t.late_roots = 3;
+  t.tangent_root_intervals = 3;
   t.arcs = 104;
   t.bracketed_roots = 5;
   t.polygons = 106;
@@ -165,7 +165,7 @@ TEST(ReportJson, TraceSectionHasTheParametersAndEveryCounter) {
                                    {"lines", 101},
                                    {"proven_lines", 61},
                                    {"polynomial_roots", 102},
-                                   {"late_roots", 3},
+                                   {"tangent_root_intervals", 3},
                                    {"arcs", 104},
                                    {"bracketed_roots", 5},
                                    {"polygons", 106},

@@ -1,6 +1,6 @@
 // Tests of core/trace/cell_polygons.hpp (Algorithm 2): a traced_surface is built by hand — roots on the lattice lines
 // (closed form for one atom, dense sampling + bisection otherwise), every strip beside a line traced with
-// trace_strip, late roots added until none appear — and every cell is closed and triangulated by mesh_cell. The
+// trace_strip — and every cell is closed and triangulated by mesh_cell. The
 // cells' triangles, put together, must form a closed surface in which every directed edge appears exactly once and
 // its reverse exactly once (orientation from the walls, docs/method.md#orientation-from-the-walls).
 #include "core/trace/cell_polygons.hpp"
@@ -47,7 +47,7 @@ std::vector<line_point> sampled_roots(const gaussian_field& field, double y, dou
           r = m;
         }
       }
-      line_point p{0.5 * (l + r), {}, false};
+      line_point p{0.5 * (l + r), {}};
       field.value_and_gradient({p.x, y, z}, p.gradient);
       out.push_back(p);
     }
@@ -69,7 +69,7 @@ trace_lines make_lines(const gaussian_field& field, double h, std::int64_t lo, s
         const double rest = *exact_radius * *exact_radius - y * y - z * z;
         if (rest <= 0) continue;
         for (const double x : {-std::sqrt(rest), std::sqrt(rest)}) {
-          line_point p{x, {}, false};
+          line_point p{x, {}};
           field.value_and_gradient({x, y, z}, p.gradient);
           entries.push_back({{j, k}, p});
         }
@@ -82,8 +82,8 @@ trace_lines make_lines(const gaussian_field& field, double h, std::int64_t lo, s
 }
 
 
-/// Traces every strip, adds late roots and re-traces until none appear; numbers the interior points.
-traced_surface trace_surface(const gaussian_field& field, double h, trace_lines lines, std::size_t& late_roots) {
+/// Traces every strip once; numbers the interior points.
+traced_surface trace_surface(const gaussian_field& field, double h, trace_lines lines) {
   traced_surface surface;
   surface.spacing = h;
   surface.lines = std::move(lines);
@@ -91,18 +91,8 @@ traced_surface trace_surface(const gaussian_field& field, double h, trace_lines 
   settings.spacing = h;
   settings.max_step = 0.5 * h;
   settings.resample_spacing = h;
-  late_roots = 0;
-  for (int round = 0; round < 8; ++round) {
-    surface.strips = strips_beside(surface.lines);
-    surface.traces.clear();
-    std::vector<trace_lines::entry> late;
-    for (const strip_id& s : surface.strips) {
-      surface.traces.push_back(trace_strip(field, surface.lines, s, settings));
-      late.insert(late.end(), surface.traces.back().late_roots.begin(), surface.traces.back().late_roots.end());
-    }
-    if (late.empty()) break;
-    late_roots += surface.lines.add(std::move(late));
-  }
+  surface.strips = strips_beside(surface.lines);
+  for (const strip_id& s : surface.strips) surface.traces.push_back(trace_strip(field, surface.lines, s, settings));
   std::uint32_t next = static_cast<std::uint32_t>(surface.lines.root_count());
   surface.interior_first.clear();
   for (const strip_trace& t : surface.traces) {
@@ -214,9 +204,7 @@ void expect_certified(const surface_mesh& mesh, std::size_t components, long gen
 TEST(cell_polygons, sphere_cells_chain_closed_loops_into_an_oriented_surface) {
   constexpr double r = 1.8, h = 0.7;
   const gaussian_field field(atoms({{{0, 0, 0}, r, 0}}), -1, 1);
-  std::size_t late = 0;
-  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -3, 3, r, 0), late);
-  EXPECT_EQ(late, 0u);
+  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -3, 3, r, 0));
   const meshed_cells m = mesh_all_cells(field, surface);
   ASSERT_FALSE(m.cells.empty());
   expect_every_cell_closed(m);
@@ -248,8 +236,7 @@ TEST(cell_polygons, sphere_cells_chain_closed_loops_into_an_oriented_surface) {
 TEST(cell_polygons, dumbbell_cells_chain_closed_loops_into_an_oriented_surface) {
   constexpr double h = 0.6;
   const gaussian_field field(atoms({{{-0.9, -0.55, 0.35}, 1.6, 0}, {{1.1, 0.75, -0.45}, 1.4, 0}}), -1, 1);
-  std::size_t late = 0;
-  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -6, 6, std::nullopt, 5), late);
+  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -6, 6, std::nullopt, 5));
   const meshed_cells m = mesh_all_cells(field, surface);
   ASSERT_FALSE(m.cells.empty());
   expect_every_cell_closed(m);
@@ -269,8 +256,7 @@ TEST(cell_polygons, torus_around_the_x_axis_keeps_its_handle) {
     ring.push_back({{0.05, 3.5 * std::cos(angle) + 0.13, 3.5 * std::sin(angle) - 0.21}, 1.5, 0});
   }
   const gaussian_field field(atoms(ring), -1, 1);
-  std::size_t late = 0;
-  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -8, 8, std::nullopt, 4), late);
+  const traced_surface surface = trace_surface(field, h, make_lines(field, h, -8, 8, std::nullopt, 4));
   const meshed_cells m = mesh_all_cells(field, surface);
   ASSERT_FALSE(m.cells.empty());
   expect_every_cell_closed(m);
@@ -278,8 +264,8 @@ TEST(cell_polygons, torus_around_the_x_axis_keeps_its_handle) {
   expect_certified(m.mesh, 1, 1);
 }
 
-// A root the lines lack (no late-root round): the arc that ends there names a point no line holds, so the cells
-// beside that strip cannot close their loops and say so.
+// A root the lines lack: no arc may end where the line holds no root, so a root of the strip is left without an arc
+// and the cells beside that strip cannot close their loops, and say so.
 TEST(cell_polygons, a_cell_whose_arc_ends_off_the_lines_reports_it_is_open) {
   constexpr double r = 1.8, h = 0.7;
   const gaussian_field field(atoms({{{0, 0, 0}, r, 0}}), -1, 1);
@@ -304,7 +290,7 @@ TEST(cell_polygons, a_cell_whose_arc_ends_off_the_lines_reports_it_is_open) {
     surface.interior_first.push_back(next);
     next += static_cast<std::uint32_t>(surface.traces.back().interior.size());
   }
-  // The four cells around line (1, 1) read an arc ending at the missing root.
+  // The four cells around line (1, 1) lack the arc that would end at the missing root.
   for (const cell_id c : {cell_id{0, 0}, cell_id{1, 0}, cell_id{0, 1}, cell_id{1, 1}}) {
     const cell_mesh m = mesh_cell(field, surface, c);
     EXPECT_FALSE(m.closed) << "cell (" << c.j << ", " << c.k << ")";

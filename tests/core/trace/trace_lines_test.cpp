@@ -1,5 +1,4 @@
-// Tests of core/trace/trace_lines.hpp: the roots of the trace path's lines, merged, sorted, numbered and grown by
-// late roots (method.md §7.2).
+// Tests of core/trace/trace_lines.hpp: the roots of the trace path's lines, merged, sorted and numbered.
 #include "core/trace/trace_lines.hpp"
 
 #include <gtest/gtest.h>
@@ -11,9 +10,7 @@ namespace {
 
 using entry = trace_lines::entry;
 
-entry root(std::int64_t j, std::int64_t k, double x, bool late = false) {
-  return {{j, k}, {x, {x, 2.0 * x, 3.0 * x}, late}};
-}
+entry root(std::int64_t j, std::int64_t k, double x) { return {{j, k}, {x, {x, 2.0 * x, 3.0 * x}}}; }
 
 std::vector<double> xs(std::span<const line_point> roots) {
   std::vector<double> out;
@@ -100,33 +97,8 @@ TEST(trace_lines, absent_lines_are_not_found_and_hold_no_roots) {
   EXPECT_TRUE(empty.entries().empty());
 }
 
-TEST(trace_lines, add_inserts_late_roots_in_order_and_counts_only_new_ones) {
-  constexpr double tol = trace_lines::merge_tolerance;
-  trace_lines lines({root(0, 0, -1.0), root(0, 0, 1.0), root(1, 0, 0.0)});
-  const std::size_t added = lines.add({root(0, 0, 0.25, true),             // new, between two roots
-                                       root(0, 0, 1.0 + 0.3 * tol, true),  // already there
-                                       root(5, 5, 2.0, true),              // on a new line
-                                       root(5, 5, 2.0, true)});            // twice in the same batch
-  EXPECT_EQ(added, 2u);
-  ASSERT_EQ(lines.line_count(), 3u);
-  EXPECT_EQ(lines.root_count(), 5u);
-  EXPECT_EQ(xs(lines.roots_of({0, 0})), (std::vector<double>{-1.0, 0.25, 1.0}));
-  EXPECT_FALSE(lines.roots_of({0, 0})[0].late);
-  EXPECT_TRUE(lines.roots_of({0, 0})[1].late);
-  EXPECT_FALSE(lines.roots_of({0, 0})[2].late);  // the known root stays as it was
-  EXPECT_EQ(lines.id(2), (line_id{5, 5}));
-  EXPECT_TRUE(lines.roots_of({5, 5})[0].late);
-  // Numbering follows the new order: the late root takes index 1 and shifts the rest.
-  EXPECT_EQ(lines.global_index(lines.find({0, 0}), 1), 1u);
-  EXPECT_EQ(lines.global_index(lines.find({1, 0}), 0), 3u);
-  EXPECT_EQ(lines.global_index(lines.find({5, 5}), 0), 4u);
-  EXPECT_EQ(lines.add({root(0, 0, -1.0)}), 0u);
-  EXPECT_EQ(lines.add({}), 0u);
-  EXPECT_EQ(lines.root_count(), 5u);
-}
-
 TEST(trace_lines, entries_rebuild_the_same_lines) {
-  const trace_lines lines({root(2, 1, 3.0), root(0, 0, 1.0, true), root(0, 0, -4.0), root(2, 1, -3.0)});
+  const trace_lines lines({root(2, 1, 3.0), root(0, 0, 1.0), root(0, 0, -4.0), root(2, 1, -3.0)});
   const trace_lines rebuilt(lines.entries());
   ASSERT_EQ(rebuilt.line_count(), lines.line_count());
   ASSERT_EQ(rebuilt.root_count(), lines.root_count());
@@ -135,7 +107,6 @@ TEST(trace_lines, entries_rebuild_the_same_lines) {
     ASSERT_EQ(rebuilt.roots(n).size(), lines.roots(n).size());
     for (std::size_t r = 0; r < lines.roots(n).size(); ++r) {
       EXPECT_EQ(rebuilt.roots(n)[r].x, lines.roots(n)[r].x);
-      EXPECT_EQ(rebuilt.roots(n)[r].late, lines.roots(n)[r].late);
       EXPECT_EQ(rebuilt.roots(n)[r].gradient, lines.roots(n)[r].gradient);
     }
   }

@@ -86,7 +86,7 @@ TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing)
   // The exact root, with a gradient that is recognisably the caller's (scaled by 2): it must be used as given.
   const double root_x = std::sqrt(rho * rho - 1.44);
   const surface_sample root = sample_at(field, {root_x, 1.2, plane_z});
-  const std::vector<line_point> lone{{-root_x, root.gradient, false}, {root_x, 2.0 * root.gradient, false}};
+  const std::vector<line_point> lone{{-root_x, root.gradient}, {root_x, 2.0 * root.gradient}};
   settings.high_roots = lone;
   std::size_t known_evaluations = 0;
   const traced_arc known = trace_contour(field, {2, plane_z}, start, -1, settings, known_evaluations);
@@ -96,7 +96,7 @@ TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing)
   EXPECT_LT(known_evaluations, polished_evaluations);
 
   // A second root 0.02 Å away (a near-tangency): the walk polishes and finds the exact crossing itself.
-  const std::vector<line_point> pair{{root_x - 0.02, root.gradient, false}, {root_x + 1e-3, 2.0 * root.gradient, false}};
+  const std::vector<line_point> pair{{root_x - 0.02, root.gradient}, {root_x + 1e-3, 2.0 * root.gradient}};
   settings.high_roots = pair;
   std::size_t pair_evaluations = 0;
   const traced_arc decided = trace_contour(field, {2, plane_z}, start, -1, settings, pair_evaluations);

@@ -98,7 +98,7 @@ TEST(untouched_cavities, a_void_that_a_line_meets_is_left_to_the_lines) {
   const gaussian_field field(shell_around_a_small_void(), -1, 1);
   untouched_cavity_stats stats;
   // Lines of spacing 0.5: line (1, 1) passes through the void's centre and holds its two roots.
-  const trace_lines lines({{{1, 1}, {void_centre.x - 0.5, {}, false}}, {{1, 1}, {void_centre.x + 0.5, {}, false}}});
+  const trace_lines lines({{{1, 1}, {void_centre.x - 0.5, {}}}, {{1, 1}, {void_centre.x + 0.5, {}}}});
   EXPECT_TRUE(search(field, lines, 0.5, {{0.13, 0, 0}, {0.13, 1, 1}}, stats).empty());
   EXPECT_EQ(stats.pockets, 1u) << "the pocket is found, then left to the lines";
 }
