@@ -282,6 +282,22 @@ template <int W>
   ws.line_count = kept;
 }
 
+/// W gathered atoms of the current line (gather_line_atoms), from entry `a` on.
+template <class F>
+struct line_atom_pack {
+  F x, d_inv_r2, weight, dy2, dz2, cutoff2;
+};
+template <class F>
+[[gnu::always_inline]] inline void load_line_atoms(const line_root_finder::workspace& ws, std::size_t a,
+                                                   line_atom_pack<F>& p) {
+  simd::load(p.x, ws.line_x.data() + a);
+  simd::load(p.d_inv_r2, ws.line_d_inv_r2.data() + a);
+  simd::load(p.weight, ws.line_weight.data() + a);
+  simd::load(p.dy2, ws.line_dy2.data() + a);
+  simd::load(p.dz2, ws.line_dz2.data() + a);
+  simd::load(p.cutoff2, ws.line_cutoff2.data() + a);
+}
+
 /// φ, φ_x, φ_xx at x on the current line: each atom cut off exactly as gaussian_field does,
 /// (δx² + δy²) + δz² < cutoff², and kernel = e^(−d)·e^(dδy²/r²)·e^(dδz²/r²)·e^(dδx²/r²).
 template <int W>
@@ -289,14 +305,11 @@ template <int W>
   using F = typename simd::pack<W>::f64;
   F value{}, slope{}, curvature{};
   for (std::size_t a = 0; a < ws.line_count; a += W) {
-    F cx, d_inv_r2, weight, y2, z2, cutoff2;
-    simd::load(cx, ws.line_x.data() + a);
-    simd::load(d_inv_r2, ws.line_d_inv_r2.data() + a);
-    simd::load(weight, ws.line_weight.data() + a);
-    simd::load(y2, ws.line_dy2.data() + a);
-    simd::load(z2, ws.line_dz2.data() + a);
-    simd::load(cutoff2, ws.line_cutoff2.data() + a);
-    const F dx = x - cx;
+    line_atom_pack<F> atoms;
+    load_line_atoms(ws, a, atoms);
+    const F &d_inv_r2 = atoms.d_inv_r2, &weight = atoms.weight, &y2 = atoms.dy2, &z2 = atoms.dz2;
+    const F& cutoff2 = atoms.cutoff2;
+    const F dx = x - atoms.x;
     const F dx2 = dx * dx;
     const F r2 = (dx2 + y2) + z2;
     F kernel = d_inv_r2 * dx2;
@@ -533,13 +546,9 @@ template <int W>
   interval_sums<F> sums;
   const double half_decay = kernel_exp(-0.5);
   for (std::size_t a = 0; a < ws.line_count; a += W) {
-    F c, k, weight, y2, z2, cutoff2;
-    simd::load(c, ws.line_x.data() + a);
-    simd::load(k, ws.line_d_inv_r2.data() + a);
-    simd::load(weight, ws.line_weight.data() + a);
-    simd::load(y2, ws.line_dy2.data() + a);
-    simd::load(z2, ws.line_dz2.data() + a);
-    simd::load(cutoff2, ws.line_cutoff2.data() + a);
+    line_atom_pack<F> atoms;
+    load_line_atoms(ws, a, atoms);
+    const F &c = atoms.x, &k = atoms.d_inv_r2;
     // The slope's peak: at δx = ±1/√(−2k), of magnitude √(−2k)·e^(−1/2) (padding lanes: k = 0, weight = 0).
     F peak_offset{}, peak_slope{};
     for (int lane = 0; lane < W; ++lane) {
@@ -551,7 +560,8 @@ template <int W>
     F e_lo = k * (lo * lo), e_hi = k * (hi * hi);
     simd::exp_in_place(e_lo);
     simd::exp_in_place(e_hi);
-    add_interval_terms<F>(lo, hi, e_lo, e_hi, k, weight, y2 + z2, cutoff2, peak_offset, peak_slope, sums);
+    add_interval_terms<F>(lo, hi, e_lo, e_hi, k, atoms.weight, atoms.dy2 + atoms.dz2, atoms.cutoff2, peak_offset,
+                          peak_slope, sums);
   }
   return {simd::lane_sum(sums.phi_low), simd::lane_sum(sums.phi_high), simd::lane_sum(sums.slope_low),
           simd::lane_sum(sums.slope_high), simd::lane_sum(sums.slope_scale)};
