@@ -567,9 +567,7 @@ template <int W>
           simd::lane_sum(sums.slope_high), simd::lane_sum(sums.slope_scale)};
 }
 
-/// What the bounds prove about an interval.
-enum class interval_proof : char { no_root, one_root, undecided };
-char interval_proof_code(interval_proof p) { return static_cast<char>(p); }
+using interval_proof = line_root_finder::interval_proof;
 
 /// The proof from the curvature bound alone: |φ''| ≤ K on the line (K = Σ weight·2|d|/r², as |d²/dx² e^(d·δx²/r²)|
 /// ≤ 2|d|/r²), so on [lo, lo + width] φ lies within K·width²/8 of the chord between its end values, and φ' within
@@ -645,7 +643,7 @@ bool prove_by_curvature(line_root_finder::workspace& ws, std::span<const double>
                         double t0, const double* piece_curvature,
                         const std::array<double, bound_pieces + 1>& piece_edges,
                         const std::array<bool, bound_pieces>& pieces_proven) {
-  ws.proofs.assign(node_x.size() - 1, interval_proof_code(interval_proof::no_root));
+  ws.proofs.assign(node_x.size() - 1, interval_proof::no_root);
   ws.interval_curvature.resize(node_x.size() - 1);
   bool any = false;
   int piece = 0;
@@ -658,7 +656,7 @@ bool prove_by_curvature(line_root_finder::workspace& ws, std::span<const double>
                                               : std::max(piece_curvature[piece], piece_curvature[piece + 1]);
     ws.interval_curvature[m] = curvature;
     const interval_proof proof = prove_by_curvature(curvature, hi - lo, values[m] - t0, values[m + 1] - t0, t0);
-    ws.proofs[m] = interval_proof_code(proof);
+    ws.proofs[m] = proof;
     any |= proof != interval_proof::no_root;
   }
   return any;
@@ -671,7 +669,7 @@ template <int W>
                                                  const double* values, double t0, line_root_stats& stats) {
   ws.brackets.clear();
   for (std::size_t m = 0; m + 1 < node_x.size(); ++m) {
-    switch (static_cast<interval_proof>(ws.proofs[m])) {
+    switch (ws.proofs[m]) {
       case interval_proof::one_root:
         ws.brackets.push_back({node_x[m], node_x[m + 1], values[m] >= t0});
         break;
@@ -708,7 +706,7 @@ template <int W>
     ++(seeded ? stats.polynomial_roots : stats.bracketed_roots);
     used += seeded;
   }
-  stats.rejected_roots += ws.candidates.size() - std::min(used, ws.candidates.size());
+  stats.rejected_roots += ws.candidates.size() - used;  // at most one candidate seeds each bracket
   sort_unique(found);
 }
 

@@ -124,6 +124,9 @@ class line_root_finder {
   void find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
             std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats);
 
+  /// What the bounds prove about an interval of a line.
+  enum class interval_proof : char { no_root, one_root, undecided };
+
   /// An interval of a line proved to hold exactly one root: (lo, hi), and whether φ ≥ t0 at lo.
   struct root_bracket {
     double lo, hi;
@@ -156,7 +159,7 @@ class line_root_finder {
     std::vector<double> candidates;                       ///< candidates of the current line, Å
     std::vector<double> legendre, bernstein;              ///< one fit's coefficients
     std::vector<double> curvature;           ///< per line and piece: a bound on |φ_xx| (bound_lines)
-    std::vector<char> proofs;                ///< the current line's intervals, as the curvature bound proves them
+    std::vector<interval_proof> proofs;      ///< the current line's intervals, as the curvature bound proves them
     std::vector<double> interval_curvature;  ///< and the bound on |φ_xx| over each
     std::vector<root_bracket> brackets;   ///< the current line's one-root intervals
   };
