@@ -13,9 +13,7 @@ namespace {
 constexpr double root_tolerance = 1e-10;
 /// Roots of one line closer than this (Å) with the same sign of φ_x are the same root.
 constexpr double duplicate_distance = 1e-9;
-/// Polishing from a series candidate gives up after this many steps (from a good guess it takes two).
-constexpr int max_newton_iterations = 16;
-/// Bracketed polishing (sign walk) gives up after this many steps (bisection alone needs ~40 on a fit).
+/// Bracketed polishing gives up after this many steps (bisection alone needs ~40 on a fit).
 constexpr int max_bracket_iterations = 100;
 /// Roots and extrema of a fit's series are polished to this (in s): they only start polishing on φ itself, from
 /// which the series differs by its fit error (≳ 1e-8 of the span).

@@ -157,10 +157,12 @@ void check_block(const gaussian_field& field, const lattice& lat, const lattice_
     check.roots += roots.size();
     if (scan_samples == 0) continue;
     const vec3 p = point_on_line(lat, block, j, k, 0);
-    for (const auto& [lo, hi] : scan_line(field, p, box.lo.x, box.hi.x, scan_samples)) {
+    for (const auto& bracket : scan_line(field, p, box.lo.x, box.hi.x, scan_samples)) {
       ++check.scanned;
-      const bool has_root = std::any_of(roots.begin(), roots.end(),
-                                        [&](const line_root& r) { return r.x >= lo - 1e-9 && r.x <= hi + 1e-9; });
+      const auto in_bracket = [&](const line_root& r) {
+        return r.x >= bracket.first - 1e-9 && r.x <= bracket.second + 1e-9;
+      };
+      const bool has_root = std::any_of(roots.begin(), roots.end(), in_bracket);
       if (!has_root) ++check.missed;
     }
   }

@@ -184,7 +184,8 @@ TEST(LoopTriangulation, PlanarConvexPolygonHasShoelaceArea) {
 TEST(LoopTriangulation, SquareOnCornerLinesTakesTheBetterDiagonal) {
   // Four roots on the corner lines of the cell y, z ∈ [0, 1], on the plane x = α·y + β·z (outward normal towards
   // +x, so counter-clockwise in (y, z) is counter-clockwise seen from outside). Both diagonals are admissible.
-  for (const auto& [alpha, beta] : {std::pair{1.5, 0.5}, std::pair{1.5, -1.0}, std::pair{-0.4, 1.2}}) {
+  for (const auto& slopes : {std::pair{1.5, 0.5}, std::pair{1.5, -1.0}, std::pair{-0.4, 1.2}}) {
+    const double alpha = slopes.first, beta = slopes.second;
     const vec3 normal{1, -alpha, -beta};
     const auto at = [&](double y, double z) { return vec3{alpha * y + beta * z, y, z}; };
     const std::vector<loop_vertex> loop = {vertex(at(0, 0), normal, line_jk), vertex(at(1, 0), normal, line_j1k),
