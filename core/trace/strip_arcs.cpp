@@ -179,15 +179,22 @@ struct pending_arc {
   strip_arc stored;
 };
 
+/// Polished points take a Newton update shorter than this (Å) without evaluating the field after it: the point is
+/// then within ~curvature × 1e-12 Å of the contour, and its gradient, from before the update, is off by ~1e-6 of
+/// its length. Newton converges quadratically, so this saves the evaluation that would only confirm convergence.
+constexpr double polish_blind_step = 1e-6;
+
 /// Puts a point near the contour onto it to 1e-11 Å, keeping its flags; false (p unchanged) when that fails. Through
 /// the walk's neighbourhood when the walk is on the exact field (its atoms are gathered already), on `field` directly
 /// otherwise (an arc polishes too few points to repay a gather of its own).
 bool polish(const gaussian_field& field, field_neighbourhood& walk, const trace_plane& plane, surface_sample& p,
             double h, std::size_t& evaluations) {
+  constexpr double tolerance = 1e-11;
   surface_sample polished;
-  const bool corrected = &walk.field() == &field
-                             ? correct_in_plane(walk, plane, p.position, h, polished, evaluations)
-                             : correct_in_plane(field, plane, p.position, h, polished, evaluations);
+  const bool corrected =
+      &walk.field() == &field
+          ? correct_in_plane(walk, plane, p.position, h, polished, evaluations, tolerance, polish_blind_step)
+          : correct_in_plane(field, plane, p.position, h, polished, evaluations, tolerance, polish_blind_step);
   if (!corrected) return false;
   polished.extreme = p.extreme;
   p = polished;

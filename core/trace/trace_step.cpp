@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace tracemesh {
 namespace {
@@ -75,6 +76,27 @@ const line_point* known_crossing(std::span<const line_point> roots, double x, do
 /// True when a walk point at v lies within exact_near_line of one of the strip's lines, or beyond it.
 bool near_a_line(double v, const trace_step_settings& settings) {
   return v - settings.v_low < settings.exact_near_line || settings.v_high - v < settings.exact_near_line;
+}
+
+/// Where the chord p0 → p1 crosses the line it reaches (p1 on or past the line v = line_v): p0 moved along it to
+/// v = line_v (step 6).
+vec3 chord_crossing(const vec3& p0, const vec3& p1, int v, double line_v) {
+  const double f = (line_v - p0[v]) / (p1[v] - p0[v]);
+  vec3 guess = p0;
+  guess.x += f * (p1.x - p0.x);
+  guess[v] = line_v;
+  return guess;
+}
+
+/// The line a walk point at v has reached (on or past it): v_low or v_high; NaN when it is inside the strip.
+double reached_line(double v, const trace_step_settings& settings) {
+  if (v <= settings.v_low) return settings.v_low;
+  if (v >= settings.v_high) return settings.v_high;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+std::span<const line_point> roots_of_line(double line_v, const trace_step_settings& settings) {
+  return line_v == settings.v_low ? settings.low_roots : settings.high_roots;
 }
 
 /// The next step's first try: the normal turned by acos(turn) over h, so a step of h·θ_max/θ would turn it by the
@@ -200,11 +222,19 @@ traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk,
       predicted[v] += h * t.v;
       surface_sample p1;
       // Step 3 on the walk field; a point that lands near (or past) a line is corrected again on the exact field,
-      // which decides crossings and near-tangencies.
+      // which decides crossings and near-tangencies. Not one past a line whose chord arrives at a lone known root
+      // there (below): that root, solved on the exact field, is the crossing, and the walk field's error (~1e-3 Å)
+      // is far below the reach that picks it.
+      const auto arrives_at_known_root = [&](const surface_sample& q) {
+        const double line_v = reached_line(q.position[v], settings);
+        return !std::isnan(line_v) && known_crossing(roots_of_line(line_v, settings),
+                                                     chord_crossing(p0.position, q.position, v, line_v).x,
+                                                     known_root_reach * h) != nullptr;
+      };
       const bool corrected =
           correct_in_plane(walk, plane, predicted, h, p1, evaluations, settings.corrector_tolerance,
                            settings.blind_step) &&
-          (!separate_walk || !near_a_line(p1.position[v], settings) ||
+          (!separate_walk || !near_a_line(p1.position[v], settings) || arrives_at_known_root(p1) ||
            correct_in_plane(field, plane, p1.position, h, p1, evaluations, settings.corrector_tolerance,
                             settings.blind_step));
       if (!corrected) {
@@ -223,16 +253,11 @@ traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk,
         continue;
       }
       p1.extreme = std::abs(fx1) < eps;  // step 4
-      if (v1 <= settings.v_low || v1 >= settings.v_high) {  // step 6: the segment reaches a line
-        const double line_v = v1 <= settings.v_low ? settings.v_low : settings.v_high;
-        const double f = (line_v - p0.position[v]) / (v1 - p0.position[v]);
-        vec3 guess = p0.position;
-        guess.x += f * (p1.position.x - p0.position.x);
-        guess[v] = line_v;
+      if (const double line_v = reached_line(v1, settings); !std::isnan(line_v)) {  // step 6: it reaches a line
+        const vec3 guess = chord_crossing(p0.position, p1.position, v, line_v);
         surface_sample crossing;
         // The chord's crossing is within ~curvature × h²/8 of the contour's: a lone known root that close is it.
-        const line_point* known = known_crossing(line_v == settings.v_low ? settings.low_roots : settings.high_roots,
-                                                 guess.x, known_root_reach * h);
+        const line_point* known = known_crossing(roots_of_line(line_v, settings), guess.x, known_root_reach * h);
         if (known != nullptr) {
           crossing.position = guess;
           crossing.position.x = known->x;

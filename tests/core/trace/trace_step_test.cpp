@@ -105,6 +105,39 @@ TEST(trace_step, a_lone_known_root_near_the_crossing_is_taken_without_polishing)
   EXPECT_NE(decided.points.back().gradient.x, 2.0 * root.gradient.x);
 }
 
+// A walk on an approximate field whose last step lands past a line with a lone known root next to the chord's
+// crossing takes that root without correcting the step on the exact field: it costs exactly the walk field's own
+// evaluations, as the same walk made on the walk field alone.
+TEST(trace_step, a_step_that_arrives_at_a_lone_known_root_is_not_corrected_on_the_exact_field) {
+  const gaussian_field field(lone_atom(), -1, 1);
+  const gaussian_field walk(lone_atom(), -1, 1.01);
+  const double rho = contour_radius();
+  trace_step_settings settings = strip_from_0_2_to_1_2();
+  settings.exact_near_line = 0;  // only points past a line are candidates for the exact field
+  const double root_x = std::sqrt(rho * rho - 1.44);
+  const std::vector<line_point> lone{{root_x, sample_at(field, {root_x, 1.2, plane_z}).gradient}};
+  settings.high_roots = lone;
+  const surface_sample start = start_on_the_low_line(field);
+
+  std::size_t walk_alone = 0;
+  const traced_arc reference = trace_contour(walk, {2, plane_z}, start, -1, settings, walk_alone);
+  settings.walk_field = &walk;
+  std::size_t on_walk_field = 0;
+  const traced_arc arc = trace_contour(field, {2, plane_z}, start, -1, settings, on_walk_field);
+  ASSERT_EQ(arc.end, trace_end::high_line);
+  EXPECT_EQ(arc.points.back().position.x, root_x);
+  EXPECT_EQ(on_walk_field, walk_alone);
+  ASSERT_EQ(arc.points.size(), reference.points.size());
+
+  // Without the known root the crossing is decided on the exact field: the step is corrected and polished there.
+  settings.high_roots = {};
+  std::size_t decided = 0;
+  const traced_arc polished = trace_contour(field, {2, plane_z}, start, -1, settings, decided);
+  ASSERT_EQ(polished.end, trace_end::high_line);
+  EXPECT_NEAR(polished.points.back().position.x, root_x, 1e-9);
+  EXPECT_GT(decided, on_walk_field);
+}
+
 // The walk may run on an approximate field (here: another isovalue, so its contour is a visibly different circle);
 // points that land within exact_near_line of a line, and the crossing, are on the exact contour.
 TEST(trace_step, walks_on_the_walk_field_and_decides_near_lines_on_the_exact_one) {
