@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "support/shell_molecule.hpp"
@@ -132,6 +134,67 @@ TEST(untouched_cavities, the_face_proof_follows_the_closed_form_of_one_atom) {
   EXPECT_FALSE(box_faces_above_level(field, cube(3.0), 1e-3));   // the faces cross the sphere
   // A box off the centre whose nearest face still lies inside the sphere and farthest corner outside it.
   EXPECT_FALSE(box_faces_above_level(field, box3{{0.5, -0.5, -0.5}, {2.5, 0.5, 0.5}}, 1e-3));
+}
+
+/// Eight atoms of radius 1.5 at the corners (±1.2, ±1.2, ±1.2): at the centre their gradients cancel.
+molecule cube_of_eight_atoms() {
+  molecule eight;
+  for (const double x : {-1.2, 1.2}) {
+    for (const double y : {-1.2, 1.2}) {
+      for (const double z : {-1.2, 1.2}) eight.atoms.push_back({{x, y, z}, 1.5, 0});
+    }
+  }
+  return eight;
+}
+
+/// The least of φ over a grid of n × n points on each face of `box`.
+double least_on_faces(const gaussian_field& field, const box3& box, int n) {
+  double least = std::numeric_limits<double>::infinity();
+  for (int axis = 0; axis < 3; ++axis) {
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    for (const double side : {box.lo[axis], box.hi[axis]}) {
+      for (int u = 0; u < n; ++u) {
+        for (int v = 0; v < n; ++v) {
+          vec3 p;
+          p[axis] = side;
+          p[a] = box.lo[a] + (box.hi[a] - box.lo[a]) * u / (n - 1);
+          p[b] = box.lo[b] + (box.hi[b] - box.lo[b]) * v / (n - 1);
+          least = std::min(least, field.value(p));
+        }
+      }
+    }
+  }
+  return least;
+}
+
+// Among atoms whose pulls cancel, the centred form of the bound proves a face that the per-atom extremes of eqs. 3–5
+// cannot without cutting it: on the faces of the cube of half width 0.3 around the centre, φ ≥ 3.22, the centred form
+// gives 2.05 on a whole face and eqs. 3–5 only 1.57. With patches no smaller than the face, t0 = 1.8 is proven.
+TEST(untouched_cavities, the_face_proof_keeps_the_cancellation_between_atoms) {
+  const box3 cube{{-0.3, -0.3, -0.3}, {0.3, 0.3, 0.3}};
+  const gaussian_field field(cube_of_eight_atoms(), -1, 1.8);
+  ASSERT_GT(least_on_faces(field, cube, 61), 3.2);
+  EXPECT_TRUE(box_faces_above_level(field, cube, 1.0));
+}
+
+// The proof is sound: whatever t0, a box it proves has φ above t0 at every sampled point of its faces, and one whose
+// faces dip to t0 is refused.
+TEST(untouched_cavities, a_proven_face_is_above_the_level_at_every_sample) {
+  const molecule eight = cube_of_eight_atoms();
+  for (const double half : {0.2, 0.4, 0.6, 0.9}) {
+    const box3 cube{{-half, -half, -half}, {half, half, half}};
+    const double least = least_on_faces(gaussian_field(eight, -1, 1), cube, 81);
+    for (const double fraction : {0.5, 0.8, 0.95, 0.999, 1.001, 1.2}) {
+      const double t0 = fraction * least;
+      const gaussian_field field(eight, -1, t0);
+      const bool proven = box_faces_above_level(field, cube, 1e-3);
+      if (fraction > 1) {
+        EXPECT_FALSE(proven) << "half width " << half << ", t0 " << t0;
+      } else if (fraction <= 0.95) {
+        EXPECT_TRUE(proven) << "half width " << half << ", t0 " << t0;
+      }
+    }
+  }
 }
 
 }  // namespace
