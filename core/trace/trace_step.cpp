@@ -2,7 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <optional>
 
 namespace tracemesh {
 namespace {
@@ -88,11 +88,11 @@ vec3 chord_crossing(const vec3& p0, const vec3& p1, int v, double line_v) {
   return guess;
 }
 
-/// The line a walk point at v has reached (on or past it): v_low or v_high; NaN when it is inside the strip.
-double reached_line(double v, const trace_step_settings& settings) {
+/// The line a walk point at v has reached (on or past it): v_low or v_high; none while it is inside the strip.
+std::optional<double> reached_line(double v, const trace_step_settings& settings) {
   if (v <= settings.v_low) return settings.v_low;
   if (v >= settings.v_high) return settings.v_high;
-  return std::numeric_limits<double>::quiet_NaN();
+  return std::nullopt;
 }
 
 std::span<const line_point> roots_of_line(double line_v, const trace_step_settings& settings) {
@@ -226,10 +226,10 @@ traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk,
       // there (below): that root, solved on the exact field, is the crossing, and the walk field's error (~1e-3 Å)
       // is far below the reach that picks it.
       const auto arrives_at_known_root = [&](const surface_sample& q) {
-        const double line_v = reached_line(q.position[v], settings);
-        return !std::isnan(line_v) && known_crossing(roots_of_line(line_v, settings),
-                                                     chord_crossing(p0.position, q.position, v, line_v).x,
-                                                     known_root_reach * h) != nullptr;
+        const std::optional<double> line_v = reached_line(q.position[v], settings);
+        return line_v && known_crossing(roots_of_line(*line_v, settings),
+                                        chord_crossing(p0.position, q.position, v, *line_v).x,
+                                        known_root_reach * h) != nullptr;
       };
       const bool corrected =
           correct_in_plane(walk, plane, predicted, h, p1, evaluations, settings.corrector_tolerance,
@@ -253,7 +253,8 @@ traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk,
         continue;
       }
       p1.extreme = std::abs(fx1) < eps;  // step 4
-      if (const double line_v = reached_line(v1, settings); !std::isnan(line_v)) {  // step 6: it reaches a line
+      if (const std::optional<double> reached = reached_line(v1, settings)) {  // step 6: the segment reaches a line
+        const double line_v = *reached;
         const vec3 guess = chord_crossing(p0.position, p1.position, v, line_v);
         surface_sample crossing;
         // The chord's crossing is within ~curvature × h²/8 of the contour's: a lone known root that close is it.
