@@ -301,10 +301,6 @@ double gap_to_neighbour(std::span<const line_point> roots, std::size_t i) {
   return gap;
 }
 
-}  // namespace
-
-namespace {
-
 /// One pass over the strip's roots with the given step: every root not yet the end of an arc starts one. An arc is
 /// refused when it fails, ends on a root that already has its arc, or comes back to its own line without an interior
 /// point; its root may still be reached by the arc of another root (the walk from the other end of the same piece of
@@ -326,6 +322,8 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
   step.high_roots = roots[1];
   step.v_low = low_v(strip, h);
   step.v_high = step.v_low + h;
+  step.max_step = settings.max_step;
+  step.cos_bound = settings.cos_bound;
   step.extreme_tolerance = settings.extreme_tolerance;
   step.walk_field = settings.walk_field;
   // One neighbourhood of the walk's field for the whole pass: the arcs of a strip lie close together.
@@ -340,27 +338,20 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
       const surface_sample start{root_position(strip, side, root.x, h), root.gradient, false};
       // Into the strip: the tangent's v component s·φ_x must be > 0 from the low line, < 0 from the high one.
       const int sign = (side == 0 ? 1 : -1) * (root.gradient.x > 0 ? 1 : -1);
-      traced_arc arc;
-      int end_side = 0;
-      std::int64_t match = -1;
-      bool accepted = false;
-      step.max_step = settings.max_step;
       step.first_step = std::min(settings.max_step, first_step_fraction * gap_to_neighbour(roots[side], i));
-      step.cos_bound = settings.cos_bound;
-      arc = trace_contour(field, walk, plane, start, sign, step, out.evaluations);
-      if (arc.end != trace_end::failed) {
-        end_side = arc.end == trace_end::low_line ? 0 : 1;
-        match = end_root(roots[end_side], arc.points.back().position.x, end_sign(end_side, sign),
-                         settings.spacing * end_match_fraction);
-        const bool taken = match >= 0 && (covered[end_side][static_cast<std::size_t>(match)] ||
-                                          (end_side == side && match == static_cast<std::int64_t>(i)));
-        const bool bare_return = end_side == side && arc.points.size() < 3;  // needs an interior point (§7.7)
-        // The end must be a root whose φ_x lets the walk leave the strip there (end_root takes no other): else it
-        // jumped to another branch of the contour and the arcs' directions would not chain (§7.10). The line roots
-        // are complete (line_roots.hpp), so a crossing with no such root near it went astray too.
-        accepted = match >= 0 && !taken && !bare_return;
-      }
-      if (!accepted) continue;
+      traced_arc arc = trace_contour(field, walk, plane, start, sign, step, out.evaluations);
+      if (arc.end == trace_end::failed) continue;
+      const int end_side = arc.end == trace_end::low_line ? 0 : 1;
+      // The end must be a root whose φ_x lets the walk leave the strip there (end_root takes no other): else it
+      // jumped to another branch of the contour and the arcs' directions would not chain (§7.10). The line roots
+      // are complete (line_roots.hpp), so a crossing with no such root near it went astray too.
+      const std::int64_t match = end_root(roots[end_side], arc.points.back().position.x, end_sign(end_side, sign),
+                                          settings.spacing * end_match_fraction);
+      if (match < 0) continue;
+      const bool taken = covered[end_side][static_cast<std::size_t>(match)] ||
+                         (end_side == side && match == static_cast<std::int64_t>(i));
+      const bool bare_return = end_side == side && arc.points.size() < 3;  // needs an interior point (§7.7)
+      if (taken || bare_return) continue;
       covered[side][i] = 1;
       covered[end_side][match] = 1;
       const double end_x = roots[end_side][match].x;
@@ -380,7 +371,7 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
       p.canonical = sign > 0;
       p.stored.start = p.canonical ? from : to;
       p.stored.end = p.canonical ? to : from;
-      p.first = root_position(strip, side, root.x, h);
+      p.first = start.position;
       p.last = root_position(strip, end_side, end_x, h);
       p.walk = std::move(arc.points);
       pending.push_back(std::move(p));
@@ -402,25 +393,6 @@ strip_trace trace_strip_once(const gaussian_field& field, const std::array<std::
   }
   return out;
 }
-
-}  // namespace
-
-std::vector<strip_id> strips_beside(const trace_lines& lines) {
-  std::vector<strip_id> strips;
-  strips.reserve(4 * lines.line_count());
-  for (std::size_t n = 0; n < lines.line_count(); ++n) {
-    const line_id& l = lines.id(n);
-    strips.push_back({0, l.j - 1, l.k});
-    strips.push_back({0, l.j, l.k});
-    strips.push_back({1, l.j, l.k - 1});
-    strips.push_back({1, l.j, l.k});
-  }
-  std::sort(strips.begin(), strips.end());
-  strips.erase(std::unique(strips.begin(), strips.end()), strips.end());
-  return strips;
-}
-
-namespace {
 
 /// The roots of one side of `strip` moved along their line to the level t0 + level_shift (Newton in x from each);
 /// false when one has no counterpart there: Newton fails, moves it more than max_shifted_root_move × the gap to a
@@ -476,6 +448,21 @@ bool trace_strip_shifted(const gaussian_field& field, const std::array<std::span
 }
 
 }  // namespace
+
+std::vector<strip_id> strips_beside(const trace_lines& lines) {
+  std::vector<strip_id> strips;
+  strips.reserve(4 * lines.line_count());
+  for (std::size_t n = 0; n < lines.line_count(); ++n) {
+    const line_id& l = lines.id(n);
+    strips.push_back({0, l.j - 1, l.k});
+    strips.push_back({0, l.j, l.k});
+    strips.push_back({1, l.j, l.k - 1});
+    strips.push_back({1, l.j, l.k});
+  }
+  std::sort(strips.begin(), strips.end());
+  strips.erase(std::unique(strips.begin(), strips.end()), strips.end());
+  return strips;
+}
 
 strip_trace trace_strip(const gaussian_field& field, const trace_lines& lines, const strip_id& strip,
                         const strip_settings& settings) {

@@ -127,9 +127,7 @@ bool correct_in_plane(Field& field, const trace_plane& plane, vec3 p, double max
     const double g2 = g.x * g.x + g.v * g.v;
     if (!(g2 > 0)) return false;
     if (converged(residual, std::sqrt(g2), t0, tolerance)) {
-      out.position = p;
-      out.gradient = gradient;
-      out.extreme = false;
+      out = {p, gradient, false};
       return true;
     }
     double dx = g.x * residual / g2, dv = g.v * residual / g2;  // Newton along the in-plane gradient (step 3)
@@ -142,9 +140,7 @@ bool correct_in_plane(Field& field, const trace_plane& plane, vec3 p, double max
     p[v] -= dv;
     if (distance(p, origin) > max_move) return false;
     if (length < blind_step) {  // the update's own error, ~curvature × length², is far below the walk's needs
-      out.position = p;
-      out.gradient = gradient;
-      out.extreme = false;
+      out = {p, gradient, false};
       return true;
     }
   }
@@ -161,9 +157,7 @@ bool polish_on_line(Field& field, vec3 guess, double max_move, surface_sample& o
     const double residual = field.value_and_gradient(guess, gradient) - (t0 + level_shift);
     ++evaluations;
     if (converged(residual, std::abs(gradient.x), t0)) {
-      out.position = guess;
-      out.gradient = gradient;
-      out.extreme = false;
+      out = {guess, gradient, false};
       return true;
     }
     if (gradient.x == 0) return false;
@@ -259,12 +253,7 @@ traced_arc trace_contour(const gaussian_field& field, field_neighbourhood& walk,
         surface_sample crossing;
         // The chord's crossing is within ~curvature × h²/8 of the contour's: a lone known root that close is it.
         const line_point* known = known_crossing(roots_of_line(line_v, settings), guess.x, known_root_reach * h);
-        if (known != nullptr) {
-          crossing.position = guess;
-          crossing.position.x = known->x;
-          crossing.gradient = known->gradient;
-          crossing.extreme = false;
-        }
+        if (known != nullptr) crossing = {{known->x, guess.y, guess.z}, known->gradient, false};
         const bool polished =
             known != nullptr ||
             (separate_walk ? polish_on_line(field, guess, h, crossing, evaluations, plane.level_shift)

@@ -81,9 +81,8 @@ struct trace_step_settings {
 /// over), and stops at the first segment that reaches a line (step 6); the crossing is interpolated and then
 /// polished onto the line by Newton in x, unless a known root of that line is the only one near the interpolated
 /// crossing: the walk then arrives at that root (already polished on the exact field), and the Newton iterations are
-/// saved. A step that would cross back over the start line at the start point
-/// itself is halved. Steps grow back towards h₁ by doubling after each accepted step.
-/// `evaluations` is increased by the number of field evaluations made.
+/// saved. A step that would cross back over the start line at the start point itself is halved. Steps grow back
+/// towards h₁ by doubling after each accepted step. `evaluations` is increased by the number of field evaluations made.
 traced_arc trace_contour(const gaussian_field& field, const trace_plane& plane, const surface_sample& start, int sign,
                          const trace_step_settings& settings, std::size_t& evaluations);
 
