@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
 
 namespace tracemesh {
@@ -231,18 +232,6 @@ double legendre_value(std::span<const double> coefficients, double s, double& de
   return b1;
 }
 
-void legendre_derivative(std::span<const double> coefficients, std::span<double> derivative) {
-  // b_{n−1} = (2n − 1)(a_n + b_{n+1}/(2n + 3)), from P'_{n+1} − P'_{n−1} = (2n + 1)Pₙ.
-  const int degree = static_cast<int>(coefficients.size()) - 1;
-  double next = 0, next_next = 0;  // b_{n}, b_{n+1}
-  for (int n = degree; n >= 1; --n) {
-    const double b = (2 * n - 1) * (coefficients[static_cast<std::size_t>(n)] + next_next / (2 * n + 3));
-    derivative[static_cast<std::size_t>(n - 1)] = b;
-    next_next = next;
-    next = b;
-  }
-}
-
 void legendre_to_bernstein(std::span<const double> coefficients, std::span<double> bernstein) {
   check_degree(coefficients.size());
   const int m = static_cast<int>(coefficients.size()) - 1;
@@ -254,7 +243,6 @@ void legendre_to_bernstein(std::span<const double> coefficients, std::span<doubl
 }
 
 void legendre_roots(std::span<const double> coefficients, std::vector<double>& roots, double tolerance) {
-  check_degree(coefficients.size());
   bernstein_array b{};
   legendre_to_bernstein(coefficients, std::span<double>(b.data(), coefficients.size()));
   legendre_roots(coefficients, std::span<const double>(b.data(), coefficients.size()), roots, tolerance);
@@ -275,12 +263,11 @@ void legendre_roots(std::span<const double> coefficients, std::span<const double
   roots.erase(unique_end, roots.end());
 }
 
-legendre_fitter::legendre_fitter(int degree) : degree_(degree), rule_() {
+legendre_fitter::legendre_fitter(int degree) : degree_(degree) {
   if (degree < 1 || degree > legendre_max_degree) throw std::invalid_argument("legendre_fitter: degree out of range");
   const int count = degree + 1;
   rule_ = gauss_legendre(count);
   fit_.assign(static_cast<std::size_t>(count * count), 0.0);
-  bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
   for (int n = 0; n < count; ++n) {
     for (int m = 0; m < count; ++m) {
       const auto mm = static_cast<std::size_t>(m);
@@ -288,32 +275,13 @@ legendre_fitter::legendre_fitter(int degree) : degree_(degree), rule_() {
           (2 * n + 1) / 2.0 * rule_.weights[mm] * legendre_polynomial(n, rule_.nodes[mm]);
     }
   }
-  for (int j = 0; j < count; ++j) {
-    for (int n = 0; n < count; ++n) {
-      bernstein_[static_cast<std::size_t>(j * count + n)] = legendre_bernstein_entry(degree, n, j);
-    }
-  }
 }
 
 void legendre_fitter::coefficients(std::span<const double> values, std::span<double> out) const {
-  for (int n = 0; n <= degree_; ++n) out[static_cast<std::size_t>(n)] = coefficient(values, n);
-}
-
-double legendre_fitter::coefficient(std::span<const double> values, int n) const {
   const auto count = static_cast<std::size_t>(degree_ + 1);
-  const double* row = fit_.data() + static_cast<std::size_t>(n) * count;
-  double sum = 0;
-  for (std::size_t m = 0; m < count; ++m) sum += row[m] * values[m];
-  return sum;
-}
-
-void legendre_fitter::bernstein(std::span<const double> coefficients, std::span<double> out) const {
-  const auto count = static_cast<std::size_t>(degree_ + 1);
-  for (std::size_t j = 0; j < count; ++j) {
-    const double* row = bernstein_.data() + j * count;
-    double sum = 0;
-    for (std::size_t n = 0; n < count; ++n) sum += row[n] * coefficients[n];
-    out[j] = sum;
+  for (std::size_t n = 0; n < count; ++n) {
+    const double* row = fit_.data() + n * count;
+    out[n] = std::inner_product(row, row + count, values.begin(), 0.0);
   }
 }
 

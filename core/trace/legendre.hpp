@@ -53,10 +53,6 @@ double legendre_value(std::span<const double> coefficients, double s);
 /// Σₙ aₙPₙ(s) and its derivative d/ds (written to `derivative`), by Clenshaw's recurrence differentiated.
 double legendre_value(std::span<const double> coefficients, double s, double& derivative);
 
-/// Coefficients of the derivative series: (Σ aₙPₙ)' = Σ bₙPₙ with bₙ = (2n+1)·Σ_{k > n, k − n odd} aₖ.
-/// `derivative` has coefficients.size() − 1 entries (none for a constant).
-void legendre_derivative(std::span<const double> coefficients, std::span<double> derivative);
-
 /// Bernstein coefficients bⱼ, j = 0..M, of Σₙ aₙPₙ(s) on [−1, 1]: Σ aₙPₙ(2u − 1) = Σⱼ bⱼ C(M,j) uʲ(1 − u)^(M−j).
 /// b₀ and b_M are the values at s = −1 and s = 1. M = coefficients.size() − 1 ≤ legendre_max_degree.
 void legendre_to_bernstein(std::span<const double> coefficients, std::span<double> bernstein);
@@ -71,16 +67,14 @@ void legendre_roots(std::span<const double> coefficients, std::vector<double>& r
 void legendre_roots(std::span<const double> coefficients, std::span<const double> bernstein, std::vector<double>& roots,
                     double tolerance = 1e-14);
 
-/// A degree-M fit with its tables computed once: the (M+1)-point Gauss rule, the matrix of eq. 6 (values at the
-/// nodes → Legendre coefficients) and the matrix Legendre → Bernstein. Immutable after construction: one object may
-/// be shared by threads.
+/// A degree-M fit with its tables computed once: the (M+1)-point Gauss rule and the matrix of eq. 6 (values at the
+/// nodes → Legendre coefficients). Immutable after construction: one object may be shared by threads.
 class legendre_fitter {
  public:
   /// 1 ≤ degree ≤ legendre_max_degree; std::invalid_argument otherwise (a programmer error: mesh_params are
   /// validated against parameter_ranges first).
   explicit legendre_fitter(int degree);
 
-  int degree() const { return degree_; }
   /// Quadrature points per fit: degree + 1.
   int points() const { return degree_ + 1; }
   const gauss_legendre_rule& rule() const { return rule_; }
@@ -88,16 +82,11 @@ class legendre_fitter {
   /// Eq. 6: aₙ (n = 0..M) from f at the nodes (points() values). Same numbers as legendre_coefficients, other order
   /// of summation (a fixed matrix–vector product).
   void coefficients(std::span<const double> values, std::span<double> out) const;
-  /// aₙ alone (eq. 6), the same number as coefficients() gives.
-  double coefficient(std::span<const double> values, int n) const;
-  /// Bernstein coefficients (M + 1) of the series `coefficients` on [−1, 1].
-  void bernstein(std::span<const double> coefficients, std::span<double> out) const;
 
  private:
   int degree_;
   gauss_legendre_rule rule_;
-  std::vector<double> fit_;        ///< (M+1) × (M+1): fit_[n·(M+1) + m] = (2n+1)/2 · wₘ · Pₙ(sₘ)
-  std::vector<double> bernstein_;  ///< (M+1) × (M+1): bernstein_[j·(M+1) + n] = Bernstein coefficient j of Pₙ
+  std::vector<double> fit_;  ///< (M+1) × (M+1): fit_[n·(M+1) + m] = (2n+1)/2 · wₘ · Pₙ(sₘ)
 };
 
 }  // namespace tracemesh

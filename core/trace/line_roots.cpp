@@ -366,7 +366,7 @@ line_root_finder::line_root_finder(const line_root_settings& settings) : setting
     std::fill(unit.begin(), unit.end(), 0.0);
     unit[static_cast<std::size_t>(m)] = 1;
     fitter_.coefficients(unit, a);
-    fitter_.bernstein(a, b);
+    legendre_to_bernstein(a, b);
     std::copy(b.begin(), b.end(), values_to_bernstein_.begin() + static_cast<std::ptrdiff_t>(m * count));
   }
 }

@@ -113,8 +113,6 @@ class line_root_finder {
   /// std::invalid_argument when settings.degree is outside 1..legendre_max_degree.
   explicit line_root_finder(const line_root_settings& settings = {});
 
-  const line_root_settings& settings() const { return settings_; }
-
   /// The roots on each line owned by `block` (see block_line_roots), from the Legendre series of each fit of
   /// cells_per_fit cells (eq. 6), polished on the exact cut-off φ (the same cutoff as gaussian_field: atom k
   /// contributes where |p − c_k|² < cutoff2_k). `atoms`: distinct field-internal indices of (at least) every atom

@@ -95,10 +95,7 @@ TEST(legendre, coefficients_of_a_cube) {
   std::vector<double> values, b(11);
   for (const double s : fitter.rule().nodes) values.push_back(s * s * s);
   fitter.coefficients(values, b);
-  for (std::size_t n = 0; n < a.size(); ++n) {
-    EXPECT_NEAR(b[n], a[n], 4e-15);
-    EXPECT_EQ(fitter.coefficient(values, static_cast<int>(n)), b[n]);
-  }
+  for (std::size_t n = 0; n < a.size(); ++n) EXPECT_NEAR(b[n], a[n], 4e-15);
 }
 
 // exp(s) = Σ (2n+1)·i_n(1)·Pₙ(s), i_n the modified spherical Bessel function (i_n(1) = √(π/2)·I_{n+1/2}(1)).
@@ -124,8 +121,6 @@ TEST(legendre, clenshaw_matches_the_direct_sum_and_its_derivative) {
   for (int degree : {0, 1, 2, 5, 10, 25}) {
     std::vector<double> a(static_cast<std::size_t>(degree + 1));
     for (double& c : a) c = coefficient(rng);
-    std::vector<double> derivative_series(static_cast<std::size_t>(degree));
-    legendre_derivative(a, derivative_series);
     for (double s = -1; s <= 1.0001; s += 0.0625) {
       EXPECT_NEAR(legendre_value(a, s), direct_sum(a, s), 1e-13);
       double slope = 0;
@@ -133,19 +128,8 @@ TEST(legendre, clenshaw_matches_the_direct_sum_and_its_derivative) {
       const double step = 1e-6;
       const double numeric = (direct_sum(a, s + step) - direct_sum(a, s - step)) / (2 * step);
       EXPECT_NEAR(slope, numeric, 1e-6 * (1 + degree * degree)) << "degree " << degree << ", s = " << s;
-      EXPECT_NEAR(legendre_value(derivative_series, s), slope, 1e-11 * (1 + degree * degree));
     }
   }
-}
-
-// (0.6P₁ + 0.4P₃)' = (s³)' = 3s² = P₀ + 2P₂.
-TEST(legendre, derivative_series_of_a_cube) {
-  const std::vector<double> a{0, 0.6, 0, 0.4};
-  std::vector<double> b(3);
-  legendre_derivative(a, b);
-  EXPECT_NEAR(b[0], 1, 1e-15);
-  EXPECT_NEAR(b[1], 0, 1e-15);
-  EXPECT_NEAR(b[2], 2, 1e-15);
 }
 
 TEST(legendre, bernstein_form_has_the_same_values) {
