@@ -243,6 +243,7 @@ void legendre_to_bernstein(std::span<const double> coefficients, std::span<doubl
 }
 
 void legendre_roots(std::span<const double> coefficients, std::vector<double>& roots, double tolerance) {
+  check_degree(coefficients.size());  // before a span of that size is made over the fixed-size array
   bernstein_array b{};
   legendre_to_bernstein(coefficients, std::span<double>(b.data(), coefficients.size()));
   legendre_roots(coefficients, std::span<const double>(b.data(), coefficients.size()), roots, tolerance);
