@@ -2,8 +2,10 @@
 /// @file vec3.hpp
 /// A small 3-vector of doubles (Å) with the arithmetic the mesher needs.
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <span>
 
 namespace tracemesh {
 
@@ -36,6 +38,46 @@ inline vec3 normalized(const vec3& a) {
   const double n = norm(a);
   return n > 0 ? a / n : vec3{};
 }
+/// Axis-aligned closed box, Å.
+struct box3 {
+  vec3 lo, hi;
+
+  /// The box of one point.
+  static constexpr box3 around(const vec3& p) { return {p, p}; }
+  /// Grows the box to hold p.
+  constexpr void include(const vec3& p) {
+    for (int axis = 0; axis < 3; ++axis) {
+      lo[axis] = std::min(lo[axis], p[axis]);
+      hi[axis] = std::max(hi[axis], p[axis]);
+    }
+  }
+  constexpr bool contains(const vec3& p) const {
+    return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
+  }
+  constexpr bool contains(const box3& inner) const { return contains(inner.lo) && contains(inner.hi); }
+  constexpr bool meets(const box3& other) const {
+    for (int axis = 0; axis < 3; ++axis) {
+      if (other.hi[axis] < lo[axis] || other.lo[axis] > hi[axis]) return false;
+    }
+    return true;
+  }
+};
+
+/// The smallest box holding the points (at least one).
+inline box3 bounds_of(std::span<const vec3> points) {
+  box3 b = box3::around(points.front());
+  for (const vec3& p : points) b.include(p);
+  return b;
+}
+
+/// The smallest box holding positions[i] for every i of `indices` (at least one): a triangle, a component.
+template <class Indices>
+box3 bounds_of(std::span<const vec3> positions, const Indices& indices) {
+  box3 b = box3::around(positions[*std::begin(indices)]);
+  for (const auto i : indices) b.include(positions[i]);
+  return b;
+}
+
 inline std::array<float, 3> to_float3(const vec3& a) {
   return {static_cast<float>(a.x), static_cast<float>(a.y), static_cast<float>(a.z)};
 }

@@ -100,13 +100,8 @@ gaussian_field::gaussian_field(const molecule& mol, double d, double t0, double 
     inverse_cell_size_[axis] = 1 / cell_size_[axis];
   }
 
-  atom_bounds_.lo = atom_bounds_.hi = mol.atoms[contributing.front()].center;
-  for (const std::uint32_t i : contributing) {
-    for (int axis = 0; axis < 3; ++axis) {
-      atom_bounds_.lo[axis] = std::min(atom_bounds_.lo[axis], mol.atoms[i].center[axis]);
-      atom_bounds_.hi[axis] = std::max(atom_bounds_.hi[axis], mol.atoms[i].center[axis]);
-    }
-  }
+  atom_bounds_ = box3::around(mol.atoms[contributing.front()].center);
+  for (const std::uint32_t i : contributing) atom_bounds_.include(mol.atoms[i].center);
   sort_atoms(mol, contributing, u);
 }
 

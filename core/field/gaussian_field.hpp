@@ -177,11 +177,6 @@ inline double kernel_exp(double x) {
   return v[0];
 }
 
-/// Axis-aligned box, Å.
-struct box3 {
-  vec3 lo, hi;
-};
-
 class gaussian_field {
  public:
   /// Builds the neighbour structure: atoms sorted into cells (rows as wide as the largest cutoff, cut in z every

@@ -15,8 +15,6 @@
 ///   the round restarts from the patch's input with the vertices near the offending triangles frozen (untouchable:
 ///   never moved, removed, nor given or deprived of an edge), until clean; at worst the patch comes back unchanged
 ///   (remesh_patch.hpp);
-/// - optionally (check_every_stage) every stage of a round is checked too and redone with a growing frozen region
-///   or skipped when unclean: more checks, fewer restarts;
 /// - last, closed components at most 2 L across (tiny cavities, which the iterations cannot reshape) are made again
 ///   as star-shaped polyhedra where that gives better triangles (remesh_small_components.hpp), then edges shorter
 ///   than final_collapse_below × L (left where patches stayed frozen, or in a cavity whose remake was refused) are
@@ -60,8 +58,8 @@ struct remesh_options {
   /// Extra tangential relaxation sweeps after the last iteration. 1: a second took 2.6% longer on 2buk_capsid for
   /// an edge-ratio mean of 0.840 instead of 0.839.
   int final_relaxations = 1;
-  /// After a failed check, vertices within freeze_radius × L of an offending triangle are frozen; the radius doubles
-  /// with every further try.
+  /// After a failed round, vertices within freeze_radius × L of an offending triangle are frozen; the radius doubles
+  /// with every further round.
   double freeze_radius = 1.0;
   /// When true and mesh.normals holds one unit normal per vertex, they are taken as the field normals −∇φ/|∇φ| of
   /// the input vertices instead of evaluating the field there (the mesher's root finder may already know them).
@@ -70,9 +68,6 @@ struct remesh_options {
   /// At the end, edges shorter than this × L are collapsed where safe: frozen regions keep the raw mesh's short
   /// edges (1k4r_5asu at 2 v/Å²: 14 of them took the shortest edge from 0.041 to 0.160 × the median).
   double final_collapse_below = 0.15;
-  /// Check every stage of a round (true), or only its end, a failure redoing the patch's round (false: one check
-  /// per round instead of one per stage; patches are small, so a redo is cheap).
-  bool check_every_stage = false;
   /// A mesh of fewer triangles than this is remeshed as one patch whose round is not checked for self-intersections
   /// and inward components at its end, nor its result rebuilt to confirm it is a closed oriented manifold
   /// (remesh_stats::unchecked; vertices are still settled onto the surface, and the result's topology is still
@@ -95,7 +90,6 @@ struct remesh_stats {
   std::size_t relaxations = 0;      ///< accepted vertex moves
   std::size_t rejected_ops = 0;     ///< candidate operations refused by a local safety check
   std::size_t frozen_vertices = 0;  ///< output vertices left frozen (or input vertices, when the input is returned)
-  std::size_t retried_stages = 0;   ///< stages redone with a frozen region after a failed check (all rounds)
   int rounds = 0;                   ///< most rounds run in one patch (1 unless a round ended unclean)
   bool input_returned = false;      ///< true when no patch gave a clean result and the input was kept
   std::size_t patches = 0;            ///< patches remeshed (1 for a mesh remeshed whole)

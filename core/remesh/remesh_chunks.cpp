@@ -83,15 +83,6 @@ status validate_closed(const surface_mesh& mesh) {
   return status::success();
 }
 
-bool meets(const box3& b, const vec3& p, const vec3& q, const vec3& r) {
-  for (int axis = 0; axis < 3; ++axis) {
-    if (std::max({p[axis], q[axis], r[axis]}) < b.lo[axis] || std::min({p[axis], q[axis], r[axis]}) > b.hi[axis]) {
-      return false;
-    }
-  }
-  return true;
-}
-
 /// The cubic cells that chunks are made of, numbered from a corner below every vertex.
 class cell_grid {
  public:
@@ -255,7 +246,7 @@ class chunked_mesh {
     }
     for (const std::uint32_t t : fixed) {
       const auto& tri = mesh_.triangles[t];
-      if (!meets(context.reach, mesh_.positions[tri[0]], mesh_.positions[tri[1]], mesh_.positions[tri[2]])) continue;
+      if (!context.reach.meets(bounds_of(mesh_.positions, tri))) continue;
       context.triangles.push_back({local(tri[0], all), local(tri[1], all), local(tri[2], all)});
     }
     context.positions.resize(all.size() - n);
@@ -410,17 +401,11 @@ class chunked_mesh {
 constexpr double max_cell_growth = 2;
 
 cell_grid make_grid(const surface_mesh& mesh, const remesh_options& options) {
-  box3 bounds{mesh.positions.front(), mesh.positions.front()};
+  const box3 bounds = bounds_of(mesh.positions);
   double longest_edge = 0;
   for (const auto& t : mesh.triangles) {
     for (int i = 0; i < 3; ++i) {
       longest_edge = std::max(longest_edge, distance(mesh.positions[t[i]], mesh.positions[t[(i + 1) % 3]]));
-    }
-  }
-  for (const vec3& p : mesh.positions) {
-    for (int axis = 0; axis < 3; ++axis) {
-      bounds.lo[axis] = std::min(bounds.lo[axis], p[axis]);
-      bounds.hi[axis] = std::max(bounds.hi[axis], p[axis]);
     }
   }
   const double l = options.target_edge;
@@ -457,7 +442,6 @@ void add_stats(remesh_stats& total, const remesh_stats& s) {
   total.relaxations += s.relaxations;
   total.rejected_ops += s.rejected_ops;
   total.frozen_vertices += s.frozen_vertices;
-  total.retried_stages += s.retried_stages;
   total.field_evaluations += s.field_evaluations;
   total.rounds = std::max(total.rounds, s.rounds);
   total.unchanged_patches += s.input_returned ? 1 : 0;

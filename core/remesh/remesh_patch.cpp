@@ -17,9 +17,6 @@ namespace {
 
 constexpr double pi = 3.14159265358979323846;
 constexpr int max_iterations = 100;
-/// Tries of a stage with a growing frozen region, after its first, before it is skipped (when every stage is
-/// checked; otherwise a failure redoes the round).
-constexpr int max_stage_retries = 4;
 /// The quality report's threshold of a poor triangle (quality_report::fraction_below_0_2).
 constexpr double poor_edge_ratio = 0.2;
 
@@ -84,33 +81,6 @@ std::vector<component_topology> topology_of(const remesh_mesh& mesh) {
   return components;
 }
 
-box3 bounds_of(const std::vector<vec3>& points) {
-  box3 b{points.front(), points.front()};
-  for (const vec3& p : points) {
-    for (int axis = 0; axis < 3; ++axis) {
-      b.lo[axis] = std::min(b.lo[axis], p[axis]);
-      b.hi[axis] = std::max(b.hi[axis], p[axis]);
-    }
-  }
-  return b;
-}
-
-bool inside(const box3& inner, const box3& outer) {
-  for (int axis = 0; axis < 3; ++axis) {
-    if (inner.lo[axis] < outer.lo[axis] || inner.hi[axis] > outer.hi[axis]) return false;
-  }
-  return true;
-}
-
-bool overlaps(const box3& b, const std::array<vec3, 3>& t) {
-  for (int axis = 0; axis < 3; ++axis) {
-    const double lo = std::min({t[0][axis], t[1][axis], t[2][axis]});
-    const double hi = std::max({t[0][axis], t[1][axis], t[2][axis]});
-    if (hi < b.lo[axis] || lo > b.hi[axis]) return false;
-  }
-  return true;
-}
-
 bool all_frozen(const remesh_mesh& mesh, const std::array<std::uint32_t, 3>& t) {
   return mesh.protection(t[0]) == vertex_protection::frozen && mesh.protection(t[1]) == vertex_protection::frozen &&
          mesh.protection(t[2]) == vertex_protection::frozen;
@@ -125,7 +95,7 @@ offending_finder finder_with(const remesh_patch_context& context, std::uint32_t 
     std::iota(all.begin(), all.end(), 0U);
     if (view.positions.empty()) return std::vector<std::uint32_t>{};
     const box3 extent = bounds_of(view.positions);
-    if (context.bounded && !inside(extent, context.reach)) return all;
+    if (context.bounded && !context.reach.contains(extent)) return all;
     // Boundary vertices are never removed: every context corner on the patch has a current index.
     std::vector<std::uint32_t> current(input_vertices, no_index);
     for (std::uint32_t v = 0; v < mesh.vertex_slots(); ++v) {
@@ -149,7 +119,7 @@ offending_finder finder_with(const remesh_patch_context& context, std::uint32_t 
         mapped[i] = t[i] < input_vertices ? current[t[i]] : patch_vertices + (t[i] - input_vertices);
         if (mapped[i] == no_index) return all;  // cannot happen (see above); refuse rather than guess
       }
-      if (overlaps(extent, {combined.positions[mapped[0]], combined.positions[mapped[1]], combined.positions[mapped[2]]})) {
+      if (extent.meets(bounds_of(combined.positions, mapped))) {
         combined.triangles.push_back(mapped);
         groups.push_back(fixed_context);
       }
@@ -196,8 +166,7 @@ result<bool> run_round(remesh_mesh& state, verified_stages& stages, const remesh
     if (!report_stages) return !progress.cancelled();
     return progress.report(mesh_stage::refining, static_cast<double>(done) / stage_count);
   };
-  // Tiny edges first, as a stage of their own: when every stage is checked, a region frozen later then keeps none
-  // of them. A skipped stage (false) leaves the state as it was, clean.
+  // Tiny edges first, as a stage of their own.
   if (options.iterations > 0) {
     const auto tiny_edges = [&](remesh_mesh&, remesh_operations& ops) {
       return ops.collapse_short_edges(t.tiny_below);
@@ -220,13 +189,7 @@ result<bool> run_round(remesh_mesh& state, verified_stages& stages, const remesh
     }
     return true;
   };
-  result<bool> settled = stages.run(state, final_relaxation, true);
-  if (settled && !settled.value() && options.check_every_stage) {
-    // The relaxation could not be made clean: settle the vertices where they are.
-    const auto no_operation = [](remesh_mesh&, remesh_operations&) { return true; };
-    settled = stages.run(state, no_operation, true);
-  }
-  return settled;
+  return stages.run(state, final_relaxation, true);
 }
 
 void record_operations(const verified_stages& stages, const remesh_mesh& state, remesh_stats& stats) {
@@ -303,8 +266,6 @@ result<remesh_patch_output> remesh_patch(const remesh_patch_input& input, const 
     for (std::size_t v = 0; v < frozen_input.size(); ++v) frozen_input[v] |= input.frozen[v];
   }
   const double l = options.target_edge;
-  stage_limits limits{options.max_triangles, options.freeze_radius * l,
-                      options.check_every_stage ? max_stage_retries : 0, options.check_every_stage};
   // A whole mesh the caller certifies anyway (remesh_options::unchecked_below_triangles) finds nothing to refuse.
   stats.unchecked = context.triangles.empty() && !context.bounded &&
                     input.triangles.size() < options.unchecked_below_triangles;
@@ -318,10 +279,9 @@ result<remesh_patch_output> remesh_patch(const remesh_patch_input& input, const 
     stats.rounds = round;
     remesh_mesh state = input_mesh;
     protect(state, frozen_input);
-    verified_stages stages(field, thresholds_for(options), limits, progress, finder);
+    verified_stages stages(field, thresholds_for(options), options.max_triangles, progress, finder);
     result<bool> clean = run_round(state, stages, options, progress, report_stages);
     if (!clean) return clean.error();
-    stats.retried_stages += stages.retried_stages();
     stats.field_evaluations += stages.field_evaluations();
     if (clean.value()) {
       surface_mesh out = certificate_view(state);

@@ -78,13 +78,7 @@ std::vector<small_component> find_small_components(const surface_mesh& mesh, dou
     if (c.vertices.empty()) continue;
     // Closed: E = 3F/2, so genus 0 (V − E + F = 2) is 2V − F = 4.
     if (2 * c.vertices.size() != c.triangles.size() + 4) continue;
-    box3 box{mesh.positions[c.vertices[0]], mesh.positions[c.vertices[0]]};
-    for (const std::uint32_t v : c.vertices) {
-      for (int axis = 0; axis < 3; ++axis) {
-        box.lo[axis] = std::min(box.lo[axis], mesh.positions[v][axis]);
-        box.hi[axis] = std::max(box.hi[axis], mesh.positions[v][axis]);
-      }
-    }
+    const box3 box = bounds_of(mesh.positions, c.vertices);
     c.diameter = distance(box.lo, box.hi);
     if (c.diameter <= max_diameter_in_edges * target_edge) small.push_back(std::move(c));
   }

@@ -49,45 +49,27 @@ void add_counts(operation_counts& total, const operation_counts& c) {
 }  // namespace
 
 verified_stages::verified_stages(const gaussian_field& field, const remesh_thresholds& thresholds,
-                                 const stage_limits& limits, progress_token& progress, offending_finder finder)
-    : field_(field), thresholds_(thresholds), limits_(limits), progress_(progress), finder_(std::move(finder)) {
+                                 std::size_t max_triangles, progress_token& progress, offending_finder finder)
+    : field_(field),
+      thresholds_(thresholds),
+      max_triangles_(max_triangles),
+      progress_(progress),
+      finder_(std::move(finder)) {
   if (!finder_) finder_ = [](const remesh_mesh&, const surface_mesh& view) { return find_offending_triangles(view); };
 }
 
 result<bool> verified_stages::run(remesh_mesh& state, const remesh_stage& stage, bool settle) {
-  if (!settle && !limits_.check_every_stage) {  // kept unchecked: no copy to fall back on is needed
-    remesh_operations ops(state, field_, thresholds_, progress_);
-    if (!stage(state, ops)) return status{errc::cancelled, "remesh: cancelled"};
-    field_evaluations_ += ops.counts().field_evaluations;
-    if (status s = compact_within(state, limits_.max_triangles); !s) return s;
-    add_counts(counts_, ops.counts());
-    return true;
-  }
-  for (int attempt = 0;; ++attempt) {
-    remesh_mesh trial = state;
-    remesh_operations ops(trial, field_, thresholds_, progress_);
-    if (!stage(trial, ops)) return status{errc::cancelled, "remesh: cancelled"};
-    if (status s = compact_within(trial, limits_.max_triangles); !s) return s;
-    const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
-    field_evaluations_ += ops.counts().field_evaluations;
-    failure_.mesh = certificate_view(trial);
-    failure_.offending = finder_(trial, failure_.mesh);
-    add_triangles_at(failure_.mesh.triangles, unsettled, failure_.offending);
-    if (failure_.offending.empty()) {
-      state = std::move(trial);
-      add_counts(counts_, ops.counts());
-      return true;
-    }
-    if (attempt == limits_.max_retries) return false;
-    std::vector<std::uint8_t> frozen = frozen_flags(state);
-    const double radius = limits_.freeze_radius * std::ldexp(1.0, attempt);
-    if (freeze_near(state.positions(), failure_.mesh.positions, failure_.mesh.triangles, failure_.offending, radius,
-                    frozen) == 0) {
-      return false;
-    }
-    protect(state, frozen);
-    ++retried_;
-  }
+  remesh_operations ops(state, field_, thresholds_, progress_);
+  if (!stage(state, ops)) return status{errc::cancelled, "remesh: cancelled"};
+  if (status s = compact_within(state, max_triangles_); !s) return s;
+  const std::vector<std::uint32_t> unsettled = settle ? ops.settle_vertices() : std::vector<std::uint32_t>{};
+  field_evaluations_ += ops.counts().field_evaluations;
+  add_counts(counts_, ops.counts());
+  if (!settle) return true;
+  failure_.mesh = certificate_view(state);
+  failure_.offending = finder_(state, failure_.mesh);
+  add_triangles_at(failure_.mesh.triangles, unsettled, failure_.offending);
+  return failure_.offending.empty();
 }
 
 surface_mesh certificate_view(const remesh_mesh& mesh) {
@@ -105,13 +87,9 @@ std::size_t freeze_near(const std::vector<vec3>& points, const std::vector<vec3>
   std::vector<box3> regions;
   double largest = radius;
   for (const std::uint32_t t : listed) {
-    box3 b{triangle_positions[triangles[t][0]], triangle_positions[triangles[t][0]]};
-    for (const std::uint32_t v : triangles[t]) {
-      for (int axis = 0; axis < 3; ++axis) {
-        b.lo[axis] = std::min(b.lo[axis], triangle_positions[v][axis] - radius);
-        b.hi[axis] = std::max(b.hi[axis], triangle_positions[v][axis] + radius);
-      }
-    }
+    box3 b = bounds_of(triangle_positions, triangles[t]);
+    b.lo -= vec3{radius, radius, radius};
+    b.hi += vec3{radius, radius, radius};
     for (int axis = 0; axis < 3; ++axis) largest = std::max(largest, b.hi[axis] - b.lo[axis]);
     regions.push_back(b);
   }
@@ -136,10 +114,7 @@ std::size_t freeze_near(const std::vector<vec3>& points, const std::vector<vec3>
     const cell_key key = cell_of(p);
     for (auto it = std::lower_bound(cells.begin(), cells.end(), std::pair<cell_key, std::uint32_t>{key, 0});
          it != cells.end() && it->first == key; ++it) {
-      const box3& b = regions[it->second];
-      if (p.x >= b.lo.x && p.x <= b.hi.x && p.y >= b.lo.y && p.y <= b.hi.y && p.z >= b.lo.z && p.z <= b.hi.z) {
-        return true;
-      }
+      if (regions[it->second].contains(p)) return true;
     }
     return false;
   };

@@ -1,10 +1,8 @@
 #pragma once
 /// @file remesh_stages.hpp
-/// The first level of the remesher's safety (see remesh.hpp): each stage of the pass (a sweep of operations) runs
-/// on a copy of the mesh that is kept only when the certificate would accept it. When it would not, the vertices
-/// near the offending triangles are frozen and the stage is redone with a growing radius, or skipped. A skipped
-/// stage leaves the mesh exactly as it was: clean. Stages that are not checked (see stage_limits) edit the mesh in
-/// place; the check at the end of the round covers them (remesh_patch.hpp).
+/// The stages of a remesher round (see remesh.hpp): each sweep of operations edits the patch's mesh in place; the
+/// last, settling stage also checks the result as the certificate would, and its offending triangles tell the next
+/// round which vertices to freeze (remesh_patch.hpp).
 
 #include <cstddef>
 #include <cstdint>
@@ -30,47 +28,33 @@ struct check_failure {
   std::vector<std::uint32_t> offending;
 };
 
-struct stage_limits {
-  std::size_t max_triangles = 0;  ///< errc::limit_exceeded beyond
-  double freeze_radius = 0;       ///< Å, first try; doubles with every further try
-  int max_retries = 4;            ///< tries after the first before the stage is skipped
-  /// When false, only settling stages are checked (the others are kept unchecked): cheaper, and enough where a
-  /// failed check redoes a whole small patch (remesh_patch.hpp).
-  bool check_every_stage = true;
-};
-
 /// The triangles of `view` (the compacted `mesh`) that would fail the certificate; find_offending_triangles by
 /// default, or that plus the pairs with the fixed triangles around a patch.
 using offending_finder = std::function<std::vector<std::uint32_t>(const remesh_mesh& mesh, const surface_mesh& view)>;
 
 class verified_stages {
  public:
-  verified_stages(const gaussian_field& field, const remesh_thresholds& thresholds, const stage_limits& limits,
+  /// `max_triangles`: errc::limit_exceeded when a stage leaves more faces.
+  verified_stages(const gaussian_field& field, const remesh_thresholds& thresholds, std::size_t max_triangles,
                   progress_token& progress, offending_finder finder = {});
 
-  /// Runs `stage` (then, when `settle`, settle_vertices()) on copies of `state` until one passes the certificate's
-  /// tests (degenerate triangles, exact self-intersection, unsettled vertices), freezing the vertices of `state`
-  /// near the offending triangles between tries. Returns true when `state` took the clean copy, false when the
-  /// stage was skipped (`state` unchanged but for the frozen flags; last_failure() tells why); errc::cancelled or
-  /// errc::limit_exceeded. A stage that is not checked (neither `settle` nor limits.check_every_stage) runs on
-  /// `state` itself, which an error then leaves partly edited.
+  /// Runs `stage` on `state` in place. With `settle`, then settles the vertices (settle_vertices()) and checks the
+  /// result with the certificate's tests (degenerate triangles, exact self-intersection, unsettled vertices):
+  /// returns whether it passed (when not, last_failure() says where). Else true. errc::cancelled or
+  /// errc::limit_exceeded leave `state` partly edited.
   result<bool> run(remesh_mesh& state, const remesh_stage& stage, bool settle);
 
-  /// Operations of the kept copies.
   const operation_counts& counts() const { return counts_; }
-  std::size_t retried_stages() const { return retried_; }
-  /// Field evaluations of every try, kept or not.
   std::size_t field_evaluations() const { return field_evaluations_; }
   const check_failure& last_failure() const { return failure_; }
 
  private:
   const gaussian_field& field_;
   remesh_thresholds thresholds_;
-  stage_limits limits_;
+  std::size_t max_triangles_;
   progress_token& progress_;
   offending_finder finder_;
   operation_counts counts_;
-  std::size_t retried_ = 0;
   std::size_t field_evaluations_ = 0;
   check_failure failure_;
 };

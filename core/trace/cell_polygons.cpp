@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "core/analysis/triangle_intersection.hpp"
 #include "core/trace/loop_triangulation.hpp"
@@ -509,11 +510,10 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
     for (loop_vertex& v : vertices) v.planes &= kept_walls;
   }
   std::vector<std::array<std::uint32_t, 3>> local;
-  loop_triangulation_stats stats;
   loop_triangulation_settings settings;
   if (strategy == loop_strategy::in_its_plane) {
     settings.kept_walls = kept_walls;
-    const bool ok = triangulate_loop_in_its_plane(vertices, local, stats, settings);
+    const bool ok = triangulate_loop_in_its_plane(vertices, local, settings);
     for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
     return ok;
   }
@@ -523,7 +523,7 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
       strategy == loop_strategy::unrestricted) {
     settings.min_normal_cosine = -2;  // rule 2 off
   }
-  const bool ok = triangulate_loop(vertices, local, stats, settings);
+  const bool ok = triangulate_loop(vertices, local, settings).has_value();
   for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
   return ok;
 }
@@ -712,15 +712,15 @@ bool slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numb
       polygon.push_back(inner[(b + n) % q].vertex);
     }
     std::vector<std::array<std::uint32_t, 3>> local;
-    loop_triangulation_stats stats;
-    if (!triangulate_loop(polygon, local, stats)) continue;
+    const std::optional<double> worst = triangulate_loop(polygon, local);
+    if (!worst) continue;
     std::vector<std::array<std::uint32_t, 3>> triangles;
     for (const auto& t : local) triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
     if (!directed_edges_unique(triangles) || band_crosses_itself(outer, inner, triangles)) continue;
     out = loop_mesh{};
     out.strategy = loop_strategy::tube_band;
     out.triangles = std::move(triangles);
-    worst_quality = stats.last_min_quality;
+    worst_quality = *worst;
     return true;
   }
   return false;
@@ -734,8 +734,8 @@ bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<n
   for (std::size_t n = 0; n < outer.size(); ++n) a[n] = outer[n].vertex;
   for (std::size_t n = 0; n < inner.size(); ++n) b[n] = inner[n].vertex;
   std::vector<std::array<std::uint32_t, 3>> local;
-  loop_triangulation_stats stats;
-  if (!triangulate_annulus(a, b, local, stats)) return slit_band(outer, inner, out, worst_quality);
+  const std::optional<double> worst = triangulate_annulus(a, b, local);
+  if (!worst) return slit_band(outer, inner, out, worst_quality);
   const auto id = [&](std::uint32_t v) { return v < outer.size() ? outer[v].id : inner[v - outer.size()].id; };
   std::vector<std::array<std::uint32_t, 3>> triangles;
   for (const auto& t : local) triangles.push_back({id(t[0]), id(t[1]), id(t[2])});
@@ -743,7 +743,7 @@ bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<n
   out = loop_mesh{};
   out.strategy = loop_strategy::tube_band;
   out.triangles = std::move(triangles);
-  worst_quality = stats.last_min_quality;
+  worst_quality = *worst;
   return true;
 }
 

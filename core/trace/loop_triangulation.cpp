@@ -80,22 +80,21 @@ void grow(std::vector<T>& v, std::size_t n) {
   if (v.size() < n) v.resize(n);
 }
 
-loop_triangulation_workspace& thread_workspace() {
-  thread_local loop_triangulation_workspace workspace;
-  return workspace;
-}
+/// Reusable buffers of the dynamic programmes: O(n²) numbers for a loop of n vertices (≈ 37·n² bytes: 1.5 MB at
+/// n = 200), one per thread so that no loop allocates. Their contents between calls are meaningless.
+struct workspace {
+  std::vector<double> worst;            ///< best worst-quality per sub-polygon (pass 1), mirrored
+  std::vector<double> sum;              ///< best quality sum per sub-polygon (pass 2), mirrored
+  std::vector<std::uint32_t> split;     ///< chosen apex per sub-polygon / predecessor per band state
+  std::vector<double> apex_quality;     ///< q of the chosen apex's triangle per sub-polygon
+  std::vector<std::uint8_t> edge_ok;    ///< admissible edge per vertex pair
+  std::vector<double> quality;          ///< squared edge lengths (loop); band triangles' q, bridges (annulus)
+  std::vector<std::array<std::uint32_t, 2>> stack;
+};
 
-void record(loop_triangulation_stats& stats, bool ok, double worst, double sum, std::size_t triangles) {
-  ++stats.loops;
-  if (!ok) {
-    ++stats.failed_loops;
-    stats.last_min_quality = 0;
-    return;
-  }
-  stats.triangles += triangles;
-  stats.min_quality = std::min(stats.min_quality, worst);
-  stats.quality_sum += sum;
-  stats.last_min_quality = worst;
+workspace& thread_workspace() {
+  thread_local workspace buffers;
+  return buffers;
 }
 
 // ---------------------------------------------------------------------------------------------------------------
@@ -126,7 +125,7 @@ enum class band_mode { worst, sum, trace };
 /// are not expanded; mode sum / trace: returns the best Σ q over paths whose triangles all reach `threshold`
 /// (−∞ when none), trace also recording predecessors in `pred` (bit 0: arrived by a Q-step; bit 1: source flag).
 double band_pass(const band_problem& bp, std::size_t b0, band_mode mode, double bound, double threshold,
-                 double* value, std::uint32_t* pred, std::size_t& cells) {
+                 double* value, std::uint32_t* pred) {
   const std::size_t p = bp.p, q = bp.q, rows = q + 1;
   const auto state = [&](std::size_t a, std::size_t t, std::size_t f) { return (a * rows + t) * 2 + f; };
   const auto x_of = [&](std::size_t t) { return (b0 + q - t % q) % q; };
@@ -161,7 +160,6 @@ double band_pass(const band_problem& bp, std::size_t b0, band_mode mode, double 
       for (std::size_t f = 0; f < 2; ++f) {
         const double from = value[state(a, t, f)];
         if (mode == band_mode::worst ? from <= bound : from == none) continue;
-        ++cells;
         const std::size_t x = x_of(t), pa = a % p;
         // P-step → (a + 1, t).
         if (a < p && bp.bridge_ok[(a + 1) % p * q + x])
@@ -175,18 +173,6 @@ double band_pass(const band_problem& bp, std::size_t b0, band_mode mode, double 
 
 }  // namespace
 
-loop_triangulation_stats& loop_triangulation_stats::operator+=(const loop_triangulation_stats& other) {
-  loops += other.loops;
-  failed_loops += other.failed_loops;
-  triangles += other.triangles;
-  dp_cells += other.dp_cells;
-  triangle_evaluations += other.triangle_evaluations;
-  min_quality = std::min(min_quality, other.min_quality);
-  quality_sum += other.quality_sum;
-  last_min_quality = other.last_min_quality;
-  return *this;
-}
-
 double triangle_quality(const vec3& a, const vec3& b, const vec3& c) {
   const double ab2 = squared_norm(b - a), bc2 = squared_norm(c - b), ca2 = squared_norm(a - c);
   const double longest2 = std::max(ab2, std::max(bc2, ca2));
@@ -198,14 +184,12 @@ double triangle_quality(const vec3& a, const vec3& b, const vec3& c) {
   return std::isfinite(q2) ? std::sqrt(std::min(q2, 1.0)) : 0;
 }
 
-bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings,
-                      loop_triangulation_workspace& ws) {
+std::optional<double> triangulate_loop(std::span<const loop_vertex> loop,
+                                       std::vector<std::array<std::uint32_t, 3>>& out,
+                                       const loop_triangulation_settings& settings) {
   const std::size_t n = loop.size();
-  if (n < 3) {
-    record(stats, false, 0, 0, 0);
-    return false;
-  }
+  if (n < 3) return std::nullopt;
+  workspace& ws = thread_workspace();
   const rule_limits limits(settings);
   const std::size_t nn = n * n;
   grow(ws.worst, nn);
@@ -231,14 +215,9 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
   // A loop edge too short for rule 3 belongs to some triangle of every triangulation.
   bool loop_edges_ok = ok[n - 1];
   for (std::size_t i = 0; i + 1 < n; ++i) loop_edges_ok = loop_edges_ok && ok[i * n + i + 1];
-  if (!loop_edges_ok) {
-    record(stats, false, 0, 0, 0);
-    return false;
-  }
+  if (!loop_edges_ok) return std::nullopt;
 
-  std::size_t cells = 0, evaluations = 0;
   const auto triangle = [&](std::size_t i, std::size_t k, std::size_t j) {
-    ++evaluations;
     return evaluate_triangle(loop[i], loop[k], loop[j], L2[i * n + k], L2[k * n + j], L2[i * n + j], limits);
   };
 
@@ -250,7 +229,6 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
     for (std::size_t i = 0, j = len; j < n; ++i, ++j) {
       double best = infeasible;
       if (ok[i * n + j]) {
-        ++cells;
         const double* wi = W + i * n;
         const double* wj = W + j * n;
         for (std::size_t k = i + 1; k < j; ++k) {
@@ -271,12 +249,7 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
       W[i * n + j] = W[j * n + i] = best;
     }
   const double optimum = W[n - 1];  // q*²
-  if (!(optimum > 0)) {
-    stats.dp_cells += cells;
-    stats.triangle_evaluations += evaluations;
-    record(stats, false, 0, 0, 0);
-    return false;
-  }
+  if (!(optimum > 0)) return std::nullopt;
 
   // Pass 2: S(i, j) = max Σ q over triangulations of the sub-polygon whose triangles all reach q*. W(i, j) ≥ q*²
   // says such a triangulation exists, so only those sub-polygons are visited. Thresholds compare squares.
@@ -287,7 +260,6 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
   for (std::size_t len = 2; len < n; ++len)
     for (std::size_t i = 0, j = len; j < n; ++i, ++j) {
       if (!(W[i * n + j] >= threshold)) continue;  // S and K never read there
-      ++cells;
       double best = -std::numeric_limits<double>::infinity();
       std::uint32_t apex = 0;
       double apex_qk = 0;
@@ -311,9 +283,8 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
     }
 
   // Emit (i, k, j), i < k < j: loop order, hence counter-clockwise seen from outside.
-  double worst = 1, sum = 0;
-  const std::size_t first = out.size();
-  out.reserve(first + n - 2);
+  double worst = 1;
+  out.reserve(out.size() + n - 2);
   ws.stack.clear();
   ws.stack.push_back({0, static_cast<std::uint32_t>(n - 1)});
   while (!ws.stack.empty()) {
@@ -323,33 +294,17 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
     out.push_back({i, k, j});
     const double qk = apex_q[std::size_t{i} * n + j];
     worst = std::min(worst, qk);
-    sum += qk;
     if (j - k >= 2) ws.stack.push_back({k, j});
     if (k - i >= 2) ws.stack.push_back({i, k});
   }
-  stats.dp_cells += cells;
-  stats.triangle_evaluations += evaluations;
-  record(stats, true, worst, sum, out.size() - first);
-  return true;
+  return worst;
 }
 
-bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings) {
-  return triangulate_loop(loop, out, stats, settings, thread_workspace());
-}
-
-bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                      loop_triangulation_stats& stats) {
-  return triangulate_loop(loop, out, stats, loop_triangulation_settings{}, thread_workspace());
-}
-
-bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
-                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
-                         const loop_triangulation_settings& settings, loop_triangulation_workspace& ws) {
-  if (outer.size() < 3 || inner.size() < 3) {
-    record(stats, false, 0, 0, 0);
-    return false;
-  }
+std::optional<double> triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                                          std::vector<std::array<std::uint32_t, 3>>& out,
+                                          const loop_triangulation_settings& settings) {
+  if (outer.size() < 3 || inner.size() < 3) return std::nullopt;
+  workspace& ws = thread_workspace();
   const bool swapped = inner.size() > outer.size();
   band_problem bp;
   bp.P = swapped ? inner : outer;
@@ -358,19 +313,13 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
   bp.q = bp.Q.size();
   const std::size_t p = bp.p, q = bp.q;
   const rule_limits limits(settings);
-  const auto fail = [&](std::size_t cells, std::size_t evaluations) {
-    stats.dp_cells += cells;
-    stats.triangle_evaluations += evaluations;
-    record(stats, false, 0, 0, 0);
-    return false;
-  };
 
   // Loop edges (each belongs to one band triangle) and bridges.
   const auto edge2 = [](const loop_vertex& u, const loop_vertex& v) { return squared_norm(v.position - u.position); };
   for (std::size_t a = 0; a < p; ++a)
-    if (!(edge2(bp.P[a], bp.P[(a + 1) % p]) >= limits.min_edge2)) return fail(0, 0);
+    if (!(edge2(bp.P[a], bp.P[(a + 1) % p]) >= limits.min_edge2)) return std::nullopt;
   for (std::size_t x = 0; x < q; ++x)
-    if (!(edge2(bp.Q[x], bp.Q[(x + 1) % q]) >= limits.min_edge2)) return fail(0, 0);
+    if (!(edge2(bp.Q[x], bp.Q[(x + 1) % q]) >= limits.min_edge2)) return std::nullopt;
   grow(ws.edge_ok, p * q);
   grow(ws.quality, 3 * p * q);
   double* const bridge2 = ws.quality.data() + 2 * p * q;
@@ -383,19 +332,16 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
   // Every candidate triangle once: 2·p·q.
   double* const step_p = ws.quality.data();
   double* const step_q = ws.quality.data() + p * q;
-  std::size_t evaluations = 0;
   for (std::size_t a = 0; a < p; ++a)
     for (std::size_t x = 0; x < q; ++x) {
       const std::size_t a1 = (a + 1) % p, xm = (x + q - 1) % q;
       step_p[a * q + x] = infeasible;
       step_q[a * q + x] = infeasible;
       if (ws.edge_ok[a * q + x] && ws.edge_ok[a1 * q + x]) {
-        ++evaluations;
         step_p[a * q + x] = evaluate_triangle(bp.P[a], bp.P[a1], bp.Q[x], edge2(bp.P[a], bp.P[a1]),
                                               bridge2[a1 * q + x], bridge2[a * q + x], limits);
       }
       if (ws.edge_ok[a * q + xm] && ws.edge_ok[a * q + x]) {
-        ++evaluations;
         step_q[a * q + x] = evaluate_triangle(bp.Q[xm], bp.Q[x], bp.P[a], edge2(bp.Q[xm], bp.Q[x]),
                                               bridge2[a * q + x], bridge2[a * q + xm], limits);
       }
@@ -409,24 +355,23 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
   const std::size_t states = (p + 1) * (q + 1) * 2;
   grow(ws.worst, states);
   grow(ws.split, states);
-  std::size_t cells = 0;
   // Pass 1: the best worst quality over every start (branch and bound across starts).
   double optimum = infeasible;
   for (std::size_t b0 = 0; b0 < q; ++b0)
-    optimum = std::max(optimum, band_pass(bp, b0, band_mode::worst, optimum, 0, ws.worst.data(), nullptr, cells));
-  if (!(optimum > 0)) return fail(cells, evaluations);
+    optimum = std::max(optimum, band_pass(bp, b0, band_mode::worst, optimum, 0, ws.worst.data(), nullptr));
+  if (!(optimum > 0)) return std::nullopt;
   // Pass 2: the best sum among bands reaching the optimum; then trace the winner.
   const double threshold = optimum * (1 - tie_tolerance);
   double best_sum = -std::numeric_limits<double>::infinity();
   std::size_t best_b0 = 0;
   for (std::size_t b0 = 0; b0 < q; ++b0) {
-    const double s = band_pass(bp, b0, band_mode::sum, 0, threshold, ws.worst.data(), nullptr, cells);
+    const double s = band_pass(bp, b0, band_mode::sum, 0, threshold, ws.worst.data(), nullptr);
     if (s > best_sum) {
       best_sum = s;
       best_b0 = b0;
     }
   }
-  band_pass(bp, best_b0, band_mode::trace, 0, threshold, ws.worst.data(), ws.split.data(), cells);
+  band_pass(bp, best_b0, band_mode::trace, 0, threshold, ws.worst.data(), ws.split.data());
 
   // Walk back from (p, q, 0), emitting triangles in reverse band order.
   const std::size_t rows = q + 1;
@@ -435,7 +380,7 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
   const std::uint32_t q_base = swapped ? 0 : static_cast<std::uint32_t>(outer.size());
   const std::size_t first = out.size();
   out.reserve(first + p + q);
-  double worst = 1, sum = 0;
+  double worst = 1;
   std::size_t a = p, t = q, f = 0;
   while (!(a == 0 && t == 0)) {
     const std::uint32_t how = (a == 1 && t == 0) ? 0 : ws.split[(a * rows + t) * 2 + f];
@@ -445,33 +390,17 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
       out.push_back({p_base + static_cast<std::uint32_t>(a % p), p_base + static_cast<std::uint32_t>((a + 1) % p),
                      q_base + static_cast<std::uint32_t>(x)});
       worst = std::min(worst, step_p[a % p * q + x]);
-      sum += step_p[a % p * q + x];
     } else {  // Q-step from (a, t − 1)
       --t;
       const std::size_t x = x_of(t);
       out.push_back({q_base + static_cast<std::uint32_t>((x + q - 1) % q), q_base + static_cast<std::uint32_t>(x),
                      p_base + static_cast<std::uint32_t>(a % p)});
       worst = std::min(worst, step_q[a % p * q + x]);
-      sum += step_q[a % p * q + x];
     }
     f = how >> 1;
   }
   std::reverse(out.begin() + static_cast<std::ptrdiff_t>(first), out.end());
-  stats.dp_cells += cells;
-  stats.triangle_evaluations += evaluations;
-  record(stats, true, worst, sum, p + q);
-  return true;
-}
-
-bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
-                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
-                         const loop_triangulation_settings& settings) {
-  return triangulate_annulus(outer, inner, out, stats, settings, thread_workspace());
-}
-
-bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
-                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats) {
-  return triangulate_annulus(outer, inner, out, stats, loop_triangulation_settings{}, thread_workspace());
+  return worst;
 }
 
 namespace {
@@ -517,33 +446,23 @@ bool in_triangle(const point2& p, const point2& a, const point2& b, const point2
 }  // namespace
 
 bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                                   loop_triangulation_stats& stats, const loop_triangulation_settings& settings) {
+                                   const loop_triangulation_settings& settings) {
   const std::size_t n = loop.size();
-  if (n < 3) {
-    record(stats, false, 0, 0, 0);
-    return false;
-  }
+  if (n < 3) return false;
   // Newell's normal: twice the vector area of the loop.
   vec3 normal;
   for (std::size_t i = 0; i < n; ++i) normal += cross(loop[i].position, loop[(i + 1) % n].position);
-  if (!(squared_norm(normal) > 0)) {
-    record(stats, false, 0, 0, 0);
-    return false;
-  }
+  if (!(squared_norm(normal) > 0)) return false;
   normal = normalized(normal);
   const vec3 axis_u = normalized(std::abs(normal.x) < 0.9 ? cross(normal, vec3{1, 0, 0}) : cross(normal, vec3{0, 1, 0}));
   const vec3 axis_v = cross(normal, axis_u);
   std::vector<point2> projected(n);
   for (std::size_t i = 0; i < n; ++i) projected[i] = {dot(loop[i].position, axis_u), dot(loop[i].position, axis_v)};
-  if (!is_simple(projected)) {
-    record(stats, false, 0, 0, 0);
-    return false;
-  }
+  if (!is_simple(projected)) return false;
   const double min_edge2 = settings.min_edge_length * settings.min_edge_length;
   std::vector<std::uint32_t> left(n);
   for (std::size_t i = 0; i < n; ++i) left[i] = static_cast<std::uint32_t>(i);
   std::vector<std::array<std::uint32_t, 3>> triangles;
-  double worst = 1, sum = 0;
   while (left.size() > 3) {
     const std::size_t m = left.size();
     std::size_t best = m;
@@ -573,28 +492,18 @@ bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vecto
         best = k;
       }
     }
-    if (best == m) {
-      record(stats, false, 0, 0, 0);
-      return false;
-    }
+    if (best == m) return false;
     triangles.push_back({left[(best + m - 1) % m], left[best], left[(best + 1) % m]});
-    worst = std::min(worst, best_quality);
-    sum += best_quality;
     left.erase(left.begin() + static_cast<std::ptrdiff_t>(best));
   }
   const double q = triangle_quality(loop[left[0]].position, loop[left[1]].position, loop[left[2]].position);
   if (!(cross2(projected[left[0]], projected[left[1]], projected[left[2]]) > 0) || !(q > 0) ||
       faces_against_corners(loop[left[0]], loop[left[1]], loop[left[2]])) {
-    record(stats, false, 0, 0, 0);
     return false;
   }
   triangles.push_back({left[0], left[1], left[2]});
-  worst = std::min(worst, q);
-  sum += q;
   // In loop order (i < k < j rotated), like triangulate_loop: each triangle's corners are already in loop order.
   out.insert(out.end(), triangles.begin(), triangles.end());
-  stats.triangle_evaluations += n * n;
-  record(stats, true, worst, sum, triangles.size());
   return true;
 }
 

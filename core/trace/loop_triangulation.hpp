@@ -16,12 +16,13 @@
 /// remesh.hpp), which falls to 0 with the area, takes over for obtuse triangles: it is the smaller term only when
 /// the largest angle exceeds about 122°. For every other triangle q is exactly the edge ratio.
 ///
-/// Thread safety: the functions are reentrant; the overloads without a workspace use one thread_local workspace
-/// per thread, which holds buffers only (never state that changes a result).
+/// Thread safety: the functions are reentrant; the dynamic programmes keep their O(n²) buffers in one thread_local
+/// workspace per thread, which holds buffers only (never state that changes a result).
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -62,33 +63,6 @@ struct loop_triangulation_settings {
   std::uint8_t kept_walls = 0;
 };
 
-/// What the triangulations did. Every call adds to the counters (so one object can sum a thread's loops; merge
-/// per-thread objects with +=) and overwrites last_min_quality.
-struct loop_triangulation_stats {
-  std::size_t loops = 0;                 ///< calls (loops and annuli)
-  std::size_t failed_loops = 0;          ///< calls that returned false
-  std::size_t triangles = 0;             ///< triangles appended
-  std::size_t dp_cells = 0;              ///< DP states examined: sub-polygons with an admissible chord / band bridges
-  std::size_t triangle_evaluations = 0;  ///< candidate triangles whose rules and shape were computed
-  double min_quality = 1;                ///< worst q over all triangles appended (1 when none)
-  double quality_sum = 0;                ///< Σ q over all triangles appended (mean = quality_sum / triangles)
-  double last_min_quality = 0;           ///< worst q of the last call's triangulation; 0 when it returned false
-
-  loop_triangulation_stats& operator+=(const loop_triangulation_stats& other);
-};
-
-/// Reusable buffers of the dynamic programmes: O(n²) numbers for a loop of n vertices (≈ 37·n² bytes: 1.5 MB at
-/// n = 200). Keep one per thread to avoid allocating per loop. Its contents between calls are meaningless.
-struct loop_triangulation_workspace {
-  std::vector<double> worst;            ///< best worst-quality per sub-polygon (pass 1), mirrored
-  std::vector<double> sum;              ///< best quality sum per sub-polygon (pass 2), mirrored
-  std::vector<std::uint32_t> split;     ///< chosen apex per sub-polygon / predecessor per band state
-  std::vector<double> apex_quality;     ///< q of the chosen apex's triangle per sub-polygon
-  std::vector<std::uint8_t> edge_ok;    ///< admissible edge per vertex pair
-  std::vector<double> quality;          ///< squared edge lengths (loop); band triangles' q, bridges (annulus)
-  std::vector<std::array<std::uint32_t, 2>> stack;
-};
-
 /// The shape measure q of triangle a, b, c described in the file comment, in [0, 1]; 0 when an edge has zero
 /// length or a coordinate is not finite.
 double triangle_quality(const vec3& a, const vec3& b, const vec3& c);
@@ -98,8 +72,8 @@ double triangle_quality(const vec3& a, const vec3& b, const vec3& c);
 ///               the side the normals point to). Not required to be planar or convex.
 /// @param out    receives n − 2 triangles as indices into `loop`, appended; each is (i, k, j) with i < k < j, i.e.
 ///               in loop order, hence counter-clockwise seen from outside like the loop.
-/// @param stats  counters, added to (see loop_triangulation_stats).
-/// @return false, appending nothing, when n < 3 or no triangulation satisfies every rule:
+/// @return the worst q of the triangles appended; none, appending nothing, when n < 3 or no triangulation
+///         satisfies every rule:
 ///  1. admissibility (docs/method.md#the-admissibility-rule): no triangle has its three corners on one common wall
 ///     ((a.planes & b.planes & c.planes) != 0); no edge joins two vertices that share a wall unless they are
 ///     consecutive on the loop (the loop's own edges are always allowed);
@@ -113,18 +87,13 @@ double triangle_quality(const vec3& a, const vec3& b, const vec3& c);
 /// the optimal worst quality q*, the second maximises the sum over triangulations whose triangles all reach q*,
 /// up to a relative 1e-12). Remaining ties go to the smaller apex index, so the result is deterministic.
 /// Cost: O(n³) time (each candidate triangle evaluated at most twice, most pruned by the bounds), O(n²) memory in
-/// `workspace`, no allocation once the workspace and `out` have grown. Measured CPU time per loop (Release, one
-/// core of a shared 2.4 GHz AMD EPYC, loops of cells on a smooth surface): n = 4: 0.13–0.15 µs, 6: 0.3–0.5 µs,
-/// 12: 1.5–2.5 µs, 50: 25–75 µs, 200: 0.7–1.4 ms (a long zigzag along x) to 2–3 ms (points 0.02 Å apart).
-bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings,
-                      loop_triangulation_workspace& workspace);
-/// As above with a thread_local workspace.
-bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                      loop_triangulation_stats& stats, const loop_triangulation_settings& settings);
-/// As above with default settings and a thread_local workspace.
-bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                      loop_triangulation_stats& stats);
+/// the thread's workspace (≈ 37·n² bytes), no allocation once the workspace and `out` have grown. Measured CPU
+/// time per loop (Release, one core of a shared 2.4 GHz AMD EPYC, loops of cells on a smooth surface): n = 4:
+/// 0.13–0.15 µs, 6: 0.3–0.5 µs, 12: 1.5–2.5 µs, 50: 25–75 µs, 200: 0.7–1.4 ms (a long zigzag along x) to 2–3 ms
+/// (points 0.02 Å apart).
+std::optional<double> triangulate_loop(std::span<const loop_vertex> loop,
+                                       std::vector<std::array<std::uint32_t, 3>>& out,
+                                       const loop_triangulation_settings& settings = {});
 
 /// Triangulates the band (annulus) between two loops that together bound one piece of surface inside a cell — a
 /// tube (docs/method.md#tubes-inside-a-cell) — without new vertices. The two loops play symmetric roles.
@@ -134,23 +103,16 @@ bool triangulate_loop(std::span<const loop_vertex> loop, std::vector<std::array<
 /// @param out    receives p + q triangles, appended, as indices into the concatenation outer ++ inner (outer
 ///               vertex a is a, inner vertex b is p + b), counter-clockwise seen from outside. Every triangle joins
 ///               a loop edge of one loop to a vertex of the other (a "band"); each loop edge is used once.
-/// @return false, appending nothing, when a loop has fewer than 3 vertices or no band satisfies the rules of
-///         triangulate_loop (an edge joining the two loops counts as a non-loop edge: its ends may share no wall).
-///         Band triangulations only: a tube whose band breaks the rules (e.g. both loops on one wall) needs new
-///         vertices, which is the caller's business.
+/// @return the worst q of the band; none, appending nothing, when a loop has fewer than 3 vertices or no band
+///         satisfies the rules of triangulate_loop (an edge joining the two loops counts as a non-loop edge: its
+///         ends may share no wall). Band triangulations only: a tube whose band breaks the rules (e.g. both
+///         loops on one wall) needs new vertices, which is the caller's business.
 /// Optimum as for triangulate_loop: worst q maximised, then Σ q, over every band. Cost: O(p·q) triangle
 /// evaluations and O(p·q·min(p, q)) table steps, O(p·q) memory; measured 2.4–2.9 µs for 6 + 6 vertices,
 /// 10–12 µs for 12 + 12, 0.2–0.3 ms for 50 + 40.
-bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
-                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
-                         const loop_triangulation_settings& settings, loop_triangulation_workspace& workspace);
-/// As above with a thread_local workspace.
-bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
-                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats,
-                         const loop_triangulation_settings& settings);
-/// As above with default settings and a thread_local workspace.
-bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
-                         std::vector<std::array<std::uint32_t, 3>>& out, loop_triangulation_stats& stats);
+std::optional<double> triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loop_vertex> inner,
+                                          std::vector<std::array<std::uint32_t, 3>>& out,
+                                          const loop_triangulation_settings& settings = {});
 
 /// Triangulates a loop that lies almost in one plane by ear clipping in that plane: the loop is projected along its
 /// Newell normal (the normal of its best plane, pointing to the side it is counter-clockwise from), and when the
@@ -165,6 +127,6 @@ bool triangulate_annulus(std::span<const loop_vertex> outer, std::span<const loo
 ///             the loop.
 /// @return false, appending nothing, when n < 3, the projection is not simple, or some step has no acceptable ear.
 bool triangulate_loop_in_its_plane(std::span<const loop_vertex> loop, std::vector<std::array<std::uint32_t, 3>>& out,
-                                   loop_triangulation_stats& stats, const loop_triangulation_settings& settings = {});
+                                   const loop_triangulation_settings& settings = {});
 
 }  // namespace tracemesh
