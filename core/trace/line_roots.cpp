@@ -354,25 +354,6 @@ void sort_unique(std::vector<line_root>& roots) {
   roots.erase(end, roots.end());
 }
 
-}  // namespace
-
-line_root_finder::line_root_finder(const line_root_settings& settings) : settings_(settings), fitter_(settings.degree) {
-  // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix stored by column
-  // (node).
-  const int count = fitter_.points();
-  values_to_bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
-  std::vector<double> unit(static_cast<std::size_t>(count)), a(unit.size()), b(unit.size());
-  for (int m = 0; m < count; ++m) {
-    std::fill(unit.begin(), unit.end(), 0.0);
-    unit[static_cast<std::size_t>(m)] = 1;
-    fitter_.coefficients(unit, a);
-    legendre_to_bernstein(a, b);
-    std::copy(b.begin(), b.end(), values_to_bernstein_.begin() + static_cast<std::ptrdiff_t>(m * count));
-  }
-}
-
-namespace {
-
 /// Everything about one block that the per-line work needs.
 struct block_geometry {
   double x_lo, x_hi;                           ///< the block's span, Å (half-open)
@@ -429,10 +410,6 @@ void prepare_workspace(const gaussian_field& field, std::span<const std::uint32_
   }
   ws.sums.assign(static_cast<std::size_t>(lines_per_block) * node_stride, 0.0);
 }
-
-}  // namespace
-
-namespace {
 
 /// What a line's fits need besides the node values.
 struct fit_context {
@@ -730,6 +707,21 @@ std::array<bool, bound_pieces> proven_pieces(const line_root_finder::workspace& 
 }
 
 }  // namespace
+
+line_root_finder::line_root_finder(const line_root_settings& settings) : settings_(settings), fitter_(settings.degree) {
+  // Values at the nodes → Legendre coefficients (eq. 6) → Bernstein coefficients, as one matrix stored by column
+  // (node).
+  const int count = fitter_.points();
+  values_to_bernstein_.assign(static_cast<std::size_t>(count * count), 0.0);
+  std::vector<double> unit(static_cast<std::size_t>(count)), a(unit.size()), b(unit.size());
+  for (int m = 0; m < count; ++m) {
+    std::fill(unit.begin(), unit.end(), 0.0);
+    unit[static_cast<std::size_t>(m)] = 1;
+    fitter_.coefficients(unit, a);
+    legendre_to_bernstein(a, b);
+    std::copy(b.begin(), b.end(), values_to_bernstein_.begin() + static_cast<std::ptrdiff_t>(m * count));
+  }
+}
 
 void line_root_finder::find(const gaussian_field& field, const lattice& lat, const lattice_index& block,
                             std::span<const std::uint32_t> atoms, block_line_roots& out, line_root_stats& stats) {
