@@ -6,8 +6,9 @@
 ///
 /// Each outer iteration splits long edges, collapses short ones, flips edges towards valence 6 and moves every
 /// vertex towards the centre of its 1-ring in the tangent plane; new and moved vertices are put back onto the
-/// surface. The iterations stop early where the triangles already meet the quality targets (done_edge_ratio_mean). Every operation is checked locally (link condition, normals against the field normal, shape). Local
-/// checks cannot see two sheets of surface that come close, so validity rests on the certificate's own tests
+/// surface. The iterations stop early where the triangles already meet the quality targets (done_edge_ratio_mean).
+/// Every operation is checked locally (link condition, normals against the field normal, shape). Local checks
+/// cannot see two sheets of surface that come close, so validity rests on the certificate's own tests
 /// (exact self-intersection, degeneracy), run on every result before it is kept:
 /// - the mesh is cut into patches with a fixed boundary, remeshed in parallel and each checked against the fixed
 ///   triangles around it (remesh_chunks.hpp; a mesh under single_patch_triangles is one patch);
@@ -33,8 +34,8 @@ namespace tracemesh {
 
 struct remesh_options {
   double target_edge = 1.0;        ///< L, Å. The mesher derives it from the density: L = √(2 / (√3 · density)).
-  /// Outer iterations of split / collapse / flip / relax. 3: the 1k4r_5asu ladder row at 5 took 27% longer for an
-  /// edge-ratio mean of 0.861 instead of 0.851 (docs/method.md).
+  /// Outer iterations of split / collapse / flip / relax; more cost far more time than they gain in edge ratio
+  /// (docs/method.md, quality pass).
   int iterations = 3;
   /// The iterations end early, in each patch, once the triangles it may still change (a corner not frozen) have an
   /// edge-ratio mean of at least done_edge_ratio_mean and at most a share done_poor_share of them below 0.2; measured
@@ -55,8 +56,7 @@ struct remesh_options {
   double hard_quality_floor = 1e-6;
   /// Å: every new or moved vertex ends within this first-order distance |φ − t0| / |∇φ| of the surface.
   double surface_tolerance = 1e-5;
-  /// Extra tangential relaxation sweeps after the last iteration. 1: a second took 2.6% longer on 2buk_capsid for
-  /// an edge-ratio mean of 0.840 instead of 0.839.
+  /// Extra tangential relaxation sweeps after the last iteration (a second one gains almost nothing).
   int final_relaxations = 1;
   /// After a failed round, vertices within freeze_radius × L of an offending triangle are frozen; the radius doubles
   /// with every further round.
@@ -66,7 +66,7 @@ struct remesh_options {
   bool trust_input_normals = false;
   int max_rounds = 6;  ///< rounds of a patch (see above) before giving up and returning it unchanged
   /// At the end, edges shorter than this × L are collapsed where safe: frozen regions keep the raw mesh's short
-  /// edges (1k4r_5asu at 2 v/Å²: 14 of them took the shortest edge from 0.041 to 0.160 × the median).
+  /// edges, which would otherwise be the mesh's worst.
   double final_collapse_below = 0.15;
   /// A mesh of fewer triangles than this is remeshed as one patch whose round is not checked for self-intersections
   /// and inward components at its end, nor its result rebuilt to confirm it is a closed oriented manifold

@@ -25,8 +25,7 @@ std::vector<std::uint32_t> find_offending_triangles(const surface_mesh& mesh,
 
 /// The triangles of the components that the certificate counts as inward oriented (component_normal_agreement not
 /// positive); none when the mesh lacks one normal per vertex. The quality pass can make one: collapsing a tiny
-/// cavity of a sharp kernel down to a flat tetrahedron turned it inside out (mache at d = −15, t0 = 1, 0.5 v/Å²).
-/// Sorted.
+/// cavity of a sharp kernel down to a flat tetrahedron can turn it inside out. Sorted.
 std::vector<std::uint32_t> find_inward_component_triangles(const surface_mesh& mesh,
                                                            const std::vector<triangle_defect>& defects);
 
