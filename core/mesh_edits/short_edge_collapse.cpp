@@ -52,18 +52,19 @@ struct collapse {
   std::size_t first_change, end_change;  ///< its records in collapser::changed_
 };
 
-/// The edges with a movable end shorter than max_length, shortest first, each once; with `at` (one flag per
-/// vertex), only those with a flagged end.
-std::vector<candidate_edge> short_edges(const surface_mesh& mesh, std::uint32_t first_movable_vertex,
-                                        double max_length, const std::vector<char>* at = nullptr) {
+/// The edges of the triangles `of_triangle` accepts that have an end numbered first_movable_vertex or above and that
+/// `keep` accepts, shortest first, each once.
+template <class Of_triangle, class Keep>
+std::vector<candidate_edge> movable_edges(const surface_mesh& mesh, std::uint32_t first_movable_vertex,
+                                          Of_triangle of_triangle, Keep keep) {
   std::vector<candidate_edge> edges;
   for (const triangle& t : mesh.triangles) {
+    if (!of_triangle(t)) continue;
     for (int i = 0; i < 3; ++i) {
       const std::uint32_t u = t[static_cast<std::size_t>(i)], v = t[static_cast<std::size_t>((i + 1) % 3)];
       if (u < first_movable_vertex && v < first_movable_vertex) continue;
-      if (at != nullptr && !(*at)[u] && !(*at)[v]) continue;
-      const double length = distance(mesh.positions[u], mesh.positions[v]);
-      if (length < max_length) edges.push_back({length, std::min(u, v), std::max(u, v)});
+      const candidate_edge e{distance(mesh.positions[u], mesh.positions[v]), std::min(u, v), std::max(u, v)};
+      if (keep(e)) edges.push_back(e);
     }
   }
   std::sort(edges.begin(), edges.end());
@@ -71,21 +72,13 @@ std::vector<candidate_edge> short_edges(const surface_mesh& mesh, std::uint32_t 
   return edges;
 }
 
-/// The edges of the triangles folded against the vertex normals (detail::is_folded) with an end numbered
-/// `first_movable_vertex` or above, shortest first. Precondition: one normal per vertex.
-std::vector<candidate_edge> edges_of_folds(const surface_mesh& mesh, std::uint32_t first_movable_vertex) {
-  std::vector<candidate_edge> edges;
-  for (const triangle& t : mesh.triangles) {
-    if (!detail::is_folded(mesh, t)) continue;
-    for (int i = 0; i < 3; ++i) {
-      const std::uint32_t u = t[static_cast<std::size_t>(i)], v = t[static_cast<std::size_t>((i + 1) % 3)];
-      if (u < first_movable_vertex && v < first_movable_vertex) continue;
-      edges.push_back({distance(mesh.positions[u], mesh.positions[v]), std::min(u, v), std::max(u, v)});
-    }
-  }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  return edges;
+/// The movable edges shorter than max_length; with `at` (one flag per vertex), only those with a flagged end.
+std::vector<candidate_edge> short_edges(const surface_mesh& mesh, std::uint32_t first_movable_vertex,
+                                        double max_length, const std::vector<char>* at = nullptr) {
+  return movable_edges(mesh, first_movable_vertex, [](const triangle&) { return true; },
+                       [&](const candidate_edge& e) {
+                         return e.length < max_length && (at == nullptr || (*at)[e.a] || (*at)[e.b]);
+                       });
 }
 
 /// `flags` (one per vertex) and the flags of every vertex sharing a triangle with a flagged one.
@@ -108,7 +101,11 @@ class local_incidence {
     for (const candidate_edge& e : edges) end[e.a] = end[e.b] = 1;
     for (const triangle& t : mesh.triangles) {
       if (!end[t[0]] && !end[t[1]] && !end[t[2]]) continue;
-      for (const std::uint32_t v : t) track(v);
+      for (const std::uint32_t v : t) {
+        if (slot_[v] != untracked) continue;
+        slot_[v] = static_cast<std::uint32_t>(lists_.size());
+        lists_.emplace_back();
+      }
     }
     for (std::uint32_t f = 0; f < mesh.triangles.size(); ++f) {
       for (const std::uint32_t v : mesh.triangles[f]) {
@@ -121,11 +118,6 @@ class local_incidence {
 
  private:
   static constexpr std::uint32_t untracked = ~std::uint32_t{0};
-  void track(std::uint32_t v) {
-    if (slot_[v] != untracked) return;
-    slot_[v] = static_cast<std::uint32_t>(lists_.size());
-    lists_.emplace_back();
-  }
   std::vector<std::uint32_t> slot_;
   std::vector<std::vector<std::uint32_t>> lists_;
 };
@@ -312,9 +304,8 @@ class collapser {
   /// labels). Returns one flag per remaining vertex: whether it was the kept end of a collapse or an end of one
   /// undone by undo_collapses() (the next pass looks at the short edges at the flagged vertices).
   std::vector<char> compact() {
-    std::vector<char> kept_end(mesh_.positions.size(), 0);
+    std::vector<char> kept_end = retried_;
     for (const collapse& done : collapses_) kept_end[done.kept] = 1;
-    for (std::size_t v = 0; v < kept_end.size(); ++v) kept_end[v] |= retried_[v];
     std::vector<std::uint32_t> number(mesh_.positions.size());
     std::uint32_t next = 0;
     for (std::size_t v = 0; v < number.size(); ++v) {
@@ -644,18 +635,19 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
   return total;
 }
 
-std::size_t collapse_folded_triangles(surface_mesh& mesh, std::uint32_t first_movable_vertex,
-                                      std::uint32_t min_component_vertices) {
+std::size_t collapse_folded_triangles(surface_mesh& mesh, std::uint32_t first_movable_vertex) {
   if (mesh.normals.size() != mesh.positions.size()) return 0;
   detail::component_labels labels = detail::label_components(
       mesh, std::vector<detail::triangle_defect>(mesh.triangles.size(), detail::triangle_defect::none));
   std::size_t total = 0;
   for (int pass = 0; pass < max_collapse_passes; ++pass) {
-    std::vector<candidate_edge> edges = edges_of_folds(mesh, first_movable_vertex);
+    std::vector<candidate_edge> edges = movable_edges(
+        mesh, first_movable_vertex, [&](const triangle& t) { return detail::is_folded(mesh, t); },
+        [](const candidate_edge&) { return true; });
     if (edges.empty()) break;
     std::vector<char> kept_ends;
     const std::size_t collapsed =
-        collapse_pass(mesh, std::move(edges), first_movable_vertex, min_component_vertices, labels, kept_ends);
+        collapse_pass(mesh, std::move(edges), first_movable_vertex, default_min_component_vertices, labels, kept_ends);
     if (collapsed == 0) break;
     total += collapsed;
   }

@@ -25,6 +25,14 @@
 
 namespace tracemesh {
 
+/// What to do where a short edge's ends have a third common neighbour e (the link condition fails): leave the edge
+/// (the raw trace mesh, whose triangles must stay those of its polygons), or first flip the edge from an end to e
+/// (the quality pass), keeping the flip only when the certificate's tests pass it.
+enum class blocked_links { left, flipped };
+
+/// Components of this many vertices or fewer keep their edges (see collapse_short_edges).
+inline constexpr std::uint32_t default_min_component_vertices = 8;
+
 /// Collapses, shortest first, every edge of `mesh` shorter than `max_length` Å with an end numbered
 /// `first_movable_vertex` or above (the vertices before it are never removed), where:
 /// - its component keeps more than `min_component_vertices` vertices: 8 by default, as a tiny cavity is the quality
@@ -47,13 +55,9 @@ namespace tracemesh {
 /// The two triangles on the edge go, the removed end's others take the kept end instead, and the unused vertex is
 /// dropped (the others keep their order, as do normals and atom indices when there is one per vertex).
 /// Precondition: `mesh` is closed and oriented. Returns the edges collapsed.
-/// What to do where a short edge's ends have a third common neighbour e (the link condition fails): leave the edge
-/// (the raw trace mesh, whose triangles must stay those of its polygons), or first flip the edge from an end to e
-/// (the quality pass), keeping the flip only when the certificate's tests pass it.
-enum class blocked_links { left, flipped };
-
 std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length,
-                                 std::uint32_t min_component_vertices = 8, blocked_links links = blocked_links::left);
+                                 std::uint32_t min_component_vertices = default_min_component_vertices,
+                                 blocked_links links = blocked_links::left);
 
 /// Collapses edges of the triangles that face against the vertex normals at all three corners (folds, which the
 /// certificate refuses: analysis_local_folds.hpp), shortest first, under the same conditions as collapse_short_edges
@@ -61,7 +65,6 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
 /// marching-tetrahedra mesh, where a crevice narrower than the lattice is cut by triangles standing across it: no
 /// rule of the tetrahedra can avoid them. Precondition: as collapse_short_edges, and one normal per vertex (else
 /// nothing is done). Returns the edges collapsed.
-std::size_t collapse_folded_triangles(surface_mesh& mesh, std::uint32_t first_movable_vertex,
-                                      std::uint32_t min_component_vertices = 8);
+std::size_t collapse_folded_triangles(surface_mesh& mesh, std::uint32_t first_movable_vertex);
 
 }  // namespace tracemesh
