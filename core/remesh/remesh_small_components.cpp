@@ -34,13 +34,12 @@ constexpr double ray_reach_in_diameters = 2.0;
 constexpr int polish_directions = 6;
 constexpr double polish_first_step = 0.1;
 constexpr double polish_last_step = 0.005;
-/// Polishing stops once every triangle is at least this good (equilateral: 1). The shortest edges are then
-/// lengthened while every triangle stays this good: the quality pass's targets ask for a shortest edge of 0.1 × the
-/// median, and all of a tiny cavity's edges are short (2buk_capsid at 1 v/Å²: a 4-vertex cavity 0.17 Å across kept
-/// 0.075 × the median; 0.134 × lengthened).
+/// Polishing stops once every triangle is at least this good (equilateral: 1); lengthening keeps them so.
 constexpr double polish_enough_quality = 0.9;
 /// Sweeps over the vertices at one step length, at most (each sweep moves every vertex that can improve).
 constexpr int polish_sweeps_per_step = 4;
+/// The Fibonacci set's step in longitude, and the step between its rotations.
+double golden_angle() { return std::numbers::pi * (3 - std::sqrt(5.0)); }
 
 using triangle = std::array<std::uint32_t, 3>;
 
@@ -87,12 +86,11 @@ std::vector<small_component> find_small_components(const surface_mesh& mesh, dou
 
 /// n unit vectors spread evenly over the sphere (a Fibonacci set).
 std::vector<vec3> spread_directions(std::size_t n) {
-  const double golden_angle = std::numbers::pi * (3 - std::sqrt(5.0));
   std::vector<vec3> directions;
   for (std::size_t i = 0; i < n; ++i) {
     const double z = 1 - 2 * (static_cast<double>(i) + 0.5) / static_cast<double>(n);
     const double rho = std::sqrt(1 - z * z);
-    const double angle = golden_angle * static_cast<double>(i);
+    const double angle = golden_angle() * static_cast<double>(i);
     directions.push_back({rho * std::cos(angle), rho * std::sin(angle), z});
   }
   return directions;
@@ -169,21 +167,18 @@ std::optional<std::pair<vec3, vec3>> first_surface_point(const gaussian_field& f
   return std::nullopt;
 }
 
-/// Whether face t of `small` agrees with the field normals at its corners (its normal against the sum of theirs).
-bool face_agrees(const small_mesh& small, const triangle& t) {
+/// Face t's area vector against the sum of the field normals at its corners: positive where it agrees with them.
+double agreement(const small_mesh& small, const triangle& t) {
   const vec3 n = area_vector(small.positions[t[0]], small.positions[t[1]], small.positions[t[2]]);
-  return dot(n, small.normals[t[0]] + small.normals[t[1]] + small.normals[t[2]]) > 0;
+  return dot(n, small.normals[t[0]] + small.normals[t[1]] + small.normals[t[2]]);
 }
 
 /// The certificate's orientation test of a component (analysis_topology.hpp: component_normal_agreement): the sum
-/// over its faces of their area vectors against their corners' normals is positive. A coarse mesh of a tiny,
-/// non-convex cavity may have a face turned against its corners' normals and still pass it.
+/// of its faces' agreements is positive. A coarse mesh of a tiny, non-convex cavity may have a face turned against
+/// its corners' normals and still pass it.
 bool agrees_with_field(const small_mesh& small) {
   double sum = 0;
-  for (const triangle& t : small.triangles) {
-    sum += dot(area_vector(small.positions[t[0]], small.positions[t[1]], small.positions[t[2]]),
-               small.normals[t[0]] + small.normals[t[1]] + small.normals[t[2]]);
-  }
+  for (const triangle& t : small.triangles) sum += agreement(small, t);
   return sum > 0;
 }
 
@@ -253,7 +248,7 @@ void hill_climb(small_mesh& small, const gaussian_field& field, double step, dou
       for (const std::uint32_t w : t) {
         if (w != v) score.shortest_edge = std::min(score.shortest_edge, distance(at, small.positions[w]));
       }
-      if (!face_agrees(small, t)) ++score.turned;
+      if (!(agreement(small, t) > 0)) ++score.turned;
     }
     return score;
   };
@@ -290,7 +285,7 @@ void hill_climb(small_mesh& small, const gaussian_field& field, double step, dou
 }
 
 /// Raises the worst triangle quality of `small` until it reaches polish_enough_quality, never turning more
-/// triangles against the field normals: the relaxation the iterations refuse here (see the file comment).
+/// triangles against the field normals.
 void polish(small_mesh& small, const gaussian_field& field, double diameter) {
   hill_climb(
       small, field, polish_first_step * diameter, polish_last_step * diameter,
@@ -331,9 +326,7 @@ small_mesh as_small_mesh(const surface_mesh& mesh, const small_component& compon
 }
 
 /// A component made again: lengthened (its shortest edges lengthened after polishing) and, when that differs and
-/// also beats the component, polished only. The lengthened one spreads its corners further over the surface, and
-/// its faces, chords of the surface, may then meet another part of the mesh where the polished ones do not
-/// (2buk_capsid at 2 v/Å²: a cavity 0.7 Å long).
+/// also beats the component, polished only, the fallback when the lengthened one meets the mesh.
 struct remake {
   small_mesh lengthened;
   std::optional<small_mesh> polished;
@@ -363,12 +356,11 @@ std::optional<remake> remade(const surface_mesh& mesh, const gaussian_field& fie
   const std::vector<triangle> faces = hull_of_directions(base);
   if (faces.empty()) return std::nullopt;
   const std::vector<vec3> axes = spread_directions(direction_rotations);
-  const double golden_angle = std::numbers::pi * (3 - std::sqrt(5.0));
   std::optional<small_mesh> best_star;
   double best_star_quality = -1;
   for (int r = 0; r < direction_rotations; ++r) {
     std::vector<vec3> u;
-    for (const vec3& d : base) u.push_back(rotated(d, axes[static_cast<std::size_t>(r)], golden_angle * (r + 1)));
+    for (const vec3& d : base) u.push_back(rotated(d, axes[static_cast<std::size_t>(r)], golden_angle() * (r + 1)));
     auto star = star_on_rays(field, centre, u, faces, ray_reach_in_diameters * diameter, phi_centre < 0);
     if (!star) continue;
     const double q = worst_quality(*star);

@@ -6,8 +6,8 @@
 /// The iterations cannot improve such a component: none of its edges is long enough to split, a collapse may not
 /// leave it with fewer than 4 vertices, and most moves are refused because a polyhedron this coarse has faces
 /// further than max_normal_deviation_deg from the field normals at its corners (a regular tetrahedron's faces are
-/// 70.5° from its corners' directions). The component keeps the shape its raw mesh gave it: on achbp at 1 v/Å² a
-/// 4-vertex cavity kept an edge of 0.052 × the median edge, and 2buk_12asu's 8-vertex cavities edges of 0.06–0.09 ×.
+/// 70.5° from its corners' directions). The component keeps the shape its raw mesh gave it, with edges far under
+/// 0.1 × the median edge.
 ///
 /// A component of genus 0 whose bounding box is at most max_diameter_in_edges × L across is made again:
 /// - as n points of the surface on rays from its vertices' centroid, in directions spread evenly over the sphere (a
@@ -17,16 +17,13 @@
 /// - the better of that and the component as it is, by worst triangle, is then polished: a hill-climb of the
 ///   worst triangle's quality by vertex moves on the surface (the relaxation the iterations refused), up to 0.9;
 /// - then lengthened: the same moves lengthen its shortest edges while every triangle stays that good. A tiny
-///   cavity's edges are all short, and the targets ask for 0.1 × the median edge (1ihm_asu at 1 v/Å²: a 4-vertex
-///   cavity 0.16 Å across kept 0.082 × the median, 0.094 × lengthened; no 4 points of its surface are further
-///   apart than 0.095 ×).
+///   cavity's edges are all short, and the targets ask for 0.1 × the median edge.
 /// The result replaces the component only when its worst triangle is better, it passes the certificate's
 /// orientation test (analysis_topology.hpp: component_normal_agreement) with no face folded against its corners'
 /// normals (analysis_local_folds.hpp), and the certificate's own tests find none
 /// of its triangles degenerate or meeting another triangle of the mesh (analysis_moved_triangles.hpp). When the
 /// lengthened one fails those tests the polished one is tried: lengthened faces, chords of a longer stretch of
-/// surface, may cross another sheet nearby where the polished ones do not (2buk_capsid at 2 v/Å²: a cavity 0.7 Å
-/// long).
+/// surface, may cross another sheet nearby where the polished ones do not.
 
 #include <cstddef>
 
