@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <span>
+#include <iterator>
 
 namespace tracemesh {
 
@@ -63,16 +63,18 @@ struct box3 {
   }
 };
 
-/// The smallest box holding the points (at least one).
-inline box3 bounds_of(std::span<const vec3> points) {
-  box3 b = box3::around(points.front());
+/// The smallest box holding the points (at least one). (Templates rather than std::span: this header is also
+/// read by the structure reader, which builds as C++17.)
+template <class Points>
+box3 bounds_of(const Points& points) {
+  box3 b = box3::around(*std::begin(points));
   for (const vec3& p : points) b.include(p);
   return b;
 }
 
 /// The smallest box holding positions[i] for every i of `indices` (at least one): a triangle, a component.
-template <class Indices>
-box3 bounds_of(std::span<const vec3> positions, const Indices& indices) {
+template <class Positions, class Indices>
+box3 bounds_of(const Positions& positions, const Indices& indices) {
   box3 b = box3::around(positions[*std::begin(indices)]);
   for (const auto i : indices) b.include(positions[i]);
   return b;

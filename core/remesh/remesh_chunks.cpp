@@ -19,41 +19,31 @@
 namespace tracemesh::detail {
 namespace {
 
-/// 12: against 16, 3j6r_asu meshed 8% faster and the other molecules from 10⁴ atoms up 0-2% (their few chunks per
-/// colour balance better over the threads), the capsids the same; 8 was slower (more seams to redo).
+/// Smaller chunks balance better over the threads; much smaller ones have more seams to redo.
 constexpr std::int64_t cells_per_chunk = 12;
 /// Where cells grow beyond their natural size (make_grid), a chunk holds fewer of them, so that it stays about
-/// chunk_edges·L wide, but never fewer than this: grown patches of one colour stay 2·6 − (6 + 2) = 4 cells apart.
-/// With 12 grown cells, the trace path's input (whose long diagonals double the cells) made 8 times fewer, larger
-/// patches: 17 instead of 67 on 2buk_capsid at 1 v/Å², and a patch that failed a round redid 1/17 of the mesh
-/// (quality pass 4.6-5.5 s; 2.8-3.1 s with 6 cells a chunk, for the same edge ratio: docs/method.md).
+/// chunk_edges·L wide, but never fewer than this: grown patches of one colour stay 2·6 − (6 + 2) = 4 cells apart,
+/// and a patch that fails a round redoes a small part of the mesh.
 constexpr std::int64_t min_cells_per_chunk = 6;
 /// A chunk's patch reaches this many cells beyond it; its context this many more.
 constexpr std::int64_t patch_growth = 1;
 constexpr std::int64_t context_growth = 1;
-/// Cell coordinates take 21 bits per axis so that a cell packs into 64 bits.
 /// A patch's vertices this many rings or more from its boundary, and not frozen, are done: later patches that reach
 /// them keep them frozen instead of remeshing them again (they only need to remesh the band along their boundary).
 constexpr int boundary_rings = 3;
+/// Cell coordinates take 21 bits per axis so that a cell packs into 64 bits.
 constexpr int coordinate_bits = 21;
 constexpr std::int64_t max_coordinate = (std::int64_t{1} << coordinate_bits) - 1;
 
 using cell = std::array<std::int64_t, 3>;
 
-status invalid_mesh(const std::string& why) { return {errc::invalid_argument, "remesh: input mesh " + why}; }
-
 /// Every directed edge a→b appears once and b→a once too (closed, edge-manifold, consistently oriented), every
 /// vertex is used. (Each patch checks its vertices' fans when it is built.)
 status validate_closed(const surface_mesh& mesh) {
   const std::size_t n = mesh.positions.size();
-  if (mesh.normals.size() != n) return invalid_mesh("has one normal per vertex missing");
-  if (n >= no_index || mesh.triangles.size() >= no_index / 3) return invalid_mesh("is too large");
+  if (status s = check_mesh_arrays(n, mesh.normals.size(), mesh.triangles); !s) return s;
   std::vector<std::uint32_t> begin(n + 1, 0);
   for (const auto& t : mesh.triangles) {
-    for (const std::uint32_t v : t) {
-      if (v >= n) return invalid_mesh("has a vertex index out of range");
-    }
-    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) return invalid_mesh("has a face repeating a vertex");
     for (const std::uint32_t v : t) ++begin[v + 1];
   }
   for (std::size_t v = 0; v < n; ++v) {
@@ -394,10 +384,9 @@ class chunked_mesh {
 /// packed keys; chunks of as many cells as keep them chunk_edges·L wide (at least min_cells_per_chunk). A context of
 /// one cell then holds every triangle that may meet a patch, but for the triangles with an edge longer than half a
 /// cell: those stay out of every patch, as they are, and join every context they reach.
-/// Such edges are the trace path's few long triangulation diagonals (up to 7.2 Å on 2buk_capsid at 1 v/Å², whose
-/// triangles face away from the surface normals, so that the quality pass could not split them anyway). Before,
-/// cells were always twice the longest edge: 2buk_capsid made 8 patches, a patch that failed a round redid an eighth
-/// of the mesh and the pass took 37 s instead of 22 s, for the same edge ratio (docs/method.md, quality pass).
+/// Such edges are the trace path's few long triangulation diagonals, whose triangles face away from the surface
+/// normals, so that the quality pass could not split them anyway. Cells grown without that cap make few, large
+/// patches, and a patch that fails a round then redoes much of the mesh.
 constexpr double max_cell_growth = 2;
 
 cell_grid make_grid(const surface_mesh& mesh, const remesh_options& options) {

@@ -5,8 +5,6 @@
 namespace tracemesh::detail {
 namespace {
 
-status invalid_mesh(const std::string& why) { return {errc::invalid_argument, "remesh: input mesh " + why}; }
-
 /// Outgoing half-edges grouped by their start vertex (compressed rows).
 struct outgoing_rows {
   std::vector<std::uint32_t> begin;  ///< vertex_count + 1 offsets
@@ -26,20 +24,27 @@ outgoing_rows group_by_start(const std::vector<std::uint32_t>& corner, std::size
 
 }  // namespace
 
-result<remesh_mesh> remesh_mesh::build(std::vector<vec3> positions, std::vector<vec3> normals,
-                                       const triangle_list& triangles, bool allow_boundary) {
-  const std::size_t vertex_count = positions.size();
-  if (normals.size() != vertex_count) return invalid_mesh("has one normal per vertex missing");
+status invalid_mesh(const std::string& why) { return {errc::invalid_argument, "remesh: input mesh " + why}; }
+
+status check_mesh_arrays(std::size_t vertex_count, std::size_t normal_count, const triangle_list& triangles) {
+  if (normal_count != vertex_count) return invalid_mesh("has one normal per vertex missing");
   if (vertex_count >= no_index || triangles.size() >= no_index / 3) return invalid_mesh("is too large");
-  remesh_mesh mesh;
-  mesh.corner_.reserve(3 * triangles.size());
   for (const auto& t : triangles) {
     for (const std::uint32_t v : t) {
       if (v >= vertex_count) return invalid_mesh("has a vertex index out of range");
     }
     if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) return invalid_mesh("has a face repeating a vertex");
-    mesh.corner_.insert(mesh.corner_.end(), t.begin(), t.end());
   }
+  return status::success();
+}
+
+result<remesh_mesh> remesh_mesh::build(std::vector<vec3> positions, std::vector<vec3> normals,
+                                       const triangle_list& triangles, bool allow_boundary) {
+  const std::size_t vertex_count = positions.size();
+  if (status s = check_mesh_arrays(vertex_count, normals.size(), triangles); !s) return s;
+  remesh_mesh mesh;
+  mesh.corner_.reserve(3 * triangles.size());
+  for (const auto& t : triangles) mesh.corner_.insert(mesh.corner_.end(), t.begin(), t.end());
 
   // Twin of a→b is the unique half-edge b→a; a second a→b means a non-manifold edge or flipped orientation.
   const outgoing_rows rows = group_by_start(mesh.corner_, vertex_count);
@@ -233,7 +238,7 @@ void remesh_mesh::flip_edge(std::uint32_t h) {
   outgoing_[d] = 3 * f1;
 }
 
-std::vector<std::uint32_t> remesh_mesh::compact() {
+void remesh_mesh::compact() {
   std::vector<std::uint32_t> vertex_map(vertex_slots(), no_index);
   std::uint32_t kept_vertices = 0;
   for (std::uint32_t v = 0; v < vertex_slots(); ++v) {
@@ -277,7 +282,6 @@ std::vector<std::uint32_t> remesh_mesh::compact() {
   face_removed_.assign(kept_faces, 0);
   live_faces_ = kept_faces;
   live_vertices_ = kept_vertices;
-  return vertex_map;
 }
 
 triangle_list remesh_mesh::triangles() const {

@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "core/status.hpp"
@@ -24,6 +25,13 @@ namespace tracemesh::detail {
 inline constexpr std::uint32_t no_index = std::numeric_limits<std::uint32_t>::max();
 
 using triangle_list = std::vector<std::array<std::uint32_t, 3>>;
+
+/// errc::invalid_argument: "remesh: input mesh <why>".
+status invalid_mesh(const std::string& why);
+
+/// The checks of every input mesh before its adjacency: one normal per vertex, few enough vertices and triangles
+/// for 32-bit indices, every index in range, no face repeating a vertex.
+status check_mesh_arrays(std::size_t vertex_count, std::size_t normal_count, const triangle_list& triangles);
 
 /// What the remesher may change around a vertex (see remesh.hpp: frozen regions keep the input mesh).
 enum class vertex_protection : std::uint8_t {
@@ -108,9 +116,8 @@ class remesh_mesh {
   /// already adjacent, and both end points of h have valence > 3.
   void flip_edge(std::uint32_t h);
 
-  /// Drops removed faces and vertices, keeping the order of the rest. Returns, per old vertex slot, its new index
-  /// (no_index for removed ones).
-  std::vector<std::uint32_t> compact();
+  /// Drops removed faces and vertices, keeping the order of the rest.
+  void compact();
 
   /// The live vertices' positions and normals and the live faces (call compact() first for dense indices).
   const std::vector<vec3>& positions() const { return position_; }

@@ -26,8 +26,7 @@ constexpr double settled_move = 0.05;
 constexpr double small_change_agreement_slack = 0.2;
 /// Å: the new vertex of a split or of a collapse onto the midpoint is projected to this first-order distance from
 /// the surface only, not to surface_tolerance: relaxation moves it again with single Newton steps, and
-/// settle_vertices() projects every vertex an edit placed to surface_tolerance before the round is checked. On
-/// 2buk_capsid this took 3.5% off the quality pass, same edge ratio (docs/method.md).
+/// settle_vertices() projects every vertex an edit placed to surface_tolerance before the round is checked.
 constexpr double edit_surface_tolerance = 1e-2;
 
 bool contains(const std::vector<std::uint32_t>& list, std::uint32_t value) {
@@ -119,7 +118,7 @@ bool remesh_operations::acceptable(const triangle_shape& t, const replaced_trian
 
 bool remesh_operations::split_long_edges() {
   // One sweep; new half-edges are appended and visited in the same sweep. An edge refused now is tried again in the
-  // next iteration (repeating the sweep until nothing changed made 0.4% more splits on 1rb8_capsid).
+  // next iteration (repeating the sweep until nothing changes gains few splits).
   const double limit2 = thresholds_.split_above * thresholds_.split_above;
   for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
     if (stop_requested(h)) return false;
@@ -162,9 +161,8 @@ bool remesh_operations::try_split(std::uint32_t h) {
 // --- collapse ---------------------------------------------------------------------------------------------------
 
 bool remesh_operations::collapse_short_edges(double shorter_than) {
-  // One sweep, as for splits: on 1rb8_capsid repeated sweeps tried 1.2 M more edges (a fifth of all tries) for
-  // 71,000 more collapses (2%), most of which the next iteration makes anyway; one sweep took 9% off the quality
-  // pass for 0.841 -> 0.840 in edge-ratio mean (docs/method.md).
+  // One sweep, as for splits: repeated sweeps try many more edges for few more collapses, most of which the next
+  // iteration makes anyway (docs/method.md).
   const double limit2 = shorter_than * shorter_than;
   for (std::uint32_t h = 0; h < mesh_.halfedge_slots(); ++h) {
     if (stop_requested(h)) return false;
