@@ -32,7 +32,6 @@ std::array<cell_wall_strip, 4> walls_of(const cell_id& c) {
 }
 
 /// One loop vertex with its number in the mesh.
-using vertex_ref = const loop_vertex&;
 struct numbered_vertex {
   std::uint32_t id;
   loop_vertex vertex;
@@ -40,6 +39,18 @@ struct numbered_vertex {
 
 /// An arc of the cell in the direction the cell walks it.
 using cell_arc = std::vector<numbered_vertex>;
+using triangle_list = std::vector<std::array<std::uint32_t, 3>>;
+
+std::vector<loop_vertex> vertices_of(const std::vector<numbered_vertex>& loop) {
+  std::vector<loop_vertex> out;
+  for (const numbered_vertex& v : loop) out.push_back(v.vertex);
+  return out;
+}
+
+/// `local` (indices into `loop`) in the mesh's vertex numbers, appended to `out`.
+void number_triangles(const std::vector<numbered_vertex>& loop, const triangle_list& local, triangle_list& out) {
+  for (const auto& t : local) out.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
+}
 
 std::uint8_t planes_of_line(const line_id& line, const cell_id& c) {
   std::uint8_t bits = 0;
@@ -160,7 +171,7 @@ constexpr loop_strategy next(loop_strategy s) { return static_cast<loop_strategy
 /// One loop's triangles; vertex numbers ≥ steiner_vertex are this loop's own Steiner points.
 struct loop_mesh {
   loop_strategy strategy = loop_strategy::none;
-  std::vector<std::array<std::uint32_t, 3>> triangles;
+  triangle_list triangles;
   std::vector<surface_sample> steiner;
 };
 
@@ -257,15 +268,42 @@ std::array<vec3, 3> steiner_origins(const std::vector<numbered_vertex>& loop, co
   return {centroid, 0.5 * (centroid + axis), axis};
 }
 
-/// The fan around `centre`: its triangles must not be degenerate, must not intersect each other, must not face
-/// against the normals at all three corners (a fold, which the certificate refuses) and, with check_orientation,
-/// must agree with the normals.
-bool fan_is_valid(const std::vector<numbered_vertex>& loop, const surface_sample& centre, bool check_orientation) {
+/// Whether two of `triangles` (vertex numbers of `loop`, whose Steiner points steiner_vertex + m are steiner[m])
+/// intersect (mesh_triangles_intersect: triangles that share a vertex or an edge may only touch there).
+bool pieces_meet(const std::vector<numbered_vertex>& loop, const std::vector<surface_sample>& steiner,
+                 const triangle_list& triangles) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;
+  std::vector<vec3> positions;
+  for (const numbered_vertex& v : loop) {
+    if (v.id >= steiner_vertex) continue;
+    index.emplace_back(v.id, static_cast<std::uint32_t>(positions.size()));
+    positions.push_back(v.vertex.position);
+  }
+  for (std::size_t m = 0; m < steiner.size(); ++m) {
+    index.emplace_back(steiner_vertex + static_cast<std::uint32_t>(m), static_cast<std::uint32_t>(positions.size()));
+    positions.push_back(steiner[m].position);
+  }
+  std::sort(index.begin(), index.end());
+  triangle_list local;
+  for (const auto& t : triangles) {
+    std::array<std::uint32_t, 3> c{};
+    for (int i = 0; i < 3; ++i) c[i] = std::lower_bound(index.begin(), index.end(), std::make_pair(t[i], 0u))->second;
+    local.push_back(c);
+  }
+  for (std::size_t a = 0; a < local.size(); ++a) {
+    for (std::size_t b = a + 1; b < local.size(); ++b) {
+      if (detail::mesh_triangles_intersect(positions, local[a], local[b])) return true;
+    }
+  }
+  return false;
+}
+
+/// Whether the fan around `centre` has no degenerate triangle, none facing against the normals at all three corners
+/// (a fold, which the certificate refuses) and, with check_orientation, every one agreeing with the normals.
+bool fan_faces_valid(const std::vector<numbered_vertex>& loop, const surface_sample& centre, bool check_orientation) {
   const vec3 normal = normalized(-centre.gradient);
-  std::vector<vec3> positions{centre.position};
-  std::vector<std::array<std::uint32_t, 3>> fan;
   for (std::size_t n = 0; n < loop.size(); ++n) {
-    vertex_ref a = loop[n].vertex, b = loop[(n + 1) % loop.size()].vertex;
+    const loop_vertex &a = loop[n].vertex, &b = loop[(n + 1) % loop.size()].vertex;
     const vec3 face = cross(b.position - a.position, centre.position - a.position);
     const double longest2 = std::max({squared_norm(b.position - a.position), squared_norm(centre.position - a.position),
                                       squared_norm(centre.position - b.position)});
@@ -274,13 +312,6 @@ bool fan_is_valid(const std::vector<numbered_vertex>& loop, const surface_sample
     }
     if (check_orientation && !(dot(face, normal + a.normal + b.normal) > 0)) return false;
     if (dot(face, normal) < 0 && dot(face, a.normal) < 0 && dot(face, b.normal) < 0) return false;  // a fold
-    positions.push_back(a.position);
-    fan.push_back({static_cast<std::uint32_t>(n + 1), static_cast<std::uint32_t>((n + 1) % loop.size() + 1), 0});
-  }
-  for (std::size_t a = 0; a < fan.size(); ++a) {
-    for (std::size_t b = a + 1; b < fan.size(); ++b) {
-      if (detail::mesh_triangles_intersect(positions, fan[a], fan[b])) return false;
-    }
   }
   return true;
 }
@@ -292,11 +323,13 @@ bool fan_around_steiner_point(const gaussian_field& field, const std::vector<num
   for (const vec3& origin : steiner_origins(loop, cell, h)) {
     surface_sample centre;
     if (!steiner_point(field, loop, cell, h, origin, centre, evaluations)) continue;
-    if (!fan_is_valid(loop, centre, check_orientation)) continue;
-    out.steiner.push_back(centre);
+    triangle_list fan;
     for (std::size_t n = 0; n < loop.size(); ++n) {
-      out.triangles.push_back({loop[n].id, loop[(n + 1) % loop.size()].id, steiner_vertex});
+      fan.push_back({loop[n].id, loop[(n + 1) % loop.size()].id, steiner_vertex});
     }
+    if (!fan_faces_valid(loop, centre, check_orientation) || pieces_meet(loop, {centre}, fan)) continue;
+    out.steiner.push_back(centre);
+    out.triangles = std::move(fan);
     return true;
   }
   return false;
@@ -315,36 +348,6 @@ constexpr std::array<loop_strategy, 4> split_half_strategies{loop_strategy::admi
 bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vertex>& loop, const cell_id& cell,
                     double h, loop_strategy strategy, loop_mesh& out, std::size_t& evaluations,
                     std::uint8_t kept_walls = 0);
-
-/// Whether two of `triangles` (vertex numbers of `loop`, whose Steiner points steiner_vertex + m are steiner[m])
-/// intersect (mesh_triangles_intersect: triangles that share a vertex or an edge may only touch there).
-bool pieces_meet(const std::vector<numbered_vertex>& loop, const std::vector<surface_sample>& steiner,
-                 const std::vector<std::array<std::uint32_t, 3>>& triangles) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> index;
-  std::vector<vec3> positions;
-  for (const numbered_vertex& v : loop) {
-    if (v.id >= steiner_vertex) continue;
-    index.emplace_back(v.id, static_cast<std::uint32_t>(positions.size()));
-    positions.push_back(v.vertex.position);
-  }
-  for (std::size_t m = 0; m < steiner.size(); ++m) {
-    index.emplace_back(steiner_vertex + static_cast<std::uint32_t>(m), static_cast<std::uint32_t>(positions.size()));
-    positions.push_back(steiner[m].position);
-  }
-  std::sort(index.begin(), index.end());
-  std::vector<std::array<std::uint32_t, 3>> local;
-  for (const auto& t : triangles) {
-    std::array<std::uint32_t, 3> c{};
-    for (int i = 0; i < 3; ++i) c[i] = std::lower_bound(index.begin(), index.end(), std::make_pair(t[i], 0u))->second;
-    local.push_back(c);
-  }
-  for (std::size_t a = 0; a < local.size(); ++a) {
-    for (std::size_t b = a + 1; b < local.size(); ++b) {
-      if (detail::mesh_triangles_intersect(positions, local[a], local[b])) return true;
-    }
-  }
-  return false;
-}
 
 /// `p` moved into the cell's cross-section less the Steiner margin (two vertices on one wall have their middle on it).
 vec3 into_cross_section(vec3 p, const cell_id& cell, double h) {
@@ -437,13 +440,13 @@ constexpr std::size_t max_pinches_per_cut = 16;
 /// without self-intersection: by the first of split_half_strategies whose triangles do not meet, else, while depth
 /// allows, cut again at a pinch (split_piece). Appends to `triangles` and `steiner`; false leaves them as they were.
 bool triangulate_piece(const gaussian_field& field, const std::vector<numbered_vertex>& piece, const cell_id& cell,
-                       double h, int depth, std::vector<std::array<std::uint32_t, 3>>& triangles,
+                       double h, int depth, triangle_list& triangles,
                        std::vector<surface_sample>& steiner, std::size_t& evaluations);
 
 /// `piece` cut in two at a point of the surface between two of its vertices (as split_at_pinch), each half
 /// triangulated by triangulate_piece, and the union checked for self-intersection.
 bool split_piece(const gaussian_field& field, const std::vector<numbered_vertex>& piece, const cell_id& cell, double h,
-                 int depth, std::vector<std::array<std::uint32_t, 3>>& triangles, std::vector<surface_sample>& steiner,
+                 int depth, triangle_list& triangles, std::vector<surface_sample>& steiner,
                  std::size_t& evaluations) {
   if (piece.size() < 4) return false;
   const std::size_t kept_triangles = triangles.size(), kept_steiner = steiner.size();
@@ -456,7 +459,7 @@ bool split_piece(const gaussian_field& field, const std::vector<numbered_vertex>
     steiner.push_back(point);
     if (triangulate_piece(field, loop_half(piece, i, j, pinch), cell, h, depth, triangles, steiner, evaluations) &&
         triangulate_piece(field, loop_half(piece, j, i, pinch), cell, h, depth, triangles, steiner, evaluations)) {
-      const std::vector<std::array<std::uint32_t, 3>> mine(triangles.begin() + kept_triangles, triangles.end());
+      const triangle_list mine(triangles.begin() + kept_triangles, triangles.end());
       if (!pieces_meet(piece, steiner, mine)) return true;
     }
     triangles.resize(kept_triangles);
@@ -466,7 +469,7 @@ bool split_piece(const gaussian_field& field, const std::vector<numbered_vertex>
 }
 
 bool triangulate_piece(const gaussian_field& field, const std::vector<numbered_vertex>& piece, const cell_id& cell,
-                       double h, int depth, std::vector<std::array<std::uint32_t, 3>>& triangles,
+                       double h, int depth, triangle_list& triangles,
                        std::vector<surface_sample>& steiner, std::size_t& evaluations) {
   for (const loop_strategy s : split_half_strategies) {
     loop_mesh m;
@@ -504,17 +507,16 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
     return fan_around_steiner_point(field, loop, cell, h, strategy == loop_strategy::steiner_fan, out, evaluations);
   }
   if (strategy == loop_strategy::split_at_pinch) return split_at_pinch(field, loop, cell, h, out, evaluations);
-  std::vector<loop_vertex> vertices(loop.size());
-  for (std::size_t n = 0; n < loop.size(); ++n) vertices[n] = loop[n].vertex;
+  std::vector<loop_vertex> vertices = vertices_of(loop);
   if (strategy == loop_strategy::unrestricted) {
     for (loop_vertex& v : vertices) v.planes &= kept_walls;
   }
-  std::vector<std::array<std::uint32_t, 3>> local;
+  triangle_list local;
   loop_triangulation_settings settings;
   if (strategy == loop_strategy::in_its_plane) {
     settings.kept_walls = kept_walls;
     const bool ok = triangulate_loop_in_its_plane(vertices, local, settings);
-    for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
+    number_triangles(loop, local, out.triangles);
     return ok;
   }
   settings.maximise_normal_agreement =
@@ -524,7 +526,7 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
     settings.min_normal_cosine = -2;  // rule 2 off
   }
   const bool ok = triangulate_loop(vertices, local, settings).has_value();
-  for (const auto& t : local) out.triangles.push_back({loop[t[0]].id, loop[t[1]].id, loop[t[2]].id});
+  number_triangles(loop, local, out.triangles);
   return ok;
 }
 
@@ -544,7 +546,7 @@ void triangulate_from(const gaussian_field& field, const std::vector<numbered_ve
 struct cell_triangles {
   std::vector<vec3> positions;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> numbers;  // (vertex key, index into positions)
-  std::vector<std::array<std::uint32_t, 3>> corners;
+  triangle_list corners;
   std::vector<std::size_t> owner;
   std::vector<box3> boxes;
 
@@ -659,7 +661,7 @@ constexpr std::size_t max_slit_bridges = 16;
 
 /// Whether no directed edge occurs twice among `triangles`: a triangulation of a loop cut open along a bridge may
 /// join some vertex to both copies of a bridge end, which glued back is one edge used twice on the same side.
-bool directed_edges_unique(const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+bool directed_edges_unique(const triangle_list& triangles) {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> edges;
   for (const auto& t : triangles) {
     for (int i = 0; i < 3; ++i) edges.emplace_back(t[i], t[(i + 1) % 3]);
@@ -668,25 +670,15 @@ bool directed_edges_unique(const std::vector<std::array<std::uint32_t, 3>>& tria
   return std::adjacent_find(edges.begin(), edges.end()) == edges.end();
 }
 
-/// Whether the band `triangles` (mesh vertex ids of `outer` and `inner`) crosses itself. Its triangles obey the
-/// rules one by one; the best-shaped band of a tube bent round a corner line can still cut across the bend and pass
-/// through its own far side, which is no band of the surface.
-bool band_crosses_itself(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
-                         const std::vector<std::array<std::uint32_t, 3>>& triangles) {
-  std::vector<numbered_vertex> both = outer;
-  both.insert(both.end(), inner.begin(), inner.end());
-  return pieces_meet(both, {}, triangles);
-}
-
 /// The tube between two loops triangulated as one polygon: cut open along a bridge outer[a] — inner[b] (an edge
 /// joining vertices on no common wall), the annulus is the loop outer[a], …, outer[a − 1], outer[a], inner[b], …,
 /// inner[b − 1], inner[b], whose triangulations (triangulate_loop) are every triangulation of the annulus that
 /// holds that bridge, not only bands: where the tube's mouth is a small part of a long loop, the rest of that loop
 /// is a disk of its own (chords of the one loop), which no band has. Bridges are tried from the shortest; the first
-/// that triangulates with each edge used once per side and without crossing itself is kept. Its worst q in
-/// `worst_quality`.
-bool slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner, loop_mesh& out,
-               double& worst_quality) {
+/// that triangulates with each edge used once per side and without crossing itself (`both`: outer ++ inner) is kept,
+/// in `triangles`. Returns its worst q.
+std::optional<double> slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
+                                const std::vector<numbered_vertex>& both, triangle_list& triangles) {
   const std::size_t p = outer.size(), q = inner.size();
   std::vector<std::pair<double, std::pair<std::size_t, std::size_t>>> bridges;
   for (std::size_t a = 0; a < p; ++a) {
@@ -697,52 +689,36 @@ bool slit_band(const std::vector<numbered_vertex>& outer, const std::vector<numb
   }
   std::sort(bridges.begin(), bridges.end());
   if (bridges.size() > max_slit_bridges) bridges.resize(max_slit_bridges);
-  std::vector<std::uint32_t> ids;
-  std::vector<loop_vertex> polygon;
+  std::vector<numbered_vertex> polygon;
   for (const auto& [length2, bridge] : bridges) {
     const auto [a, b] = bridge;
-    ids.clear();
     polygon.clear();
-    for (std::size_t n = 0; n <= p; ++n) {
-      ids.push_back(outer[(a + n) % p].id);
-      polygon.push_back(outer[(a + n) % p].vertex);
-    }
-    for (std::size_t n = 0; n <= q; ++n) {
-      ids.push_back(inner[(b + n) % q].id);
-      polygon.push_back(inner[(b + n) % q].vertex);
-    }
-    std::vector<std::array<std::uint32_t, 3>> local;
-    const std::optional<double> worst = triangulate_loop(polygon, local);
+    for (std::size_t n = 0; n <= p; ++n) polygon.push_back(outer[(a + n) % p]);
+    for (std::size_t n = 0; n <= q; ++n) polygon.push_back(inner[(b + n) % q]);
+    triangle_list local, numbered;
+    const std::optional<double> worst = triangulate_loop(vertices_of(polygon), local);
     if (!worst) continue;
-    std::vector<std::array<std::uint32_t, 3>> triangles;
-    for (const auto& t : local) triangles.push_back({ids[t[0]], ids[t[1]], ids[t[2]]});
-    if (!directed_edges_unique(triangles) || band_crosses_itself(outer, inner, triangles)) continue;
-    out = loop_mesh{};
-    out.strategy = loop_strategy::tube_band;
-    out.triangles = std::move(triangles);
-    worst_quality = *worst;
-    return true;
+    number_triangles(polygon, local, numbered);
+    if (!directed_edges_unique(numbered) || pieces_meet(both, {}, numbered)) continue;
+    triangles = std::move(numbered);
+    return worst;
   }
-  return false;
+  return std::nullopt;
 }
 
-/// The band between two loops of a cell (triangulate_annulus, else slit_band; a band that crosses itself is none),
-/// its vertices numbered in the mesh, and its worst q.
+/// The band between two loops of a cell (triangulate_annulus, else slit_band), its vertices numbered in the mesh,
+/// and its worst q. A band that crosses itself is none: its triangles obey the rules one by one, but the best-shaped
+/// band of a tube bent round a corner line can still cut across the bend and pass through its own far side.
 bool band_between(const std::vector<numbered_vertex>& outer, const std::vector<numbered_vertex>& inner,
                   loop_mesh& out, double& worst_quality) {
-  std::vector<loop_vertex> a(outer.size()), b(inner.size());
-  for (std::size_t n = 0; n < outer.size(); ++n) a[n] = outer[n].vertex;
-  for (std::size_t n = 0; n < inner.size(); ++n) b[n] = inner[n].vertex;
-  std::vector<std::array<std::uint32_t, 3>> local;
-  const std::optional<double> worst = triangulate_annulus(a, b, local);
-  if (!worst) return slit_band(outer, inner, out, worst_quality);
-  const auto id = [&](std::uint32_t v) { return v < outer.size() ? outer[v].id : inner[v - outer.size()].id; };
-  std::vector<std::array<std::uint32_t, 3>> triangles;
-  for (const auto& t : local) triangles.push_back({id(t[0]), id(t[1]), id(t[2])});
-  if (band_crosses_itself(outer, inner, triangles)) return slit_band(outer, inner, out, worst_quality);
-  out = loop_mesh{};
-  out.strategy = loop_strategy::tube_band;
-  out.triangles = std::move(triangles);
+  std::vector<numbered_vertex> both = outer;
+  both.insert(both.end(), inner.begin(), inner.end());
+  triangle_list local, triangles;
+  std::optional<double> worst = triangulate_annulus(vertices_of(outer), vertices_of(inner), local);
+  if (worst) number_triangles(both, local, triangles);
+  if (!worst || pieces_meet(both, {}, triangles)) worst = slit_band(outer, inner, both, triangles);
+  if (!worst) return false;
+  out = loop_mesh{loop_strategy::tube_band, std::move(triangles), {}};
   worst_quality = *worst;
   return true;
 }
