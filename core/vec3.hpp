@@ -38,6 +38,7 @@ inline vec3 normalized(const vec3& a) {
   const double n = norm(a);
   return n > 0 ? a / n : vec3{};
 }
+
 /// Axis-aligned closed box, Å.
 struct box3 {
   vec3 lo, hi;

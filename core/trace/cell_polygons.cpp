@@ -582,18 +582,11 @@ void cell_triangles::gather(const std::vector<std::vector<numbered_vertex>>& loo
       for (int i = 0; i < 3; ++i) {
         c[i] = std::lower_bound(numbers.begin(), numbers.end(), std::make_pair(key(l, t[i]), 0u))->second;
       }
-      const vec3 &a = positions[c[0]], &b = positions[c[1]], &d = positions[c[2]];
-      boxes.push_back({{std::min({a.x, b.x, d.x}), std::min({a.y, b.y, d.y}), std::min({a.z, b.z, d.z})},
-                       {std::max({a.x, b.x, d.x}), std::max({a.y, b.y, d.y}), std::max({a.z, b.z, d.z})}});
+      boxes.push_back(bounds_of(positions, c));
       corners.push_back(c);
       owner.push_back(l);
     }
   }
-}
-
-bool boxes_overlap(const box3& a, const box3& b) {
-  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
-         b.lo.z <= a.hi.z;
 }
 
 /// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test: docs/method.md#the-admissibility-rule —
@@ -606,7 +599,7 @@ std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<number
   std::vector<std::size_t> hit;
   for (std::size_t a = 0; a < cell.corners.size(); ++a) {
     for (std::size_t b = a + 1; b < cell.corners.size(); ++b) {
-      if (boxes_overlap(cell.boxes[a], cell.boxes[b]) &&
+      if (cell.boxes[a].meets(cell.boxes[b]) &&
           detail::mesh_triangles_intersect(cell.positions, cell.corners[a], cell.corners[b])) {
         hit.push_back(cell.owner[a]);
         hit.push_back(cell.owner[b]);

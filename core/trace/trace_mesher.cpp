@@ -420,8 +420,7 @@ result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const un
   if (!mesh) return mesh;
   for (vec3& p : mesh->positions) {
     p += cavity.box.lo;
-    const bool inside = p.x >= cavity.box.lo.x && p.x <= cavity.box.hi.x && p.y >= cavity.box.lo.y &&
-                        p.y <= cavity.box.hi.y && p.z >= cavity.box.lo.z && p.z <= cavity.box.hi.z;
+    const bool inside = cavity.box.contains(p);
     if (!inside) return status{errc::internal_error, "an untouched cavity's mesh left its box"};
   }
   stats.welded_edges += local_stats.welded_edges;  // the piece's own, now that it is kept

@@ -259,11 +259,6 @@ bool holds_a_root(const trace_lines& lines, double h, const box3& box) {
   return false;
 }
 
-bool contains(const box3& box, const vec3& p) {
-  return p.x >= box.lo.x && p.x <= box.hi.x && p.y >= box.lo.y && p.y <= box.hi.y && p.z >= box.lo.z &&
-         p.z <= box.hi.z;
-}
-
 /// The distinct minima below t0 among the descents, in a fixed order (by x, then y, then z).
 std::vector<vec3> distinct_pockets(const std::vector<descent_result>& descents, double t0) {
   std::vector<vec3> minima;
@@ -353,7 +348,7 @@ std::vector<untouched_cavity> find_untouched_cavities(const gaussian_field& fiel
   for (const auto& c : proven) {
     if (!c) continue;
     const bool inside_earlier = std::any_of(cavities.begin(), cavities.end(), [&](const untouched_cavity& e) {
-      return contains(e.box, c->minimum) || contains(c->box, e.minimum);
+      return e.box.contains(c->minimum) || c->box.contains(e.minimum);
     });
     if (!inside_earlier) cavities.push_back(*c);
   }
