@@ -18,12 +18,19 @@ namespace {
 /// (2¹⁵ at a time: 992 MB, but 2 s slower, every batch scanning the whole mesh for the triangles near it).
 constexpr std::size_t moved_triangles_per_batch = std::size_t{1} << 17;
 
-/// The triangles of `moving` (sorted, unique) that are degenerate or meet another triangle of `nearby` (sorted,
-/// `moving` included): the triangles of `nearby` that did not move are not tested against each other.
-std::vector<std::uint32_t> failing_among(const surface_mesh& mesh, const std::vector<std::uint32_t>& moving,
+/// The sorted triangles of a list, each once.
+std::vector<std::uint32_t> sorted_once(std::vector<std::uint32_t> triangles) {
+  std::sort(triangles.begin(), triangles.end());
+  triangles.erase(std::unique(triangles.begin(), triangles.end()), triangles.end());
+  return triangles;
+}
+
+/// The triangles of `reported` (sorted) that are degenerate or meet another triangle of `nearby` (sorted, `tested`
+/// included) in a pair with a triangle of `tested` (sorted): the pairs of other triangles of `nearby` are not tested.
+std::vector<std::uint32_t> failing_among(const surface_mesh& mesh, const std::vector<std::uint32_t>& reported,
+                                         const std::vector<std::uint32_t>& tested,
                                          const std::vector<std::uint32_t>& nearby) {
-  // The nearby triangles as a mesh of their own; group 1 (tested before, not against each other) for those that
-  // did not move.
+  // The nearby triangles as a mesh of their own; group 1 (tested before, not against each other) for the others.
   surface_mesh local;
   std::vector<std::uint8_t> groups;
   std::unordered_map<std::uint32_t, std::uint32_t> local_vertex;
@@ -36,22 +43,21 @@ std::vector<std::uint32_t> failing_among(const surface_mesh& mesh, const std::ve
       t[i] = it->second;
     }
     local.triangles.push_back(t);
-    groups.push_back(std::binary_search(moving.begin(), moving.end(), f) ? 0 : 1);
+    groups.push_back(std::binary_search(tested.begin(), tested.end(), f) ? 0 : 1);
   }
   const std::vector<triangle_defect> defects = classify_triangles(local);
   std::vector<std::uint32_t> failing;
-  const auto add_if_moving = [&](std::uint32_t local_triangle) {
-    if (groups[local_triangle] == 0) failing.push_back(nearby[local_triangle]);
+  const auto add_if_reported = [&](std::uint32_t local_triangle) {
+    const std::uint32_t f = nearby[local_triangle];
+    if (std::binary_search(reported.begin(), reported.end(), f)) failing.push_back(f);
   };
   for (std::uint32_t t = 0; t < defects.size(); ++t) {
-    if (defects[t] != triangle_defect::none) add_if_moving(t);
+    if (defects[t] != triangle_defect::none && groups[t] == 0) add_if_reported(t);
   }
   for (const auto& pair : find_intersecting_pairs(local, defects, groups)) {
-    for (const std::uint32_t t : pair) add_if_moving(t);
+    for (const std::uint32_t t : pair) add_if_reported(t);
   }
-  std::sort(failing.begin(), failing.end());
-  failing.erase(std::unique(failing.begin(), failing.end()), failing.end());
-  return failing;
+  return sorted_once(std::move(failing));
 }
 
 }  // namespace
@@ -132,30 +138,34 @@ std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::v
 
 std::vector<std::uint32_t> failing_moved_triangles(const surface_mesh& mesh, const std::vector<char>& alive,
                                                    std::vector<std::uint32_t> moving) {
-  std::sort(moving.begin(), moving.end());
-  moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
+  std::vector<std::uint32_t> retest = moving;
+  return failing_moved_triangles_again(mesh, alive, std::move(moving), std::move(retest));
+}
+
+std::vector<std::uint32_t> failing_moved_triangles_again(const surface_mesh& mesh, const std::vector<char>& alive,
+                                                         std::vector<std::uint32_t> moving,
+                                                         std::vector<std::uint32_t> retest) {
+  moving = sorted_once(std::move(moving));
+  retest = sorted_once(std::move(retest));
   // In batches of consecutive triangles, so that the local mesh stays small: each batch is tested against every
   // triangle near it, the other batches' included, so every pair is tested.
   std::vector<std::uint32_t> failing;
-  for (std::size_t first = 0; first < moving.size(); first += moved_triangles_per_batch) {
+  for (std::size_t first = 0; first < retest.size(); first += moved_triangles_per_batch) {
     const std::vector<std::uint32_t> batch(
-        moving.begin() + static_cast<std::ptrdiff_t>(first),
-        moving.begin() + static_cast<std::ptrdiff_t>(std::min(moving.size(), first + moved_triangles_per_batch)));
-    const std::vector<std::uint32_t> found = failing_among(mesh, batch, triangles_near(mesh, alive, batch));
+        retest.begin() + static_cast<std::ptrdiff_t>(first),
+        retest.begin() + static_cast<std::ptrdiff_t>(std::min(retest.size(), first + moved_triangles_per_batch)));
+    const std::vector<std::uint32_t> found = failing_among(mesh, moving, batch, triangles_near(mesh, alive, batch));
     failing.insert(failing.end(), found.begin(), found.end());
   }
-  return failing;
+  return sorted_once(std::move(failing));
 }
 
 std::vector<std::uint32_t> failing_moved_triangles_among(const surface_mesh& mesh, std::vector<std::uint32_t> moving,
                                                          const std::vector<std::uint32_t>& others) {
-  std::sort(moving.begin(), moving.end());
-  moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
+  moving = sorted_once(std::move(moving));
   std::vector<std::uint32_t> nearby = moving;
   nearby.insert(nearby.end(), others.begin(), others.end());
-  std::sort(nearby.begin(), nearby.end());
-  nearby.erase(std::unique(nearby.begin(), nearby.end()), nearby.end());
-  return failing_among(mesh, moving, nearby);
+  return failing_among(mesh, moving, moving, sorted_once(std::move(nearby)));
 }
 
 }  // namespace tracemesh::detail

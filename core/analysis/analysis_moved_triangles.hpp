@@ -17,6 +17,14 @@ namespace tracemesh::detail {
 std::vector<std::uint32_t> failing_moved_triangles(const surface_mesh& mesh, const std::vector<char>& alive,
                                                    std::vector<std::uint32_t> moving);
 
+/// As failing_moved_triangles, after a test of the same mesh in which the triangles of `moving` that are not in
+/// `retest` had the same corners and passed, and every live triangle not in `retest` had the same corners: only the
+/// pairs with a triangle of `retest` are tested. Returns the triangles of `moving` that are degenerate or meet
+/// another live triangle, sorted (an edit made again with a few changes, as a round of short-edge collapses).
+std::vector<std::uint32_t> failing_moved_triangles_again(const surface_mesh& mesh, const std::vector<char>& alive,
+                                                         std::vector<std::uint32_t> moving,
+                                                         std::vector<std::uint32_t> retest);
+
 /// The live triangles whose bounding boxes meet those of `moving` (`moving` included), sorted.
 std::vector<std::uint32_t> triangles_near(const surface_mesh& mesh, const std::vector<char>& alive,
                                           const std::vector<std::uint32_t>& moving);

@@ -90,6 +90,19 @@ std::vector<char> with_neighbours(const surface_mesh& mesh, const std::vector<ch
   return out;
 }
 
+/// What a round's test saw (collapser::causes_of_collapses_that_fail), so that the next round, made again without
+/// the refused collapses, tests only what differs from it: a pair of triangles with the corners they had then, each
+/// moved one of which passed then, would pass again (vertices never move).
+struct tested_round {
+  struct touched_triangle {
+    std::uint32_t index;
+    triangle corners;
+    bool alive;
+  };
+  std::vector<touched_triangle> touched;  ///< the triangles the round changed or dropped, sorted by index
+  std::vector<std::uint32_t> passed;      ///< the moved triangles that passed, sorted
+};
+
 /// The triangles around the vertices that a collapse can touch: the candidates' ends and their neighbours (the
 /// corners that lose a triangle). A merged vertex's neighbours were its two ends' neighbours, so no collapse ever
 /// needs another vertex.
@@ -263,9 +276,17 @@ class collapser {
   /// The causes of the collapses some of whose triangles now meet another triangle or are degenerate, by the
   /// certificate's own tests: the triangles around every kept end against each other and against every triangle
   /// whose bounding box meets theirs (the others did not move).
-  std::vector<candidate_edge> causes_of_collapses_that_fail() {
+  /// `last`: the test of the previous round of this pass, if any, which only the triangles that differ from it need
+  /// (untested_since); replaced by this round's.
+  std::vector<candidate_edge> causes_of_collapses_that_fail(std::optional<tested_round>& last) {
+    const std::vector<std::uint32_t> moved = moved_triangles();
+    const std::vector<std::uint32_t> failing =
+        last ? detail::failing_moved_triangles_again(mesh_, alive_, moved, untested_since(*last, moved))
+             : detail::failing_moved_triangles(mesh_, alive_, moved);
+    last = tested_round{touched_triangles(), {}};
+    std::set_difference(moved.begin(), moved.end(), failing.begin(), failing.end(), std::back_inserter(last->passed));
     std::unordered_set<std::uint32_t> bad_corners;
-    for (const std::uint32_t f : detail::failing_moved_triangles(mesh_, alive_, moved_triangles())) {
+    for (const std::uint32_t f : failing) {
       for (const std::uint32_t v : mesh_.triangles[f]) bad_corners.insert(v);
     }
     std::vector<candidate_edge> causes;
@@ -345,13 +366,55 @@ class collapser {
   }
   std::size_t live_count(std::uint32_t v) { return live(v).size(); }
 
-  /// The triangles the collapses moved: those now around a kept end.
+  /// The triangles the collapses moved: those now around a kept end, sorted.
   std::vector<std::uint32_t> moved_triangles() {
     std::vector<std::uint32_t> moved;
     for (const collapse& done : collapses_) {
       for (const std::uint32_t f : live(done.kept)) moved.push_back(f);
     }
+    std::sort(moved.begin(), moved.end());
+    moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
     return moved;
+  }
+
+  /// The triangles the collapses changed or dropped, as they are now, sorted by index.
+  std::vector<tested_round::touched_triangle> touched_triangles() const {
+    std::vector<tested_round::touched_triangle> touched;
+    for (const collapse& done : collapses_) {
+      for (const std::uint32_t f : done.dropped) touched.push_back({f, mesh_.triangles[f], false});
+      for (std::size_t k = done.first_change; k < done.end_change; ++k) {
+        const std::uint32_t f = changed_[k].first;
+        touched.push_back({f, mesh_.triangles[f], alive_[f] != 0});
+      }
+    }
+    std::sort(touched.begin(), touched.end(), [](const auto& l, const auto& r) { return l.index < r.index; });
+    touched.erase(std::unique(touched.begin(), touched.end(),
+                              [](const auto& l, const auto& r) { return l.index == r.index; }),
+                  touched.end());
+    return touched;
+  }
+
+  /// The triangles a test after `before` must look at again: the live ones this round or that one touched (every
+  /// other triangle is as the pass found it both times) whose corners differ from then, and the moved ones that did
+  /// not pass then.
+  std::vector<std::uint32_t> untested_since(const tested_round& before,
+                                            const std::vector<std::uint32_t>& moved) const {
+    std::vector<std::uint32_t> retest;
+    const auto same_as_then = [&](std::uint32_t f) {
+      const auto it = std::lower_bound(before.touched.begin(), before.touched.end(), f,
+                                       [](const auto& t, std::uint32_t index) { return t.index < index; });
+      return it != before.touched.end() && it->index == f && it->alive && it->corners == mesh_.triangles[f];
+    };
+    for (const auto& t : touched_triangles()) {
+      if (alive_[t.index] && !same_as_then(t.index)) retest.push_back(t.index);
+    }
+    for (const auto& t : before.touched) {
+      if (alive_[t.index] && !same_as_then(t.index)) retest.push_back(t.index);
+    }
+    for (const std::uint32_t f : moved) {
+      if (!std::binary_search(before.passed.begin(), before.passed.end(), f)) retest.push_back(f);
+    }
+    return retest;
   }
 
   /// The triangles that fail the certificate's tests after undo_collapses() put back `put_back`: those and the
@@ -585,6 +648,7 @@ std::size_t flip_edges_blocking_links(surface_mesh& mesh, const std::vector<cand
 std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges, std::uint32_t first_movable_vertex,
                           std::uint32_t min_component_vertices, detail::component_labels& labels,
                           std::vector<char>& kept_ends) {
+  std::optional<tested_round> last_test;
   for (int round = 0; round < max_collapse_rounds && !edges.empty(); ++round) {
     collapser w(mesh, edges, first_movable_vertex, min_component_vertices, labels);
     for (const candidate_edge& e : edges) {
@@ -595,7 +659,7 @@ std::size_t collapse_pass(surface_mesh& mesh, std::vector<candidate_edge> edges,
     std::vector<candidate_edge> refused;
     const bool settled = edges.size() >= undone_alone_from_edges ? w.settle_by_undoing_the_failed_ones(refused)
                                                                  : false;
-    if (!settled && refused.empty()) refused = w.causes_of_collapses_that_fail();
+    if (!settled && refused.empty()) refused = w.causes_of_collapses_that_fail(last_test);
     if (settled || refused.empty()) {
       const std::size_t collapsed = w.collapses();
       kept_ends = w.compact();

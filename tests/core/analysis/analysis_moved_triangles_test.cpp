@@ -49,5 +49,17 @@ TEST(analysis_moved_triangles, among_tests_only_the_triangles_it_is_given) {
   EXPECT_EQ(detail::failing_moved_triangles_among(loose_triangles(), {1, 0}, {}), (std::vector<std::uint32_t>{0, 1}));
 }
 
+TEST(analysis_moved_triangles, again_tests_only_the_pairs_with_a_triangle_to_retest) {
+  const surface_mesh m = loose_triangles();
+  // Triangle 1 passed before and triangle 0 is as it was: the pair is not tested again.
+  EXPECT_TRUE(detail::failing_moved_triangles_again(m, {}, {1}, {}).empty());
+  // Triangle 0 changed since: it is tested against 1, and 1, the moved one, is reported (0 did not move).
+  EXPECT_EQ(detail::failing_moved_triangles_again(m, {}, {1}, {0}), (std::vector<std::uint32_t>{1}));
+  EXPECT_EQ(detail::failing_moved_triangles_again(m, {}, {0, 1}, {0}), (std::vector<std::uint32_t>{0, 1}));
+  // A degenerate triangle fails when it is to be retested; one that passed before is not looked at again.
+  EXPECT_EQ(detail::failing_moved_triangles_again(m, {}, {2, 3}, {3}), (std::vector<std::uint32_t>{3}));
+  EXPECT_TRUE(detail::failing_moved_triangles_again(m, {}, {2, 3}, {2}).empty());
+}
+
 }  // namespace
 }  // namespace tracemesh
