@@ -24,8 +24,8 @@ namespace {
 /// a little further apart than the lines (below), 0.93 Å gives the raw mesh the density asked for (0.97–1.03 and
 /// 1.93–1.98 v/Å² over the ladder) and better raw triangles (docs/method.md#line-spacing-and-arc-point-spacing).
 constexpr double line_spacing_at_unit_density = 0.93;
-/// Kept interior points of an arc are about this × h̃ apart (docs/method.md#long-arcs-are-resampled asks for ≤ 1.5 h̃): the raw edge-ratio
-/// mean is at least 0.70 on every ladder row from 1.12 to 1.18 (0.69 on `gly` at 1.0).
+/// Kept interior points of an arc are about this × h̃ apart (docs/method.md#long-arcs-are-resampled asks for
+/// ≤ 1.5 h̃): the raw edge-ratio mean is at least 0.70 on every ladder row from 1.12 to 1.18 (0.69 on `gly` at 1.0).
 constexpr double resample_spacing_factor = 1.15;
 /// A root where |φ_x| is below this × |∇φ| is a tangency of its line (a double root), not a crossing…
 constexpr double tangent_tolerance = 1e-6;
@@ -55,6 +55,8 @@ struct point_spacing {
   double resample = 0;        ///< the interior points an arc keeps are about this far apart
   double collapse_below = 0;  ///< edges at an arc point shorter than this are collapsed (0: only the welds)
 };
+
+using index_range = tbb::blocked_range<std::size_t>;
 
 status cancelled_status() { return {errc::cancelled, "meshing was cancelled"}; }
 
@@ -99,7 +101,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
   // One finder per thread, copied from one whose tables (quadrature, Legendre → Bernstein) are computed once: made
   // per range, they took 3% of fas2's run time. A finder's results do not depend on its history.
   tbb::enumerable_thread_specific<line_root_finder> finders{line_root_finder(settings)};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks.size(), 4), [&](const tbb::blocked_range<std::size_t>& r) {
+  tbb::parallel_for(index_range(0, blocks.size(), 4), [&](const index_range& r) {
     if (progress.cancelled()) return;
     std::vector<std::uint32_t> atoms;
     block_line_roots roots;
@@ -127,7 +129,7 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
       for (const block_line_roots::dip& dip : roots.dips) {
         const std::int64_t j = b.j * lattice::block_cells + dip.line % lattice::block_cells;
         const std::int64_t k = b.k * lattice::block_cells + dip.line / lattice::block_cells;
-        dips_per_block[n].push_back({dip.x, static_cast<double>(j) * lat.spacing(), static_cast<double>(k) * lat.spacing()});
+        dips_per_block[n].push_back({dip.x, static_cast<double>(j) * h, static_cast<double>(k) * h});
       }
     }
     progress.report(mesh_stage::roots, static_cast<double>(done += r.size()) / static_cast<double>(blocks.size()));
@@ -154,7 +156,7 @@ status trace_all_strips(const gaussian_field& field, const strip_settings& setti
   std::vector<strip_id> strips = strips_beside(surface.lines);
   std::vector<strip_trace> traces(strips.size());
   std::atomic<std::size_t> done{0};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, strips.size(), 16), [&](const tbb::blocked_range<std::size_t>& r) {
+  tbb::parallel_for(index_range(0, strips.size(), 16), [&](const index_range& r) {
     if (progress.cancelled()) return;
     for (std::size_t s = r.begin(); s != r.end(); ++s) {
       traces[s] = trace_strip(field, surface.lines, strips[s], settings);
@@ -190,13 +192,8 @@ std::vector<cell_id> cells_of(const traced_surface& surface) {
   for (std::size_t s = 0; s < surface.strips.size(); ++s) {
     if (surface.traces[s].arcs.empty()) continue;
     const strip_id& st = surface.strips[s];
-    if (st.orientation == 0) {
-      cells.push_back({st.j, st.k - 1});
-      cells.push_back({st.j, st.k});
-    } else {
-      cells.push_back({st.j - 1, st.k});
-      cells.push_back({st.j, st.k});
-    }
+    cells.push_back({st.j - (st.orientation != 0), st.k - (st.orientation == 0)});
+    cells.push_back({st.j, st.k});
   }
   std::sort(cells.begin(), cells.end());
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
@@ -288,26 +285,23 @@ void give_chords_to_one_cell(const gaussian_field& field, const traced_surface& 
 /// The mesh: roots, then interior points, then the cells' Steiner points; triangles cell by cell.
 surface_mesh assemble(const traced_surface& surface, std::vector<cell_mesh>& cells) {
   surface_mesh mesh;
+  const auto add = [&](const vec3& position, const vec3& gradient) {
+    mesh.positions.push_back(position);
+    mesh.normals.push_back(normalized(-gradient));
+  };
   const double h = surface.spacing;
   for (std::size_t n = 0; n < surface.lines.line_count(); ++n) {
     const line_id& id = surface.lines.id(n);
     for (const line_point& p : surface.lines.roots(n)) {
-      mesh.positions.push_back({p.x, static_cast<double>(id.j) * h, static_cast<double>(id.k) * h});
-      mesh.normals.push_back(normalized(-p.gradient));
+      add({p.x, static_cast<double>(id.j) * h, static_cast<double>(id.k) * h}, p.gradient);
     }
   }
   for (const strip_trace& t : surface.traces) {
-    for (const surface_sample& p : t.interior) {
-      mesh.positions.push_back(p.position);
-      mesh.normals.push_back(normalized(-p.gradient));
-    }
+    for (const surface_sample& p : t.interior) add(p.position, p.gradient);
   }
   for (cell_mesh& cell : cells) {
     const auto first_steiner = static_cast<std::uint32_t>(mesh.positions.size());
-    for (const surface_sample& p : cell.steiner) {
-      mesh.positions.push_back(p.position);
-      mesh.normals.push_back(normalized(-p.gradient));
-    }
+    for (const surface_sample& p : cell.steiner) add(p.position, p.gradient);
     for (auto t : cell.triangles) {
       for (auto& v : t) {
         if (v >= steiner_vertex) v = first_steiner + (v - steiner_vertex);
@@ -330,9 +324,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
   stats.step = params.step_fraction * h;
   auto lines = find_all_line_roots(field, lat, blocks, params.legendre_degree, seeds, progress, stats);
   if (!lines) return lines.error();
-  if (lines->root_count() == 0) {
-    return status{errc::nothing_to_mesh, "no point of the surface φ = t0 was found"};
-  }
+  if (lines->root_count() == 0) return status{errc::nothing_to_mesh, "no point of the surface φ = t0 was found"};
   clock.finish(mesh_stage::roots);
 
   traced_surface surface;
@@ -352,7 +344,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
   const std::vector<cell_id> cell_ids = cells_of(surface);
   std::vector<cell_mesh> cells(cell_ids.size());
   std::atomic<std::size_t> done{0};
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cell_ids.size(), 64), [&](const tbb::blocked_range<std::size_t>& r) {
+  tbb::parallel_for(index_range(0, cell_ids.size(), 64), [&](const index_range& r) {
     if (progress.cancelled()) return;
     for (std::size_t c = r.begin(); c != r.end(); ++c) cells[c] = mesh_cell(field, surface, cell_ids[c]);
     progress.report(mesh_stage::triangulating,
@@ -413,15 +405,14 @@ result<surface_mesh> mesh_untouched_cavity(const gaussian_field& field, const un
   progress_token progress;  // the job's token is polled between cavities; this one keeps the job's stages in order
   trace_stats local_stats;
   trace_lines lines;
-  auto mesh =
-      mesh_polygons(local_field, local_field, lat, blocks, params, points, nullptr, progress, clock, local_stats, lines);
+  auto mesh = mesh_polygons(local_field, local_field, lat, blocks, params, points, nullptr, progress, clock,
+                            local_stats, lines);
   stats.field_evaluations += local_stats.field_evaluations;
   stats.fallback_loops += local_stats.fallback_loops;
   if (!mesh) return mesh;
   for (vec3& p : mesh->positions) {
     p += cavity.box.lo;
-    const bool inside = cavity.box.contains(p);
-    if (!inside) return status{errc::internal_error, "an untouched cavity's mesh left its box"};
+    if (!cavity.box.contains(p)) return status{errc::internal_error, "an untouched cavity's mesh left its box"};
   }
   stats.welded_edges += local_stats.welded_edges;  // the piece's own, now that it is kept
   return mesh;
@@ -469,10 +460,9 @@ status add_untouched_cavities(const gaussian_field& field, const trace_lines& li
 double trace_line_spacing(double density) { return line_spacing_at_unit_density / std::sqrt(density); }
 
 result<surface_mesh> mesh_trace_blocks(const gaussian_field& field, const gaussian_field& walk_field,
-                                       const lattice& lat,
-                                       const std::vector<lattice_index>& blocks, const trace_parameters& params,
-                                       bool delivered_as_is, const mesh_limits& limits, progress_token& progress,
-                                       stage_clock& clock, trace_stats& stats) {
+                                       const lattice& lat, const std::vector<lattice_index>& blocks,
+                                       const trace_parameters& params, bool delivered_as_is, const mesh_limits& limits,
+                                       progress_token& progress, stage_clock& clock, trace_stats& stats) {
   std::vector<vec3> seeds;
   trace_lines lines;
   const double resample = resample_spacing_factor * lat.spacing();
