@@ -513,19 +513,15 @@ bool triangulate_by(const gaussian_field& field, const std::vector<numbered_vert
   }
   triangle_list local;
   loop_triangulation_settings settings;
-  if (strategy == loop_strategy::in_its_plane) {
-    settings.kept_walls = kept_walls;
-    const bool ok = triangulate_loop_in_its_plane(vertices, local, settings);
-    number_triangles(loop, local, out.triangles);
-    return ok;
-  }
+  settings.kept_walls = kept_walls;  // read by triangulate_loop_in_its_plane only, which reads neither of the next two
   settings.maximise_normal_agreement =
       strategy == loop_strategy::admissible_flat || strategy == loop_strategy::flat_relaxed;
   if (strategy == loop_strategy::admissible_relaxed || strategy == loop_strategy::flat_relaxed ||
       strategy == loop_strategy::unrestricted) {
     settings.min_normal_cosine = -2;  // rule 2 off
   }
-  const bool ok = triangulate_loop(vertices, local, settings).has_value();
+  const bool ok = strategy == loop_strategy::in_its_plane ? triangulate_loop_in_its_plane(vertices, local, settings)
+                                                          : triangulate_loop(vertices, local, settings).has_value();
   number_triangles(loop, local, out.triangles);
   return ok;
 }
@@ -562,7 +558,8 @@ void cell_triangles::gather(const std::vector<std::vector<numbered_vertex>>& loo
   boxes.clear();
   // Steiner points are numbered per loop; loop + 1 in the high half keeps them apart from the mesh's vertex ids.
   const auto key = [](std::size_t loop, std::uint32_t id) {
-    return id >= steiner_vertex ? (static_cast<std::uint64_t>(loop + 1) << 32) | (id - steiner_vertex) : std::uint64_t{id};
+    return id >= steiner_vertex ? (static_cast<std::uint64_t>(loop + 1) << 32) | (id - steiner_vertex)
+                                : std::uint64_t{id};
   };
   for (std::size_t l = 0; l < loops.size(); ++l) {
     for (const numbered_vertex& v : loops[l]) {
@@ -589,9 +586,10 @@ void cell_triangles::gather(const std::vector<std::vector<numbered_vertex>>& loo
   }
 }
 
-/// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test: docs/method.md#the-admissibility-rule —
-/// with admissible triangulations, triangles of different cells meet only along shared arcs, so this per-cell test
-/// covers the whole mesh). Triangles whose bounding boxes are apart cannot meet and are not tested.
+/// Loops (indices) that have a triangle intersecting another triangle of the cell (exact test:
+/// docs/method.md#the-admissibility-rule — with admissible triangulations, triangles of different cells meet only
+/// along shared arcs, so this per-cell test covers the whole mesh). Triangles whose bounding boxes are apart cannot
+/// meet and are not tested.
 std::vector<std::size_t> intersecting_loops(const std::vector<std::vector<numbered_vertex>>& loops,
                                             const std::vector<loop_mesh>& meshes) {
   thread_local cell_triangles cell;
