@@ -149,7 +149,6 @@ result<trace_lines> find_all_line_roots(const gaussian_field& field, const latti
   return trace_lines(std::move(entries));
 }
 
-
 /// Algorithm 1 on every strip.
 status trace_all_strips(const gaussian_field& field, const strip_settings& settings, traced_surface& surface,
                         progress_token& progress, trace_stats& stats) {
