@@ -105,6 +105,6 @@ result<mesh_output> mesh_molecule(const molecule& mol, const mesh_params& params
 
 /// The engine's version: part of every job id and report, so that a change to the meshes it makes never serves a
 /// mesh cached by an older engine. Bump it whenever delivered meshes change; CHANGELOG.md says what each changed.
-inline constexpr const char* engine_version = "tracemesh-engine-23";
+inline constexpr const char* engine_version = "tracemesh-engine-24";
 
 }  // namespace tracemesh

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <optional>
 #include <tuple>
 #include <unordered_map>
@@ -88,6 +89,59 @@ std::vector<char> with_neighbours(const surface_mesh& mesh, const std::vector<ch
     if (flags[t[0]] || flags[t[1]] || flags[t[2]]) out[t[0]] = out[t[1]] = out[t[2]] = 1;
   }
   return out;
+}
+
+/// flip_to_short_diagonals flips an edge only where the diagonal it makes is shorter than this × the edge: two
+/// back-to-back slivers, not the ordinary quads of a component small enough for its edges to be short.
+constexpr double max_diagonal_ratio = 0.1;
+
+/// The pairs of vertices closer than `max_length` Å, one of them numbered first_movable_vertex or above, closest
+/// first. The vertices are sorted by cubic cells max_length wide, keyed (i, j, k) so that a row of cells along k is
+/// contiguous and a key plus a fixed offset is the neighbour cell at that offset; each cell is paired with the cells
+/// after it among the 26 around it, (i, j, k + 1) and the rows (i, j + 1), (i + 1, j − 1 … j + 1) from k − 1 to
+/// k + 1, each row found by a cursor that only moves forward.
+std::vector<candidate_edge> close_vertex_pairs(const surface_mesh& mesh, std::uint32_t first_movable_vertex,
+                                               double max_length) {
+  // 21 bits per axis, offset so that no key or neighbour offset borrows across axes (meshes span far fewer cells).
+  constexpr std::int64_t bits = 21, offset = std::int64_t{1} << (bits - 1);
+  const auto index = [&](double x) { return static_cast<std::int64_t>(std::floor(x / max_length)) + offset; };
+  std::vector<std::pair<std::int64_t, std::uint32_t>> entries;
+  for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) {
+    const vec3& p = mesh.positions[v];
+    entries.push_back({(index(p.x) << (2 * bits)) | (index(p.y) << bits) | index(p.z), v});
+  }
+  std::sort(entries.begin(), entries.end());
+  std::vector<candidate_edge> pairs;
+  const auto add_if_close = [&](std::uint32_t a, std::uint32_t b) {
+    if (a < first_movable_vertex && b < first_movable_vertex) return;
+    const double length = distance(mesh.positions[a], mesh.positions[b]);
+    if (length < max_length) pairs.push_back({length, std::min(a, b), std::max(a, b)});
+  };
+  // The later neighbour rows as (offset of the row's middle cell, first and last k offset taken).
+  constexpr std::int64_t j_step = std::int64_t{1} << bits, i_step = std::int64_t{1} << (2 * bits);
+  constexpr std::array<std::array<std::int64_t, 3>, 5> rows{{{0, 1, 1},
+                                                             {j_step, -1, 1},
+                                                             {i_step - j_step, -1, 1},
+                                                             {i_step, -1, 1},
+                                                             {i_step + j_step, -1, 1}}};
+  std::array<std::size_t, rows.size()> cursor{};
+  for (std::size_t first = 0, last = 0; first < entries.size(); first = last) {
+    const std::int64_t cell = entries[first].first;
+    while (last < entries.size() && entries[last].first == cell) ++last;
+    for (std::size_t m = first; m < last; ++m) {
+      for (std::size_t n = m + 1; n < last; ++n) add_if_close(entries[m].second, entries[n].second);
+    }
+    for (std::size_t r = 0; r < rows.size(); ++r) {
+      const std::int64_t lo = cell + rows[r][0] + rows[r][1], hi = cell + rows[r][0] + rows[r][2];
+      std::size_t& n = cursor[r];
+      while (n < entries.size() && entries[n].first < lo) ++n;
+      for (std::size_t q = n; q < entries.size() && entries[q].first <= hi; ++q) {
+        for (std::size_t m = first; m < last; ++m) add_if_close(entries[m].second, entries[q].second);
+      }
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
 }
 
 /// What a round's test saw (collapser::causes_of_collapses_that_fail), so that the next round, made again without
@@ -530,10 +584,16 @@ struct edge_flip {
   std::array<triangle, 2> before;
 };
 
+/// How a flip's new triangles are checked besides folds: against both old triangles, or against the vertex normals at
+/// their corners (for a pair of slivers, whose faces point anywhere).
+enum class flip_check { against_old_faces, along_vertex_normals };
+
 /// Flips the edge (v, e) of the triangles (v, e, x) and (e, v, y) into (x, y) when the mesh stays manifold (no edge
-/// (x, y) yet, v and e keep three triangles or more), neither new triangle turns against either old one and neither
-/// is folded against the vertex normals.
-std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, std::uint32_t v, std::uint32_t e) {
+/// (x, y) yet, v and e keep three triangles or more), neither new triangle is folded against the vertex normals, and
+/// neither turns against either old one (or, with flip_check::along_vertex_normals, each faces along the sum of the
+/// normals at its corners).
+std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, std::uint32_t v, std::uint32_t e,
+                              flip_check check = flip_check::against_old_faces) {
   const std::vector<std::uint32_t> around_v = triangles_at(mesh, incidence, v);
   std::vector<std::uint32_t> on_edge;
   for (const std::uint32_t f : around_v) {
@@ -561,6 +621,10 @@ std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, st
   const triangle first{y, e, x}, second{x, v, y};
   for (const triangle& now : {first, second}) {
     if (folded(mesh, now)) return std::nullopt;
+    if (check == flip_check::along_vertex_normals) {
+      if (!(dot(area_normal(mesh, now), corner_normals(mesh, now)) > 0)) return std::nullopt;
+      continue;
+    }
     for (const triangle& old : made.before) {
       if (!(dot(area_normal(mesh, now), area_normal(mesh, old)) > 0)) return std::nullopt;
     }
@@ -570,6 +634,27 @@ std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, st
   incidence.of(y).push_back(on_edge[0]);
   incidence.of(x).push_back(on_edge[1]);
   return made;
+}
+
+/// Undoes the flips some of whose triangles the certificate's tests fail, until the rest pass (an undone flip's
+/// triangles are tested again with them).
+void undo_failing_flips(surface_mesh& mesh, std::vector<edge_flip>& flips) {
+  for (bool failed = true; failed && !flips.empty();) {
+    std::vector<std::uint32_t> moved;
+    for (const edge_flip& f : flips) moved.insert(moved.end(), f.triangles.begin(), f.triangles.end());
+    const std::vector<std::uint32_t> failing = detail::failing_moved_triangles(mesh, {}, std::move(moved));
+    failed = !failing.empty();
+    std::erase_if(flips, [&](const edge_flip& f) {
+      const bool fails = std::any_of(f.triangles.begin(), f.triangles.end(), [&](std::uint32_t t) {
+        return std::binary_search(failing.begin(), failing.end(), t);
+      });
+      if (fails) {
+        mesh.triangles[f.triangles[0]] = f.before[0];
+        mesh.triangles[f.triangles[1]] = f.before[1];
+      }
+      return fails;
+    });
+  }
 }
 
 /// Whether collapsing `edge` (its end b onto its end a) passes the local checks of collapser::try_collapse: two
@@ -625,20 +710,7 @@ std::size_t flip_edges_blocking_links(surface_mesh& mesh, const std::vector<cand
       break;
     }
   }
-  // Undo the flips that fail, until the rest pass (an undone flip's triangles are tested again with them).
-  for (bool failed = true; failed && !flips.empty();) {
-    std::vector<std::uint32_t> moved;
-    for (const edge_flip& f : flips) moved.insert(moved.end(), f.triangles.begin(), f.triangles.end());
-    const std::vector<std::uint32_t> failing = detail::failing_moved_triangles(mesh, {}, std::move(moved));
-    failed = !failing.empty();
-    std::erase_if(flips, [&](const edge_flip& f) {
-      const bool fails = std::any_of(f.triangles.begin(), f.triangles.end(), [&](std::uint32_t t) {
-        return std::binary_search(failing.begin(), failing.end(), t);
-      });
-      if (fails) undo(f);
-      return fails;
-    });
-  }
+  undo_failing_flips(mesh, flips);
   return flips.size();
 }
 
@@ -697,6 +769,39 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
     edges = short_edges(mesh, first_movable_vertex, max_length, &kept_ends);
   }
   return total;
+}
+
+std::size_t flip_to_short_diagonals(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length) {
+  const std::vector<candidate_edge> pairs = close_vertex_pairs(mesh, first_movable_vertex, max_length);
+  local_incidence incidence(mesh, pairs);
+  std::vector<char> touched(mesh.positions.size(), 0);
+  std::vector<edge_flip> flips;
+  for (const candidate_edge& pair : pairs) {
+    if (touched[pair.a] || touched[pair.b]) continue;
+    // An edge is collapsed as it is. (No flip has touched a's triangles: its list is exact.)
+    const std::vector<std::uint32_t>& at_a = incidence.of(pair.a);
+    if (std::any_of(at_a.begin(), at_a.end(), [&](std::uint32_t f) { return contains(mesh.triangles[f], pair.b); })) {
+      continue;
+    }
+    const std::vector<std::uint32_t> common = common_neighbours(
+        mesh, triangles_at(mesh, incidence, pair.a), triangles_at(mesh, incidence, pair.b), pair.a, pair.b);
+    if (common.size() != 2 || touched[common[0]] || touched[common[1]]) continue;
+    // (c, d) must be the edge between them: its two triangles' third corners are a and b.
+    const std::uint32_t c = common[0], d = common[1];
+    std::vector<std::uint32_t> corners;
+    for (const std::uint32_t f : triangles_at(mesh, incidence, c)) {
+      if (contains(mesh.triangles[f], d)) corners.push_back(third_corner(mesh.triangles[f], c, d));
+    }
+    std::sort(corners.begin(), corners.end());
+    if (corners != std::vector<std::uint32_t>{pair.a, pair.b}) continue;
+    if (!(pair.length < max_diagonal_ratio * distance(mesh.positions[c], mesh.positions[d]))) continue;
+    const std::optional<edge_flip> made = flip(mesh, incidence, c, d, flip_check::along_vertex_normals);
+    if (!made) continue;
+    for (const std::uint32_t v : {pair.a, pair.b, c, d}) touched[v] = 1;
+    flips.push_back(*made);
+  }
+  undo_failing_flips(mesh, flips);
+  return flips.size();
 }
 
 std::size_t collapse_folded_triangles(surface_mesh& mesh, std::uint32_t first_movable_vertex) {

@@ -59,6 +59,16 @@ std::size_t collapse_short_edges(surface_mesh& mesh, std::uint32_t first_movable
                                  std::uint32_t min_component_vertices = default_min_component_vertices,
                                  blocked_links links = blocked_links::left);
 
+/// Flips each edge (c, d) whose two triangles' third corners a and b lie closer than `max_length` Å and than a tenth
+/// of the edge, one of them numbered first_movable_vertex or above, into (a, b), so that collapse_short_edges can then
+/// collapse it: for the raw trace mesh delivered as it is, where the two arcs beside a line that grazes the surface
+/// pass close to it, one in each plane, and a cell's triangulation joined their points by the long diagonal of a pair
+/// of slivers (a near-duplicate vertex pair: analysis_local_folds.hpp). A flip is made where the mesh stays manifold
+/// and each new triangle faces along the vertex normals at its corners and is not folded, and kept where the
+/// certificate's own tests pass its triangles; flips touch disjoint vertices. Precondition: as collapse_short_edges,
+/// and one normal per vertex. Returns the flips kept.
+std::size_t flip_to_short_diagonals(surface_mesh& mesh, std::uint32_t first_movable_vertex, double max_length);
+
 /// Collapses edges of the triangles that face against the vertex normals at all three corners (folds, which the
 /// certificate refuses: analysis_local_folds.hpp), shortest first, under the same conditions as collapse_short_edges
 /// (a collapse makes no new fold; the folded triangles on the edge go), in up to a few passes. For the

@@ -372,6 +372,7 @@ result<surface_mesh> mesh_polygons(const gaussian_field& field, const gaussian_f
   // Never a root: every line point stays a vertex (Algorithm 2).
   stats.welded_edges += collapse_short_edges(mesh, first_arc_point, weld_below * h);
   if (points.collapse_below > 0) {
+    flip_to_short_diagonals(mesh, first_arc_point, points.collapse_below);
     stats.collapsed_raw_edges += collapse_short_edges(mesh, first_arc_point, points.collapse_below);
   }
   return mesh;

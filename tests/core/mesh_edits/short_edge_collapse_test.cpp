@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <utility>
 #include <vector>
 
 #include "core/analysis/mesh_analysis.hpp"
@@ -482,6 +483,34 @@ TEST(short_edge_collapse, an_edge_whose_ends_have_a_third_common_neighbour_is_le
   EXPECT_EQ(m.positions[0], before.positions[0]);  // b, the kept end
   EXPECT_EQ(std::find(m.positions.begin(), m.positions.end(), before.positions[1]), m.positions.end());
   expect_closed_oriented_manifold(m);
+}
+
+/// bipyramid_with_split_edge(0.05) with its short edge (0, 12) flipped into the long diagonal (top, bottom): a pair of
+/// triangles standing in the bipyramid, back to back, whose opposite corners 0 and 12 lie 0.05 Å apart and share no
+/// edge (a near-duplicate vertex pair).
+surface_mesh bipyramid_with_a_long_diagonal() {
+  surface_mesh m = bipyramid_with_split_edge(0.05);
+  m.triangles[0] = {11, 12, 10};  // was (0, 12, top)
+  m.triangles.back() = {10, 0, 11};  // was (12, 0, bottom)
+  return m;
+}
+
+TEST(short_edge_collapse, a_long_diagonal_between_close_corners_is_flipped_into_the_short_one) {
+  surface_mesh m = bipyramid_with_a_long_diagonal();
+  EXPECT_EQ(flip_to_short_diagonals(m, 12, 0.1), 1u);
+  EXPECT_EQ(canonical(m.triangles), canonical(bipyramid_with_split_edge(0.05).triangles));
+  expect_closed_oriented_manifold(m);
+  // The short edge it makes collapses as any other: the bipyramid comes back.
+  EXPECT_EQ(collapse_short_edges(m, 12, 0.1), 1u);
+  EXPECT_EQ(canonical(m.triangles), canonical(bipyramid().triangles));
+}
+
+TEST(short_edge_collapse, a_diagonal_is_left_when_its_corners_may_not_move_or_lie_too_far_apart) {
+  for (const auto& [first_movable, max_length] : {std::pair{13u, 0.1}, std::pair{12u, 0.04}}) {
+    surface_mesh m = bipyramid_with_a_long_diagonal();
+    EXPECT_EQ(flip_to_short_diagonals(m, first_movable, max_length), 0u);
+    EXPECT_EQ(m.triangles, bipyramid_with_a_long_diagonal().triangles);
+  }
 }
 
 }  // namespace
