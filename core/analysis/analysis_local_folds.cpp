@@ -63,7 +63,9 @@ constexpr double neighbour_reach_in_radii = 2.0;
 /// A sparse grid of cubic cells over the vertices that take part, as (cell key, vertex) entries sorted by key.
 class vertex_grid {
  public:
-  vertex_grid(const surface_mesh& mesh, const std::vector<double>& radii) : positions_(mesh.positions), radii_(radii) {
+  /// `cell_in_median`: the cell edge in median radii (for radii that are a fraction of the edges around them).
+  vertex_grid(const surface_mesh& mesh, const std::vector<double>& radii, double cell_in_median = cell_in_median_radii)
+      : positions_(mesh.positions), radii_(radii) {
     vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
             std::numeric_limits<double>::infinity()};
     vec3 hi = -lo;
@@ -84,7 +86,7 @@ class vertex_grid {
     // At least the largest radius, so that a pair within it lies in the same or adjacent cells; larger when the
     // coordinates would not fit the key.
     const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
-    cell_size_ = std::max({largest_radius, cell_in_median_radii * *middle,
+    cell_size_ = std::max({largest_radius, cell_in_median * *middle,
                            extent / static_cast<double>(max_cell_coordinate - 1)});
     // cell_of's quotient and a face's position are each within a few ulps of the largest coordinate.
     const double largest_coordinate = std::max({std::fabs(lo.x), std::fabs(lo.y), std::fabs(lo.z), std::fabs(hi.x),
@@ -244,6 +246,33 @@ std::size_t count_near_duplicate_vertex_pairs(const surface_mesh& mesh, const ve
         return pairs;
       },
       [](std::size_t total, std::size_t part) { return total + part; });
+}
+
+std::vector<std::pair<std::uint32_t, std::uint32_t>> vertex_pairs_closer_than(const surface_mesh& mesh,
+                                                                               double radius) {
+  const std::vector<double> radii(mesh.positions.size(), radius);
+  const vertex_grid grid(mesh, radii, 1.0);  // cells one radius wide: every vertex has the same radius
+  using pair_list = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+  pair_list pairs = deterministic_reduce(
+      grid.cell_count(), pair_list{},
+      [&](std::size_t begin, std::size_t end) {
+        pair_list found;
+        std::vector<std::uint8_t> near_sides;
+        for (std::size_t c = begin; c < end; ++c) {
+          grid.for_each_pair_from(c, near_sides, [&](std::uint32_t a, std::uint32_t b) {
+            if (squared_norm(mesh.positions[a] - mesh.positions[b]) < radius * radius) {
+              found.emplace_back(std::min(a, b), std::max(a, b));
+            }
+          });
+        }
+        return found;
+      },
+      [](pair_list total, const pair_list& part) {
+        total.insert(total.end(), part.begin(), part.end());
+        return total;
+      });
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
 }
 
 }  // namespace tracemesh::detail

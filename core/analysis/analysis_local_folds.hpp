@@ -6,6 +6,8 @@
 /// stalls on both.
 
 #include <cstddef>
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/analysis/analysis_geometry.hpp"
@@ -31,5 +33,9 @@ std::size_t count_folded_triangles(const surface_mesh& mesh, const std::vector<t
 /// that each cell's vertices are contiguous, cell by cell with the adjacent cells (with a vertex near enough to
 /// them). Only vertices of well-formed triangles with usable coordinates take part.
 std::size_t count_near_duplicate_vertex_pairs(const surface_mesh& mesh, const vertex_fans& fans);
+
+/// Every pair (a, b), a < b, of vertices closer than `radius` Å, sorted, from the same grid with cells one radius
+/// wide (for radius > 0 and finite coordinates).
+std::vector<std::pair<std::uint32_t, std::uint32_t>> vertex_pairs_closer_than(const surface_mesh& mesh, double radius);
 
 }  // namespace tracemesh::detail

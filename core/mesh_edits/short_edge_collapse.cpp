@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <optional>
 #include <tuple>
 #include <unordered_map>
@@ -96,49 +95,12 @@ std::vector<char> with_neighbours(const surface_mesh& mesh, const std::vector<ch
 constexpr double max_diagonal_ratio = 0.1;
 
 /// The pairs of vertices closer than `max_length` Å, one of them numbered first_movable_vertex or above, closest
-/// first. The vertices are sorted by cubic cells max_length wide, keyed (i, j, k) so that a row of cells along k is
-/// contiguous and a key plus a fixed offset is the neighbour cell at that offset; each cell is paired with the cells
-/// after it among the 26 around it, (i, j, k + 1) and the rows (i, j + 1), (i + 1, j − 1 … j + 1) from k − 1 to
-/// k + 1, each row found by a cursor that only moves forward.
+/// first.
 std::vector<candidate_edge> close_vertex_pairs(const surface_mesh& mesh, std::uint32_t first_movable_vertex,
                                                double max_length) {
-  // 21 bits per axis, offset so that no key or neighbour offset borrows across axes (meshes span far fewer cells).
-  constexpr std::int64_t bits = 21, offset = std::int64_t{1} << (bits - 1);
-  const auto index = [&](double x) { return static_cast<std::int64_t>(std::floor(x / max_length)) + offset; };
-  std::vector<std::pair<std::int64_t, std::uint32_t>> entries;
-  for (std::uint32_t v = 0; v < mesh.positions.size(); ++v) {
-    const vec3& p = mesh.positions[v];
-    entries.push_back({(index(p.x) << (2 * bits)) | (index(p.y) << bits) | index(p.z), v});
-  }
-  std::sort(entries.begin(), entries.end());
   std::vector<candidate_edge> pairs;
-  const auto add_if_close = [&](std::uint32_t a, std::uint32_t b) {
-    if (a < first_movable_vertex && b < first_movable_vertex) return;
-    const double length = distance(mesh.positions[a], mesh.positions[b]);
-    if (length < max_length) pairs.push_back({length, std::min(a, b), std::max(a, b)});
-  };
-  // The later neighbour rows as (offset of the row's middle cell, first and last k offset taken).
-  constexpr std::int64_t j_step = std::int64_t{1} << bits, i_step = std::int64_t{1} << (2 * bits);
-  constexpr std::array<std::array<std::int64_t, 3>, 5> rows{{{0, 1, 1},
-                                                             {j_step, -1, 1},
-                                                             {i_step - j_step, -1, 1},
-                                                             {i_step, -1, 1},
-                                                             {i_step + j_step, -1, 1}}};
-  std::array<std::size_t, rows.size()> cursor{};
-  for (std::size_t first = 0, last = 0; first < entries.size(); first = last) {
-    const std::int64_t cell = entries[first].first;
-    while (last < entries.size() && entries[last].first == cell) ++last;
-    for (std::size_t m = first; m < last; ++m) {
-      for (std::size_t n = m + 1; n < last; ++n) add_if_close(entries[m].second, entries[n].second);
-    }
-    for (std::size_t r = 0; r < rows.size(); ++r) {
-      const std::int64_t lo = cell + rows[r][0] + rows[r][1], hi = cell + rows[r][0] + rows[r][2];
-      std::size_t& n = cursor[r];
-      while (n < entries.size() && entries[n].first < lo) ++n;
-      for (std::size_t q = n; q < entries.size() && entries[q].first <= hi; ++q) {
-        for (std::size_t m = first; m < last; ++m) add_if_close(entries[m].second, entries[q].second);
-      }
-    }
+  for (const auto& [a, b] : detail::vertex_pairs_closer_than(mesh, max_length)) {
+    if (b >= first_movable_vertex) pairs.push_back({distance(mesh.positions[a], mesh.positions[b]), a, b});
   }
   std::sort(pairs.begin(), pairs.end());
   return pairs;
@@ -334,10 +296,11 @@ class collapser {
   /// (untested_since); replaced by this round's.
   std::vector<candidate_edge> causes_of_collapses_that_fail(std::optional<tested_round>& last) {
     const std::vector<std::uint32_t> moved = moved_triangles();
+    std::vector<tested_round::touched_triangle> touched = touched_triangles();
     const std::vector<std::uint32_t> failing =
-        last ? detail::failing_moved_triangles_again(mesh_, alive_, moved, untested_since(*last, moved))
+        last ? detail::failing_moved_triangles_again(mesh_, alive_, moved, untested_since(*last, touched, moved))
              : detail::failing_moved_triangles(mesh_, alive_, moved);
-    last = tested_round{touched_triangles(), {}};
+    last = tested_round{std::move(touched), {}};
     std::set_difference(moved.begin(), moved.end(), failing.begin(), failing.end(), std::back_inserter(last->passed));
     std::unordered_set<std::uint32_t> bad_corners;
     for (const std::uint32_t f : failing) {
@@ -448,10 +411,11 @@ class collapser {
     return touched;
   }
 
-  /// The triangles a test after `before` must look at again: the live ones this round or that one touched (every
-  /// other triangle is as the pass found it both times) whose corners differ from then, and the moved ones that did
-  /// not pass then.
+  /// The triangles a test after `before` must look at again: the live ones this round (`touched`) or that one
+  /// touched (every other triangle is as the pass found it both times) whose corners differ from then, and the moved
+  /// ones that did not pass then.
   std::vector<std::uint32_t> untested_since(const tested_round& before,
+                                            const std::vector<tested_round::touched_triangle>& touched,
                                             const std::vector<std::uint32_t>& moved) const {
     std::vector<std::uint32_t> retest;
     const auto same_as_then = [&](std::uint32_t f) {
@@ -459,7 +423,7 @@ class collapser {
                                        [](const auto& t, std::uint32_t index) { return t.index < index; });
       return it != before.touched.end() && it->index == f && it->alive && it->corners == mesh_.triangles[f];
     };
-    for (const auto& t : touched_triangles()) {
+    for (const auto& t : touched) {
       if (alive_[t.index] && !same_as_then(t.index)) retest.push_back(t.index);
     }
     for (const auto& t : before.touched) {
@@ -636,6 +600,12 @@ std::optional<edge_flip> flip(surface_mesh& mesh, local_incidence& incidence, st
   return made;
 }
 
+/// Puts a flip's two triangles back as they were.
+void undo(surface_mesh& mesh, const edge_flip& f) {
+  mesh.triangles[f.triangles[0]] = f.before[0];
+  mesh.triangles[f.triangles[1]] = f.before[1];
+}
+
 /// Undoes the flips some of whose triangles the certificate's tests fail, until the rest pass (an undone flip's
 /// triangles are tested again with them).
 void undo_failing_flips(surface_mesh& mesh, std::vector<edge_flip>& flips) {
@@ -648,10 +618,7 @@ void undo_failing_flips(surface_mesh& mesh, std::vector<edge_flip>& flips) {
       const bool fails = std::any_of(f.triangles.begin(), f.triangles.end(), [&](std::uint32_t t) {
         return std::binary_search(failing.begin(), failing.end(), t);
       });
-      if (fails) {
-        mesh.triangles[f.triangles[0]] = f.before[0];
-        mesh.triangles[f.triangles[1]] = f.before[1];
-      }
+      if (fails) undo(mesh, f);
       return fails;
     });
   }
@@ -680,10 +647,6 @@ std::size_t flip_edges_blocking_links(surface_mesh& mesh, const std::vector<cand
   local_incidence incidence(mesh, edges);
   std::vector<char> touched(mesh.positions.size(), 0);
   std::vector<edge_flip> flips;
-  const auto undo = [&](const edge_flip& f) {
-    mesh.triangles[f.triangles[0]] = f.before[0];
-    mesh.triangles[f.triangles[1]] = f.before[1];
-  };
   for (const candidate_edge& edge : edges) {
     if (touched[edge.a] || touched[edge.b]) continue;
     const std::vector<std::uint32_t> common =
@@ -698,7 +661,7 @@ std::size_t flip_edges_blocking_links(surface_mesh& mesh, const std::vector<cand
         made = flip(mesh, incidence, v, e);
         if (!made) continue;
         if (collapsible(mesh, incidence, edge)) break;
-        undo(*made);
+        undo(mesh, *made);
         made.reset();
       }
       if (!made) continue;

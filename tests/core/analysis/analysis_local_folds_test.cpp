@@ -148,5 +148,13 @@ TEST(LocalFolds, NearDuplicatesAcrossTheFacesOfTheSearchGridAreFound) {
   }
 }
 
+TEST(analysis_local_folds, vertex_pairs_closer_than_lists_each_close_pair_once_across_cells) {
+  surface_mesh m;
+  // 0 and 1 straddle a cell face (cells 0.1 wide); 2 is 0.11 from 1; 3 is far from all.
+  m.positions = {{0.099, 0, 0}, {0.101, 0.05, 0}, {0.101, 0.16, 0}, {5, 5, 5}, {0.12, 0.05, 0.02}};
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> expected{{0, 1}, {0, 4}, {1, 4}};
+  EXPECT_EQ(detail::vertex_pairs_closer_than(m, 0.1), expected);
+}
+
 }  // namespace
 }  // namespace tracemesh
