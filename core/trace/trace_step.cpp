@@ -176,6 +176,11 @@ template bool correct_in_plane(field_neighbourhood&, const trace_plane&, vec3, d
 template bool polish_on_line(const gaussian_field&, vec3, double, surface_sample&, std::size_t&, double);
 template bool polish_on_line(field_neighbourhood&, vec3, double, surface_sample&, std::size_t&, double);
 
+double blind_step_for(double d) {
+  constexpr double default_d = -1;
+  return trace_step_settings{}.blind_step * std::min(1.0, (1 - 2 * default_d) / (1 - 2 * d));
+}
+
 vec3 trace_neighbourhood_reach(const trace_plane& plane, double max_step) {
   vec3 reach{1, 1, 1};
   reach *= neighbourhood_reach_steps * max_step;

@@ -61,7 +61,8 @@ struct trace_step_settings {
   /// afterwards (strip_arcs.cpp); a walk point only needs to be close enough for the next prediction.
   double corrector_tolerance = 1e-5;
   /// Å: a corrector update shorter than this ends the correction without a further evaluation (one evaluation per
-  /// step where the prediction was good; the point is then within ~curvature × blind_step² of the contour).
+  /// step where the prediction was good; the point is then within ~curvature × blind_step² of the contour). The
+  /// point keeps the gradient of the point before the update: blind_step_for(d) keeps that gradient close.
   double blind_step = 2e-3;
   /// A cheaper approximation of the field (a looser cutoff, gaussian_field's `tolerance`) to walk on; null walks on
   /// the exact field. Crossings and kept points are always solved on the exact field, and so is every walk point
@@ -73,6 +74,14 @@ struct trace_step_settings {
   /// a crossing that has exactly one of them nearby is that root (no polishing; see trace_contour).
   std::span<const line_point> low_roots, high_roots;
 };
+
+/// trace_step_settings::blind_step for kernels of decay rate d: 2e-3 Å at d = −1 and below that as the kernels
+/// sharpen. A blind update reuses the gradient of the point before it, which is off by about |H|·length, and a
+/// kernel's |H| / |∇| near its surface grows as (1 − 2d) / r. At d = −20, where a plane was nearly tangent to the
+/// surface, an update under 2e-3 Å left a walk point with an in-plane gradient 12° from its own and φ_x of the
+/// other sign, and ★2, comparing it with fresh gradients, refused every step down to min_step. Scaled so, the stale
+/// gradient is as close as at d = −1.
+double blind_step_for(double d);
 
 /// Traces from `start` (on the surface, on line v_low or v_high) into the strip along s·(−φ_v, φ_x), s = ±1
 /// (Algorithm 1). Each step predicts along the unit tangent (step 2), corrects by Newton along the in-plane

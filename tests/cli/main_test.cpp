@@ -462,7 +462,7 @@ TEST_F(TracemeshCli, ATraceJobThatFallsBackToTheLatticePathWarnsAndSaysSoInTheRe
   const fs::path off = path("mache.off");
   const run_result result =
       run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-20", "--t0", "3",
-           "--density", "2", "--method", "trace", "--report", "-"});
+           "--density", "0.1", "--method", "trace", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method"), "trace");
@@ -480,7 +480,7 @@ TEST_F(TracemeshCli, ATraceRetriedOnAnotherLineGridSaysSoInTheReport) {
   // The input of tests/core/mesher_test.cpp's retry test: its first line grid leaves a cell open, the second closes it.
   const fs::path off = path("mache.off");
   const run_result result =
-      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-8", "--t0", "0.1",
+      run({tracemesh::testing::molecule_path("mache.pqr").string(), "-o", off.string(), "--d=-12", "--t0", "1",
            "--density", "0.5", "--method", "trace", "--refine", "none", "--report", "-"});
   const nlohmann::json report = certified_report(result, read_file(off));
   ASSERT_FALSE(report.empty());

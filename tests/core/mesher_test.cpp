@@ -308,13 +308,13 @@ result<mesh_output> traced_on_the_first_grid(const char* file, double d, double 
 // Walls of cells tangent to the surface at saddles, where the contour in the wall crosses itself and no walk gets
 // past: every line grid used to meet such a strip on mache at d = −15, t0 = 0.01, 1 v/Å², and the lattice
 // path made the mesh with an area 11.5% under the lattice path's own at 4 v/Å². Those strips are now traced at
-// t0·(1 ± ε) (strip_arcs.cpp). On villin_1vii at d = −15, t0 = 1, 1 v/Å² (h̃ = 0.93 Å) one strip is, and the first
-// grid's trace is certified with the lattice path's area at 4 v/Å² (3,258 Å²) to 1% (0.9% measured).
+// t0·(1 ± ε) (strip_arcs.cpp). On villin_1vii at d = −15, t0 = 3, 1 v/Å² (h̃ = 0.93 Å) two strips are, and the first
+// grid's trace is certified with the lattice path's area at 4 v/Å² (3,318 Å²) to 1% (0.75% measured).
 TEST(mesher_sharp_kernel, strips_whose_contour_crosses_itself_are_traced_at_a_shifted_level) {
-  const result<mesh_output> out = traced_on_the_first_grid("villin_1vii.pqr", -15, 1);
+  const result<mesh_output> out = traced_on_the_first_grid("villin_1vii.pqr", -15, 3);
   ASSERT_TRUE(out.ok());
   EXPECT_GT(out->trace.level_shifted_strips, 0u);
-  EXPECT_NEAR(out->report.area, 3258, 0.01 * 3258);
+  EXPECT_NEAR(out->report.area, 3318, 0.01 * 3318);
 }
 
 // A loop may double back on itself along a wall where the contour passes a pinch; every triangulation of the
@@ -350,15 +350,15 @@ std::size_t vertices_on_lines(const surface_mesh& mesh, double h, const line_gri
   }));
 }
 
-// A sharp kernel (d = −20) makes creases within much less than a line spacing of a line: on fas2 at t0 = 1 and
-// density 1 the trace leaves cells open on the lines through the origin. It is traced again on lines moved in y and
+// A sharp kernel makes creases within much less than a line spacing of a line: on mache at d = −12, t0 = 1 and
+// density 0.5 the trace leaves a cell open on the lines through the origin. It is traced again on lines moved in y and
 // z, until one grid's cells all close without a fold: the mesh is the trace path's, its roots lie on the moved lines,
 // the failed attempts' time is counted, and it is the same whatever the thread count.
 TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_line_grid) {
-  // A sharp kernel (d = −8, t0 = 0.1) at a low density: a cell of the first line grid holds a contour no strategy
+  // A sharp kernel (d = −12, t0 = 1) at a low density: a cell of the first line grid holds a contour no strategy
   // closes, and the second grid, offset by half a spacing in y and z, closes every cell.
   const result<mesh_output> one =
-      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -8, 0.1, refine_mode::none, 1));
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -12, 1, refine_mode::none, 1));
   ASSERT_TRUE(one.ok()) << one.error().message();
   EXPECT_TRUE(one->certified);
   EXPECT_TRUE(one->fallback_reason.empty()) << one->fallback_reason;
@@ -374,7 +374,7 @@ TEST(mesher_retry, a_trace_that_cannot_close_a_cell_is_traced_again_on_another_l
   EXPECT_GE(vertices_on_lines(one->mesh, h, {0.5, 0.5}) + one->trace.welded_edges, roots);
 
   const result<mesh_output> two =
-      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -8, 0.1, refine_mode::none, 2));
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.5, -12, 1, refine_mode::none, 2));
   ASSERT_TRUE(two.ok()) << two.error().message();
   EXPECT_EQ(two->trace.grid_retries, 1u);
   EXPECT_EQ(one->mesh.positions, two->mesh.positions);
@@ -419,13 +419,13 @@ TEST(mesher_retry, a_trace_that_closes_every_cell_is_not_retried) {
 }
 
 // Sharp kernels make creases that the trace path cannot always close on any of its line grids: mache at d = −20,
-// t0 = 3 and density 2 leaves cells open on all three (docs/method.md#line-grid-retries-and-lattice-fallback). The job
-// is meshed by the lattice path instead, says so, counts the failed attempts' time, and is the
-// lattice path's very mesh. Should the trace path learn to close these cells, this test needs another input it fails
-// on (tests/cli and tests/integration have the same case).
+// t0 = 3 and density 0.1 (lines 2.9 Å apart) leaves cells open on all three
+// (docs/method.md#line-grid-retries-and-lattice-fallback). The job is meshed by the lattice path instead, says so,
+// counts the failed attempts' time, and is the lattice path's very mesh. Should the trace path learn to close these
+// cells, this test needs another input it fails on (tests/cli and tests/integration have the same case).
 TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_lattice_path_and_says_so) {
   const result<mesh_output> out =
-      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 2, -20, 3, refine_mode::full));
+      mesh_file("mache.pqr", sharp_params(mesh_method::trace, 0.1, -20, 3, refine_mode::full));
   ASSERT_TRUE(out.ok()) << out.error().message();
   EXPECT_TRUE(out->certified);
   EXPECT_EQ(out->method, mesh_method::trace);
@@ -438,7 +438,7 @@ TEST(mesher_fallback, a_trace_job_the_trace_path_cannot_close_is_meshed_by_the_l
   EXPECT_GT(out->failed_attempt_seconds, 0.0);
 
   const result<mesh_output> lattice =
-      mesh_file("mache.pqr", sharp_params(mesh_method::lattice, 2, -20, 3, refine_mode::full));
+      mesh_file("mache.pqr", sharp_params(mesh_method::lattice, 0.1, -20, 3, refine_mode::full));
   ASSERT_TRUE(lattice.ok()) << lattice.error().message();
   EXPECT_TRUE(lattice->fallback_reason.empty());
   EXPECT_EQ(out->mesh.triangles, lattice->mesh.triangles);

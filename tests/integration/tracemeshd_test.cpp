@@ -296,7 +296,7 @@ TEST_F(TracemeshdTest, ATraceJobThatFallsBackIsDoneReportedAndCounted) {
   EXPECT_EQ(metric(server, "tracemesh_trace_fallbacks_total"), 0);
   EXPECT_EQ(metric(server, "tracemesh_trace_grid_retries_total"), 0);
   const nlohmann::json job =
-      run_job(server, molecule_path("mache.pqr"), "-F method=trace -F d=-20 -F t0=3 -F density=2");
+      run_job(server, molecule_path("mache.pqr"), "-F method=trace -F d=-20 -F t0=3 -F density=0.1");
   const nlohmann::json report = expect_certified_job(server, job);
   ASSERT_FALSE(report.empty());
   EXPECT_EQ(report.at("method"), "trace");

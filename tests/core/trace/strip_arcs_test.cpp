@@ -391,27 +391,28 @@ TEST(strip_arcs, a_root_whose_own_walk_dies_is_reached_from_the_other_end_of_its
   expect_each_root_ends_one_arc(lines, trace, strip);
 }
 
-// mache at d = −15, t0 = 1, 1 v/Å² (h̃ = 1 Å) on the third line grid (lines at y = (j + ¼)·h̃, z = (k + ¾)·h̃: the
-// molecule moved by −(0, ¼, ¾) Å): the xz strip y = 4, z ∈ [−5, −4] is tangent to the surface where the contour
-// crosses itself, and two of its roots had no arc after every pass with smaller steps. Traced at
-// t0·(1 + 1e-3), where the crossing splits, every root ends one arc, and the arcs' points are back on φ = t0.
+// villin_1vii at d = −15, t0 = 3, 1 v/Å² (h̃ = 0.93 Å, points kept 1.15 h̃ apart): the xz strip y = −8h̃,
+// z ∈ [2h̃, 3h̃] is tangent to the surface where the contour crosses itself, and walks die there however short
+// their steps. Traced at t0·(1 ± 1e-3), where the crossing splits, every root ends one arc, and
+// the arcs' points are back on φ = t0.
 TEST(strip_arcs, a_contour_that_crosses_itself_is_traced_at_a_level_next_to_t0) {
-  const molecule mol = mache_moved_by({0, 0.25, 0.75});
-  const gaussian_field field(mol, -15, 1);
-  const gaussian_field walk_field(mol, -15, 1, 1e-3);
-  const strip_id strip{1, 4, -5};
+  const result<molecule> mol = read_pqr_file(testing::molecule_path("villin_1vii.pqr"));
+  ASSERT_TRUE(mol.ok()) << mol.error().message();
+  const gaussian_field field(*mol, -15, 3);
+  const gaussian_field walk_field(*mol, -15, 3, 1e-3);  // as the mesher walks (mesher.cpp: trace_walk_tolerance)
+  const double spacing = 0.93;
+  const strip_id strip{1, -8, 2};
   const trace_lines lines = strip_lines_near(
-      field, strip, 1.0,
-      {-29.277306779430226, -25.337904776845683, -22.216714709622622, -15.365125054856174, -7.3719187676677063,
-       -3.5829748810123654, -2.293798780404646, -0.76084112620073452, 0.39706700727068328, 6.8440149784156432,
-       7.1809921614481853, 29.415011141827062},
-      {-29.04309126267832, -24.158440727018853, -20.943347905113328, -14.064631398311993, -6.9969999161537082,
-       -3.9026120738110066, -2.6059757513323714, -0.46065508982941705, 3.8568680985417538, 4.8251277299239774,
-       5.000325579722988, 16.4069137407058, 16.952455722989907, 19.43620484909011, 19.545541328883562,
-       31.193189005266209});
-  strip_settings s = settings(1.0);
-  s.cos_bound = trace_parameters{}.cos_bound;
-  s.extreme_tolerance = trace_parameters{}.extreme_tolerance;
+      field, strip, spacing,
+      {-10.804457236836125, -3.5405870229442038, -2.0345705295044887, 3.4197743036937309, 5.0169765582210157,
+       8.6867659660096077},
+      {-10.762993281491157, -2.2734229486506861, -1.6787166697424087, 10.538395190936015});
+  const trace_parameters defaults;
+  strip_settings s = settings(spacing);
+  s.max_step = defaults.step_fraction * spacing;
+  s.cos_bound = defaults.cos_bound;
+  s.extreme_tolerance = defaults.extreme_tolerance;
+  s.resample_spacing = 1.15 * spacing;
   s.walk_field = &walk_field;
   const strip_trace trace = trace_strip(field, lines, strip, s);
   EXPECT_EQ(trace.failures, 0u);
@@ -419,10 +420,10 @@ TEST(strip_arcs, a_contour_that_crosses_itself_is_traced_at_a_level_next_to_t0) 
   EXPECT_GT(trace.retraced, 0u);
   expect_each_root_ends_one_arc(lines, trace, strip);
   for (const surface_sample& p : trace.interior) {
-    EXPECT_EQ(p.position.y, 4.0);
+    EXPECT_EQ(p.position.y, -8 * spacing);
     EXPECT_LT(field.surface_distance(p.position), 1e-9) << p.position.x << " " << p.position.z;
-    EXPECT_GT(p.position.z, -5.0);
-    EXPECT_LT(p.position.z, -4.0);
+    EXPECT_GT(p.position.z, 2 * spacing);
+    EXPECT_LT(p.position.z, 3 * spacing);
   }
 }
 
